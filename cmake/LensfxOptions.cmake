@@ -1,0 +1,11 @@
+# Warning and sanitizer flags shared by every lensfx target (applied through lensfx_warnings).
+add_library(lensfx_warnings INTERFACE)
+target_compile_options(lensfx_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Woverloaded-virtual
+  -Wnull-dereference -Wdouble-promotion -Wimplicit-fallthrough
+  $<$<BOOL:${LENSFX_WERROR}>:-Werror>)
+
+if(LENSFX_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()

@@ -1,0 +1,1 @@
+// Placeholder translation unit until detection lands (issue 6).

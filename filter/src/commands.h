@@ -1,0 +1,19 @@
+// The lensfx program's commands. Each register_* adds its options or subcommand to the CLI11 app and
+// installs a callback that does the work; failures are thrown as std::exception with a one-line message
+// naming the file, frame or surface at fault, and main() turns them into "lensfx: <message>", exit 1.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace lensfx::filter {
+
+// `lensfx -i IN -o OUT [options]`: the frame filter (the app's own options; runs when no subcommand is given).
+void register_filter(CLI::App& app);
+// `lensfx lens info|trace|list|convert`.
+void register_lens_commands(CLI::App& app);
+// `lensfx gpu`: the EGL/GL vendor, renderer and version.
+void register_gpu_command(CLI::App& app);
+// `lensfx flare --lens LENS --angle AX,AY ... -o OUT.exr`.
+void register_flare_command(CLI::App& app);
+
+}  // namespace lensfx::filter

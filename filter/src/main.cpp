@@ -1,0 +1,29 @@
+// Entry point of the lensfx program: parses the command line and reports failures as one line on stderr.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include "commands.h"
+
+int main(int argc, char** argv) {
+    CLI::App app{"lensfx: physically based lens flare for HDR frames and streams"};
+    app.set_version_flag("--version", LENSFX_VERSION);
+    app.require_subcommand(0, 1);
+
+    lensfx::filter::register_filter(app);
+    lensfx::filter::register_lens_commands(app);
+    lensfx::filter::register_gpu_command(app);
+    lensfx::filter::register_flare_command(app);
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    } catch (const std::exception& e) {
+        fmt::print(stderr, "lensfx: {}\n", e.what());
+        return 1;
+    }
+    return 0;
+}

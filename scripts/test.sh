@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Installs, builds and runs every test suite: the Release build, then the tests again under
+# AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/). This is what CI runs (.ci/run).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/build.sh
+ctest --test-dir build --output-on-failure -j 2
+
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLENSFX_WERROR=ON -DLENSFX_SANITIZE=ON -DLENSFX_BUILD_BENCH=OFF
+cmake --build build-asan
+ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j 2 -LE stress
