@@ -1,0 +1,76 @@
+// Small RAII owners for GL objects, a named shader program whose compile/link errors name the shader,
+// and GL error checks that are active in debug builds only. Needs a current gpu::Context.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace lensfx::gpu {
+
+// Throws std::runtime_error("GL error ... after <what>") when glGetError reports one (debug builds);
+// a no-op in release builds (NDEBUG).
+void check_gl(std::string_view what);
+
+// Owns one GL name; the deleter is chosen by Kind.
+class GlObject {
+public:
+    enum class Kind { Buffer, Texture, Framebuffer, VertexArray, Program };
+    GlObject() = default;
+    GlObject(Kind kind, unsigned name) : kind_(kind), name_(name) {}
+    ~GlObject();
+    GlObject(GlObject&& other) noexcept;
+    GlObject& operator=(GlObject&& other) noexcept;
+    GlObject(const GlObject&) = delete;
+    GlObject& operator=(const GlObject&) = delete;
+    unsigned get() const { return name_; }
+
+    static GlObject buffer();
+    static GlObject texture();
+    static GlObject framebuffer();
+    static GlObject vertex_array();
+
+private:
+    void reset();
+    Kind kind_ = Kind::Buffer;
+    unsigned name_ = 0;
+};
+
+struct ShaderStage {
+    enum class Type { Vertex, Fragment, Compute };
+    Type type;
+    std::string source;
+};
+
+// A linked program. `name` appears in every compile or link error ("shader 'ghost.vert': 0:12: ...").
+class Program {
+public:
+    Program(std::string name, const std::vector<ShaderStage>& stages);
+    unsigned get() const { return program_.get(); }
+    const std::string& name() const { return name_; }
+    int uniform(const char* uniform_name) const;  // -1 when absent (optimised away)
+
+private:
+    std::string name_;
+    GlObject program_;
+};
+
+// A float RGBA render target (RGBA32F colour attachment) with readback.
+class FloatTarget {
+public:
+    FloatTarget(int width, int height);
+    int width() const { return width_; }
+    int height() const { return height_; }
+    void bind() const;    // as the draw framebuffer, viewport set
+    void clear() const;   // to zero
+    std::vector<float> read_rgba() const;  // rows bottom to top as GL stores them, 4 floats per pixel
+
+private:
+    int width_;
+    int height_;
+    GlObject texture_;
+    GlObject framebuffer_;
+};
+
+}  // namespace lensfx::gpu

@@ -1,0 +1,211 @@
+// EGL headless context: device platform (hardware first) or Mesa surfaceless, OpenGL 4.3+ core.
+#include <gpu/context.h>
+
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include <epoxy/egl.h>
+#include <epoxy/gl.h>
+#include <fmt/core.h>
+
+namespace lensfx::gpu {
+namespace {
+
+constexpr int required_major = 4;
+constexpr int required_minor = 3;  // compute shaders and shader storage buffers
+
+bool has_extension(const char* list, const char* name) {
+    if (!list) return false;
+    const std::size_t len = std::strlen(name);
+    for (const char* p = list; (p = std::strstr(p, name)) != nullptr; p += len) {
+        const bool starts = p == list || p[-1] == ' ';
+        const bool ends = p[len] == '\0' || p[len] == ' ';
+        if (starts && ends) return true;
+    }
+    return false;
+}
+
+std::string egl_error_name(EGLint code) {
+    switch (code) {
+        case EGL_SUCCESS: return "EGL_SUCCESS";
+        case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
+        case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
+        case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
+        case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
+        case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
+        case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
+        case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
+        case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
+        case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
+        default: return fmt::format("EGL error 0x{:04x}", code);
+    }
+}
+
+[[noreturn]] void fail(Platform platform, const std::string& what) {
+    throw std::runtime_error(fmt::format("EGL ({} platform): {} ({})", platform_name(platform), what,
+                                         egl_error_name(eglGetError())));
+}
+
+struct DeviceChoice {
+    EGLDeviceEXT device = EGL_NO_DEVICE_EXT;
+    std::string description;
+    bool software = false;
+};
+
+// Hardware devices first; a software device (Mesa's llvmpipe device) only when nothing else exists.
+DeviceChoice pick_device() {
+    EGLint count = 0;
+    if (!eglQueryDevicesEXT(0, nullptr, &count) || count <= 0) return {};
+    std::vector<EGLDeviceEXT> devices(static_cast<std::size_t>(count));
+    eglQueryDevicesEXT(count, devices.data(), &count);
+    DeviceChoice best;
+    for (EGLint i = 0; i < count; ++i) {
+        const char* ext = eglQueryDeviceStringEXT(devices[static_cast<std::size_t>(i)], EGL_EXTENSIONS);
+        const bool software = has_extension(ext, "EGL_MESA_device_software");
+        std::string description = fmt::format("EGL device {} of {}", i, count);
+        if (has_extension(ext, "EGL_EXT_device_drm")) {
+            if (const char* node = eglQueryDeviceStringEXT(devices[static_cast<std::size_t>(i)],
+                                                           EGL_DRM_DEVICE_FILE_EXT)) {
+                description += fmt::format(" ({})", node);
+            }
+        }
+        if (software) description += " (software)";
+        if (best.device == EGL_NO_DEVICE_EXT || (best.software && !software)) {
+            best = {devices[static_cast<std::size_t>(i)], description, software};
+        }
+    }
+    return best;
+}
+
+}  // namespace
+
+Platform parse_platform(std::string_view name) {
+    if (name == "auto") return Platform::Auto;
+    if (name == "device") return Platform::Device;
+    if (name == "surfaceless") return Platform::Surfaceless;
+    throw std::invalid_argument(fmt::format("--gpu {}: expected auto, device or surfaceless", name));
+}
+
+std::string_view platform_name(Platform platform) {
+    switch (platform) {
+        case Platform::Auto: return "auto";
+        case Platform::Device: return "device";
+        case Platform::Surfaceless: return "surfaceless";
+    }
+    return "?";
+}
+
+Context::Context(Platform requested) {
+    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (!client) {
+        throw std::runtime_error("EGL: no client extensions (EGL 1.5 or EGL_EXT_client_extensions needed); "
+                                 "is an EGL driver (libEGL + Mesa) installed?");
+    }
+    const bool device_ok = has_extension(client, "EGL_EXT_platform_device") &&
+                           has_extension(client, "EGL_EXT_device_enumeration");
+    const bool surfaceless_ok = has_extension(client, "EGL_MESA_platform_surfaceless");
+
+    EGLDisplay display = EGL_NO_DISPLAY;
+    Platform used = requested;
+    if (requested == Platform::Device || requested == Platform::Auto) {
+        DeviceChoice choice = device_ok ? pick_device() : DeviceChoice{};
+        const bool take = choice.device != EGL_NO_DEVICE_EXT &&
+                          (requested == Platform::Device || !choice.software || !surfaceless_ok);
+        if (take) {
+            display = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, choice.device, nullptr);
+            if (display == EGL_NO_DISPLAY) fail(Platform::Device, "eglGetPlatformDisplayEXT failed");
+            used = Platform::Device;
+            info_.device = choice.description;
+            info_.software = choice.software;
+        } else if (requested == Platform::Device) {
+            throw std::runtime_error(device_ok ? "EGL (device platform): no EGL device found"
+                                               : "EGL (device platform): EGL_EXT_platform_device is not supported "
+                                                 "by this EGL; try --gpu surfaceless");
+        }
+    }
+    if (display == EGL_NO_DISPLAY) {
+        if (!surfaceless_ok) {
+            throw std::runtime_error("EGL: neither a usable EGL device nor EGL_MESA_platform_surfaceless is "
+                                     "available; install Mesa's EGL (libegl-mesa0) or a GPU driver");
+        }
+        display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+        if (display == EGL_NO_DISPLAY) fail(Platform::Surfaceless, "eglGetPlatformDisplayEXT failed");
+        used = Platform::Surfaceless;
+    }
+    info_.platform = used;
+
+    EGLint egl_major = 0;
+    EGLint egl_minor = 0;
+    if (!eglInitialize(display, &egl_major, &egl_minor)) fail(used, "eglInitialize failed");
+    display_ = display;
+    if (!eglBindAPI(EGL_OPENGL_API)) fail(used, "eglBindAPI(EGL_OPENGL_API) failed: no desktop OpenGL");
+    if (const char* v = eglQueryString(display, EGL_VENDOR)) info_.egl_vendor = v;
+    if (const char* v = eglQueryString(display, EGL_VERSION)) info_.egl_version = v;
+
+    const char* display_ext = eglQueryString(display, EGL_EXTENSIONS);
+    if (!has_extension(display_ext, "EGL_KHR_surfaceless_context")) {
+        throw std::runtime_error(fmt::format("EGL ({} platform): EGL_KHR_surfaceless_context is missing",
+                                             platform_name(used)));
+    }
+    EGLConfig config = EGL_NO_CONFIG_KHR;
+    if (!has_extension(display_ext, "EGL_KHR_no_config_context")) {
+        const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
+        EGLint n = 0;
+        if (!eglChooseConfig(display, config_attribs, &config, 1, &n) || n < 1) {
+            fail(used, "eglChooseConfig found no OpenGL config");
+        }
+    }
+    const EGLint context_attribs[] = {
+        EGL_CONTEXT_MAJOR_VERSION, required_major,
+        EGL_CONTEXT_MINOR_VERSION, required_minor,
+        EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+#ifndef NDEBUG
+        EGL_CONTEXT_OPENGL_DEBUG, EGL_TRUE,
+#endif
+        EGL_NONE};
+    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
+    if (context == EGL_NO_CONTEXT) {
+        fail(used, fmt::format("eglCreateContext could not create an OpenGL {}.{} core context",
+                               required_major, required_minor));
+    }
+    context_ = context;
+    make_current();
+
+    auto gl_string = [](GLenum name) {
+        const auto* s = reinterpret_cast<const char*>(glGetString(name));
+        return std::string(s ? s : "");
+    };
+    info_.gl_vendor = gl_string(GL_VENDOR);
+    info_.gl_renderer = gl_string(GL_RENDERER);
+    info_.gl_version = gl_string(GL_VERSION);
+    info_.glsl_version = gl_string(GL_SHADING_LANGUAGE_VERSION);
+    glGetIntegerv(GL_MAJOR_VERSION, &info_.gl_major);
+    glGetIntegerv(GL_MINOR_VERSION, &info_.gl_minor);
+    if (info_.gl_major * 10 + info_.gl_minor < required_major * 10 + required_minor) {
+        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        eglDestroyContext(display_, context_);
+        throw std::runtime_error(fmt::format("OpenGL {}.{} found ({}), {}.{} core needed", info_.gl_major,
+                                             info_.gl_minor, info_.gl_renderer, required_major, required_minor));
+    }
+    const std::string renderer = info_.gl_renderer;
+    if (renderer.find("llvmpipe") != std::string::npos || renderer.find("softpipe") != std::string::npos) {
+        info_.software = true;
+    }
+}
+
+Context::~Context() {
+    // The EGLDisplay of a platform is shared by every Context in the process, so it is not terminated here.
+    if (context_) {
+        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+        eglDestroyContext(display_, context_);
+    }
+}
+
+void Context::make_current() const {
+    if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) {
+        fail(info_.platform, "eglMakeCurrent failed");
+    }
+}
+
+}  // namespace lensfx::gpu

@@ -1,1 +1,0 @@
-// Placeholder translation unit until the GPU context lands (issue 4).
