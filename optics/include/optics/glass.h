@@ -12,8 +12,11 @@ namespace lensfx::optics {
 struct Glass {
     // Constant: n = nd at every wavelength (air, or a glass without dispersion).
     // Sellmeier: n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um; coefficients = B1, C1, B2, C2, B3, C3 ...
+    //   (an odd count means a leading constant A: n^2 = 1 + A + sum ..., refractiveindex.info formula 2).
     // Polynomial: n^2 = c0 + sum c_i l^e_i, l in um; coefficients = c0, c1, e1, c2, e2, ...
-    // Abbe: only nd and vd known; the dispersion model documented in glass.cpp.
+    //   (refractiveindex.info formula 3).
+    // Abbe: only nd and vd known; a normal-line two-term Sellmeier fitted to nd and Vd, see
+    //   glass_from_abbe (coefficients then hold its B1, C1, B2, C2).
     enum class Formula { Constant, Sellmeier, Polynomial, Abbe };
 
     std::string name = "air";
@@ -21,14 +24,36 @@ struct Glass {
     std::vector<double> coefficients;
     double nd = 1.0;
     double vd = 0.0;
+    std::string catalog;  // maker the data came from ("schott", "ohara", ...); empty when not from the catalog
 
     static Glass air() { return {}; }
     bool is_air() const { return formula == Formula::Constant && nd == 1.0; }
     double index(double wavelength_nm) const;  // valid 360-830 nm (and beyond, extrapolated)
 };
 
-// A catalog glass by name ("N-BK7", "schott:N-BK7", case-insensitive), or nullopt.
+// Same optical medium: equal formula, coefficients, nd and vd (names and makers ignored).
+bool same_medium(const Glass& a, const Glass& b);
+
+// Fraunhofer lines used for nd and Vd = (nd - 1) / (nF - nC), nm.
+inline constexpr double kLineD_nm = 587.5618;
+inline constexpr double kLineF_nm = 486.1327;
+inline constexpr double kLineC_nm = 656.2725;
+
+// The catalog makers in the order catalog_glass prefers them when a name occurs under several.
+inline constexpr const char* kCatalogMakers[] = {"schott", "ohara", "hikari", "hoya", "cdgm", "sumita"};
+
+// A catalog glass by name ("N-BK7", "schott:N-BK7", case-insensitive, surrounding spaces ignored), or
+// nullopt. Without a maker prefix a name found under several makers resolves in kCatalogMakers order.
+// The catalog (optics/data/glass.csv, from refractiveindex.info, CC0) is compiled into the library.
 std::optional<Glass> catalog_glass(std::string_view name);
+// Every catalog glass as "maker:NAME", in catalog order.
+std::vector<std::string> catalog_glass_names();
+
+// A glass known only by nd and Vd: n^2 = 1 + B1 l^2/(l^2 - C1) + B2 l^2/(l^2 - C2), l in um, with the
+// two resonances fixed at the normal-line positions of common optical glass (C1 = 0.0115 um^2 UV,
+// C2 = 100 um^2 IR, close to N-BK7's) and B2 = 1.0; B1 and C1 are then solved so that n(587.56) = nd and
+// (nd - 1)/(nF - nC) = vd exactly. Valid 360-830 nm for 1.4 <= nd <= 2.1 and 15 <= vd <= 95.
+// Throws std::invalid_argument (naming the glass) when nd <= 1, vd <= 0 or the fit has no solution.
 Glass glass_from_abbe(double nd, double vd, std::string name = {});
 
 }  // namespace lensfx::optics
