@@ -57,6 +57,9 @@ struct Lens {
     std::vector<Surface> surfaces;            // object side first; the stop is one of them
     Aperture aperture;
     std::string notes;
+    // false: realize() puts the sensor at the paraxial back focal distance (infinity focus, 587.56 nm);
+    // true: at the last surface's thickness as written.
+    bool sensor_as_written = false;
 
     int zoom_positions() const;               // number of thickness columns (1 for a prime)
     int stop_index() const;                   // index of the stop surface, -1 if none
