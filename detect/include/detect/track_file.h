@@ -1,0 +1,62 @@
+// Track files: the lights of a shot as JSON, written by `lensfx track` and read by the filter, editable
+// by hand. The lights of frame f are a pure function of the file and f (see docs/detection.md).
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <detect/source.h>
+
+namespace lensfx::detect {
+
+// One light's state at one frame; a track's keys are sorted by frame.
+struct TrackKey {
+    int frame = 0;
+    double x = 0.0, y = 0.0;
+    std::array<double, 3> flux{};
+    Extent extent;
+    double weight = 1.0;
+    bool clipped = false;
+    std::optional<Shape> shape;  // in memory every key holds its shape (the file stores changes only)
+    friend bool operator==(const TrackKey&, const TrackKey&) = default;
+};
+
+struct Track {
+    int id = 0;
+    std::string origin = "detected";  // "detected" or "manual"; informative
+    std::vector<TrackKey> keys;
+    friend bool operator==(const Track&, const Track&) = default;
+};
+
+struct TrackFile {
+    int width = 0;   // frame size the positions refer to
+    int height = 0;
+    std::vector<Track> tracks;  // by increasing id
+
+    // Adds the lights of one frame (as returned by Tracker::update) as keys; frames must increase.
+    void append(int frame, const std::vector<Light>& lights);
+
+    // The lights of frame f: every track whose keys span f, linearly interpolated between the two keys
+    // around f (the shape is the one of the key at or before f), weight > 0 only, by increasing id.
+    [[nodiscard]] std::vector<Light> lights_at(int frame) const;
+
+    // First and last frame with a key; {0, -1} when empty.
+    [[nodiscard]] std::pair<int, int> frame_range() const;
+
+    friend bool operator==(const TrackFile&, const TrackFile&) = default;
+};
+
+// JSON text <-> TrackFile. `name` (a path) is used in error messages. Errors throw std::runtime_error naming
+// the file, the track id and key index at fault.
+std::string to_json_text(const TrackFile& file);
+TrackFile parse_track_json(std::string_view text, const std::string& name);
+
+void write_track_file(const std::filesystem::path& path, const TrackFile& file);
+TrackFile read_track_file(const std::filesystem::path& path);
+
+}  // namespace lensfx::detect

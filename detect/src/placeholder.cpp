@@ -1,1 +1,0 @@
-// Placeholder translation unit until detection lands (issue 6).

@@ -1,0 +1,261 @@
+// Track files as JSON (nlohmann_json), and the lights of a frame from them.
+#include <detect/track_file.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+namespace lensfx::detect {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kFormat = "lensfx-tracks";
+constexpr int kVersion = 1;
+
+// A stored shape is repeated on a later key only when its cells change by more than this (sum of |dw|).
+constexpr double kShapeChange = 0.02;
+
+bool shape_differs(const std::optional<Shape>& a, const std::optional<Shape>& b) {
+    if (a.has_value() != b.has_value()) return true;
+    if (!a) return false;
+    if (a->width != b->width || a->height != b->height || a->cell != b->cell) return true;
+    if (std::abs(a->origin_x - b->origin_x) > 0.5 * a->cell || std::abs(a->origin_y - b->origin_y) > 0.5 * a->cell) return true;
+    double d = 0.0;
+    for (std::size_t i = 0; i < a->weights.size(); ++i) d += std::abs(static_cast<double>(a->weights[i]) - static_cast<double>(b->weights[i]));
+    return d > kShapeChange;
+}
+
+json shape_json(const Shape& s) {
+    return json{{"size", {s.width, s.height}}, {"cell", s.cell}, {"origin", {s.origin_x, s.origin_y}}, {"weights", s.weights}};
+}
+
+Light light_of(int id, const TrackKey& k) {
+    Light l;
+    l.id = id;
+    l.x = k.x;
+    l.y = k.y;
+    l.flux = k.flux;
+    l.extent = k.extent;
+    l.weight = k.weight;
+    l.clipped = k.clipped;
+    l.shape = k.shape;
+    return l;
+}
+
+double lerp(double a, double b, double t) { return a + (b - a) * t; }
+
+// Reads one field with a message naming where it is.
+template <typename T>
+T field(const json& j, const char* key, const std::string& where) {
+    const auto it = j.find(key);
+    if (it == j.end()) throw std::runtime_error(fmt::format("{}: missing \"{}\"", where, key));
+    try {
+        return it->get<T>();
+    } catch (const json::exception& e) {
+        throw std::runtime_error(fmt::format("{}: \"{}\": {}", where, key, e.what()));
+    }
+}
+
+template <typename T>
+T field_or(const json& j, const char* key, T fallback, const std::string& where) {
+    return j.contains(key) ? field<T>(j, key, where) : fallback;
+}
+
+void check_finite(double v, const std::string& where, const char* what) {
+    if (!std::isfinite(v)) throw std::runtime_error(fmt::format("{}: \"{}\" is not a finite number", where, what));
+}
+
+}  // namespace
+
+void TrackFile::append(int frame, const std::vector<Light>& lights) {
+    for (const Light& l : lights) {
+        auto it = std::lower_bound(tracks.begin(), tracks.end(), l.id, [](const Track& t, int id) { return t.id < id; });
+        if (it == tracks.end() || it->id != l.id) {
+            Track t;
+            t.id = l.id;
+            it = tracks.insert(it, std::move(t));
+        }
+        if (!it->keys.empty() && it->keys.back().frame >= frame)
+            throw std::invalid_argument(fmt::format("track {}: frame {} appended after frame {}", l.id, frame, it->keys.back().frame));
+        TrackKey k;
+        k.frame = frame;
+        k.x = l.x;
+        k.y = l.y;
+        k.flux = l.flux;
+        k.extent = l.extent;
+        k.weight = l.weight;
+        k.clipped = l.clipped;
+        k.shape = l.shape;
+        it->keys.push_back(std::move(k));
+    }
+}
+
+std::vector<Light> TrackFile::lights_at(int frame) const {
+    std::vector<Light> out;
+    for (const Track& t : tracks) {
+        if (t.keys.empty() || frame < t.keys.front().frame || frame > t.keys.back().frame) continue;
+        const auto hi = std::lower_bound(t.keys.begin(), t.keys.end(), frame, [](const TrackKey& k, int f) { return k.frame < f; });
+        Light l;
+        if (hi->frame == frame) {
+            l = light_of(t.id, *hi);
+        } else {
+            const TrackKey& a = *(hi - 1);
+            const TrackKey& b = *hi;
+            const double u = static_cast<double>(frame - a.frame) / static_cast<double>(b.frame - a.frame);
+            l = light_of(t.id, a);
+            l.x = lerp(a.x, b.x, u);
+            l.y = lerp(a.y, b.y, u);
+            for (std::size_t c = 0; c < 3; ++c) l.flux[c] = lerp(a.flux[c], b.flux[c], u);
+            l.extent.major = lerp(a.extent.major, b.extent.major, u);
+            l.extent.minor = lerp(a.extent.minor, b.extent.minor, u);
+            double da = b.extent.angle_deg - a.extent.angle_deg;
+            da -= 180.0 * std::round(da / 180.0);
+            l.extent.angle_deg = std::fmod(a.extent.angle_deg + u * da + 180.0, 180.0);
+            l.weight = lerp(a.weight, b.weight, u);
+        }
+        if (l.weight > 0.0) out.push_back(std::move(l));
+    }
+    return out;
+}
+
+std::pair<int, int> TrackFile::frame_range() const {
+    int first = 0, last = -1;
+    bool any = false;
+    for (const Track& t : tracks) {
+        if (t.keys.empty()) continue;
+        first = any ? std::min(first, t.keys.front().frame) : t.keys.front().frame;
+        last = any ? std::max(last, t.keys.back().frame) : t.keys.back().frame;
+        any = true;
+    }
+    return {first, last};
+}
+
+std::string to_json_text(const TrackFile& file) {
+    json tracks = json::array();
+    for (const Track& t : file.tracks) {
+        json keys = json::array();
+        std::optional<Shape> stored;
+        for (const TrackKey& k : t.keys) {
+            json jk{{"frame", k.frame},
+                    {"position", {k.x, k.y}},
+                    {"flux", {k.flux[0], k.flux[1], k.flux[2]}},
+                    {"extent", {k.extent.major, k.extent.minor, k.extent.angle_deg}},
+                    {"weight", k.weight}};
+            if (k.clipped) jk["clipped"] = true;
+            if (shape_differs(k.shape, stored)) {
+                jk["shape"] = k.shape ? shape_json(*k.shape) : json(nullptr);
+                stored = k.shape;
+            }
+            keys.push_back(std::move(jk));
+        }
+        tracks.push_back(json{{"id", t.id}, {"origin", t.origin}, {"keys", std::move(keys)}});
+    }
+    const json doc{{"format", kFormat}, {"version", kVersion}, {"width", file.width}, {"height", file.height}, {"tracks", std::move(tracks)}};
+    return doc.dump(1) + "\n";
+}
+
+TrackFile parse_track_json(std::string_view text, const std::string& name) {
+    json doc;
+    try {
+        doc = json::parse(text.begin(), text.end());
+    } catch (const json::parse_error& e) {
+        throw std::runtime_error(fmt::format("{}: not valid JSON: {}", name, e.what()));
+    }
+    if (!doc.is_object()) throw std::runtime_error(fmt::format("{}: expected a JSON object", name));
+    if (field_or<std::string>(doc, "format", kFormat, name) != kFormat)
+        throw std::runtime_error(fmt::format("{}: \"format\" is not \"{}\"", name, kFormat));
+    const int version = field_or<int>(doc, "version", kVersion, name);
+    if (version != kVersion) throw std::runtime_error(fmt::format("{}: track file version {} (this program reads {})", name, version, kVersion));
+
+    TrackFile file;
+    file.width = field_or<int>(doc, "width", 0, name);
+    file.height = field_or<int>(doc, "height", 0, name);
+    const json tracks = field<json>(doc, "tracks", name);
+    if (!tracks.is_array()) throw std::runtime_error(fmt::format("{}: \"tracks\" must be an array", name));
+    for (std::size_t ti = 0; ti < tracks.size(); ++ti) {
+        const json& jt = tracks[ti];
+        const std::string twhere = fmt::format("{}: track #{}", name, ti);
+        Track t;
+        t.id = field<int>(jt, "id", twhere);
+        const std::string where = fmt::format("{}: track id {}", name, t.id);
+        t.origin = field_or<std::string>(jt, "origin", "manual", where);
+        const json keys = field<json>(jt, "keys", where);
+        if (!keys.is_array() || keys.empty()) throw std::runtime_error(fmt::format("{}: \"keys\" must be a non-empty array", where));
+        std::optional<Shape> carried;
+        for (std::size_t ki = 0; ki < keys.size(); ++ki) {
+            const json& jk = keys[ki];
+            const std::string kwhere = fmt::format("{} key {}", where, ki);
+            TrackKey k;
+            k.frame = field<int>(jk, "frame", kwhere);
+            if (!t.keys.empty() && k.frame <= t.keys.back().frame)
+                throw std::runtime_error(fmt::format("{}: frame {} does not follow frame {}", kwhere, k.frame, t.keys.back().frame));
+            const auto pos = field<std::array<double, 2>>(jk, "position", kwhere);
+            k.x = pos[0];
+            k.y = pos[1];
+            k.flux = field<std::array<double, 3>>(jk, "flux", kwhere);
+            const auto ext = field_or<std::array<double, 3>>(jk, "extent", {0.0, 0.0, 0.0}, kwhere);
+            k.extent = {ext[0], ext[1], ext[2]};
+            k.weight = field_or<double>(jk, "weight", 1.0, kwhere);
+            k.clipped = field_or<bool>(jk, "clipped", false, kwhere);
+            for (double v : {k.x, k.y, k.flux[0], k.flux[1], k.flux[2], ext[0], ext[1], ext[2], k.weight}) check_finite(v, kwhere, "value");
+            if (k.flux[0] < 0.0 || k.flux[1] < 0.0 || k.flux[2] < 0.0) throw std::runtime_error(fmt::format("{}: negative flux", kwhere));
+            if (k.weight < 0.0 || k.weight > 1.0) throw std::runtime_error(fmt::format("{}: weight {} outside [0, 1]", kwhere, k.weight));
+            if (jk.contains("shape")) {
+                const json& js = jk["shape"];
+                if (js.is_null()) {
+                    carried.reset();
+                } else {
+                    const std::string swhere = kwhere + " shape";
+                    Shape s;
+                    const auto size = field<std::array<int, 2>>(js, "size", swhere);
+                    s.width = size[0];
+                    s.height = size[1];
+                    s.cell = field<double>(js, "cell", swhere);
+                    const auto origin = field<std::array<double, 2>>(js, "origin", swhere);
+                    s.origin_x = origin[0];
+                    s.origin_y = origin[1];
+                    s.weights = field<std::vector<float>>(js, "weights", swhere);
+                    if (s.width <= 0 || s.height <= 0 || !(s.cell > 0.0) ||
+                        s.weights.size() != static_cast<std::size_t>(s.width) * static_cast<std::size_t>(s.height))
+                        throw std::runtime_error(fmt::format("{}: size, cell and weights do not agree", swhere));
+                    carried = std::move(s);
+                }
+            }
+            k.shape = carried;
+            t.keys.push_back(std::move(k));
+        }
+        file.tracks.push_back(std::move(t));
+    }
+    std::sort(file.tracks.begin(), file.tracks.end(), [](const Track& a, const Track& b) { return a.id < b.id; });
+    for (std::size_t i = 1; i < file.tracks.size(); ++i)
+        if (file.tracks[i].id == file.tracks[i - 1].id)
+            throw std::runtime_error(fmt::format("{}: track id {} appears twice", name, file.tracks[i].id));
+    return file;
+}
+
+void write_track_file(const std::filesystem::path& path, const TrackFile& file) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(fmt::format("{}: cannot open for writing", path.string()));
+    out << to_json_text(file);
+    out.close();
+    if (!out) throw std::runtime_error(fmt::format("{}: write failed", path.string()));
+}
+
+TrackFile read_track_file(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(fmt::format("{}: cannot open track file", path.string()));
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return parse_track_json(ss.str(), path.string());
+}
+
+}  // namespace lensfx::detect
