@@ -1,0 +1,62 @@
+# Build step: turns glass.csv into a C++ table. cmake -DCSV=glass.csv -DOUT=glass_catalog_data.cpp -P embed_glass.cmake
+cmake_minimum_required(VERSION 3.21)
+cmake_policy(SET CMP0007 NEW)
+file(STRINGS "${CSV}" lines)
+list(POP_FRONT lines header)
+if(NOT header MATCHES "^maker,glass,formula,c0,b1,c1,b2,c2,b3,c3,nd,vd,lambda_min_um,lambda_max_um,extra_coefficients")
+  message(FATAL_ERROR "${CSV}: unexpected header '${header}'")
+endif()
+set(body "")
+set(row 1)
+foreach(line IN LISTS lines)
+  math(EXPR row "${row} + 1")
+  if(line STREQUAL "")
+    continue()
+  endif()
+  string(REPLACE "," ";" f "${line};")
+  list(LENGTH f n)
+  if(n LESS 15)
+    message(FATAL_ERROR "${CSV}:${row}: expected 15 fields, got ${n}")
+  endif()
+  list(GET f 0 maker)
+  list(GET f 1 glass)
+  list(GET f 2 formula)
+  list(SUBLIST f 3 7 coeffs)
+  list(GET f 10 nd)
+  list(GET f 11 vd)
+  list(GET f 12 lmin)
+  list(GET f 13 lmax)
+  list(GET f 14 extra)
+  foreach(v IN LISTS coeffs nd vd lmin lmax)
+    if(NOT v MATCHES "^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$")
+      message(FATAL_ERROR "${CSV}:${row}: '${v}' is not a number")
+    endif()
+  endforeach()
+  string(STRIP "${extra}" extra)
+  string(REGEX REPLACE " +" ";" extra "${extra}")
+  list(LENGTH extra nextra)
+  foreach(v IN LISTS extra)
+    if(NOT v MATCHES "^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$")
+      message(FATAL_ERROR "${CSV}:${row}: extra coefficient '${v}' is not a number")
+    endif()
+  endforeach()
+  if(nextra GREATER 8)
+    message(FATAL_ERROR "${CSV}:${row}: more than 8 extra coefficients")
+  endif()
+  string(REPLACE ";" ", " coeffs "${coeffs}")
+  string(REPLACE ";" ", " extra "${extra}")
+  string(APPEND body "    {\"${maker}\", \"${glass}\", ${formula}, {${coeffs}}, ${nd}, ${vd}, ${lmin}, ${lmax}, ${nextra}, {${extra}}},\n")
+endforeach()
+file(WRITE "${OUT}.tmp" "// Generated from optics/data/glass.csv by optics/data/embed_glass.cmake. Do not edit.
+#include \"glass_catalog.h\"
+
+namespace lensfx::optics::detail {
+
+const CatalogEntry kGlassCatalog[] = {
+${body}};
+const std::size_t kGlassCatalogSize = sizeof(kGlassCatalog) / sizeof(kGlassCatalog[0]);
+
+}  // namespace lensfx::optics::detail
+")
+file(COPY_FILE "${OUT}.tmp" "${OUT}" ONLY_IF_DIFFERENT)
+file(REMOVE "${OUT}.tmp")

@@ -1,0 +1,159 @@
+#include <optics/coating.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace lensfx::optics {
+
+namespace {
+
+using cplx = std::complex<double>;
+
+// Smallest cosine used inside the admittance formulas: p admittances are n / cos, so an exact zero
+// (grazing) would divide by zero. Changes R by less than 1e-140 for angles closer to grazing.
+constexpr double kMinCos = 1e-150;
+
+// cos(theta_k) in a medium of index n_k for the invariant n_in sin(theta_in), on the branch with
+// Im <= 0 (an evanescent wave decays with the e^{-i delta} phase convention used below).
+cplx cos_in_medium(double n_k, double n_sin) {
+    const double s = n_sin / n_k;
+    const double c2 = (1.0 - s) * (1.0 + s);
+    cplx c = c2 >= 0.0 ? cplx(std::sqrt(c2), 0.0) : cplx(0.0, -std::sqrt(-c2));
+    if (std::abs(c) < kMinCos) c = cplx(kMinCos, 0.0);
+    return c;
+}
+
+// Tilted optical admittance (units of the free-space admittance): s: n cos, p: n / cos.
+cplx admittance(double n, cplx c, bool p) { return p ? n / c : n * c; }
+
+Reflectance finite_or_total(double R, double T) {
+    if (!std::isfinite(R) || !std::isfinite(T)) return {1.0, 0.0};
+    return {R, T};
+}
+
+template <class LayerAt>
+Reflectance matrix_one_polarisation(std::size_t count, LayerAt layer_at, double n_in, double n_out, double ci,
+                                    double wavelength_nm, bool p) {
+    const double n_sin = n_in * std::sqrt(std::max(0.0, (1.0 - ci) * (1.0 + ci)));
+    const cplx eta0 = admittance(n_in, cplx(ci, 0.0), p);
+    const cplx eta_s = admittance(n_out, cos_in_medium(n_out, n_sin), p);
+    // [B; C] = M_1 ... M_k [1; eta_s], multiplied from the substrate side.
+    cplx B = 1.0;
+    cplx C = eta_s;
+    for (std::size_t k = count; k-- > 0;) {
+        const FilmLayer& L = layer_at(k);
+        const cplx c = cos_in_medium(L.index, n_sin);
+        const cplx delta = 2.0 * std::numbers::pi * L.index * L.thickness_nm * c / wavelength_nm;
+        const cplx eta = admittance(L.index, c, p);
+        const cplx cd = std::cos(delta);
+        const cplx sd = std::sin(delta);
+        const cplx i(0.0, 1.0);
+        const cplx nB = cd * B + i * sd / eta * C;
+        const cplx nC = i * eta * sd * B + cd * C;
+        B = nB;
+        C = nC;
+    }
+    const cplx denom = eta0 * B + C;
+    const cplx r = (eta0 * B - C) / denom;
+    const double T = 4.0 * eta0.real() * eta_s.real() / std::norm(denom);
+    return finite_or_total(std::norm(r), T);
+}
+
+Reflectance single_layer_one_polarisation(const FilmLayer& layer, double n_in, double n_out, double ci,
+                                          double wavelength_nm, bool p) {
+    const double n_sin = n_in * std::sqrt(std::max(0.0, (1.0 - ci) * (1.0 + ci)));
+    const cplx eta0 = admittance(n_in, cplx(ci, 0.0), p);
+    const cplx c1 = cos_in_medium(layer.index, n_sin);
+    const cplx eta1 = admittance(layer.index, c1, p);
+    const cplx eta2 = admittance(n_out, cos_in_medium(n_out, n_sin), p);
+    const cplx r01 = (eta0 - eta1) / (eta0 + eta1);
+    const cplx r12 = (eta1 - eta2) / (eta1 + eta2);
+    const cplx t01 = 2.0 * eta0 / (eta0 + eta1);
+    const cplx t12 = 2.0 * eta1 / (eta1 + eta2);
+    const cplx beta = 2.0 * std::numbers::pi * layer.index * layer.thickness_nm * c1 / wavelength_nm;
+    const cplx phase = std::exp(cplx(0.0, -1.0) * beta);  // one pass through the layer
+    const cplx loop = 1.0 + r01 * r12 * phase * phase;
+    const cplx r = (r01 + r12 * phase * phase) / loop;
+    const cplx t = t01 * t12 * phase / loop;  // tangential field amplitude
+    const double T = eta2.real() / eta0.real() * std::norm(t);
+    return finite_or_total(std::norm(r), T);
+}
+
+double clamp_cos(double c) { return std::isnan(c) ? 0.0 : std::clamp(c, 0.0, 1.0); }
+
+}  // namespace
+
+ResolvedCoating resolve_coating(const Coating& coating, const Glass& before, const Glass& after,
+                                double wavelength_nm) {
+    ResolvedCoating out;
+    switch (coating.kind) {
+        case Coating::Kind::None: break;
+        case Coating::Kind::QuarterWave: {
+            double n = coating.layer_index;
+            if (n <= 0.0) n = std::sqrt(before.index(coating.design_wavelength_nm) * after.index(coating.design_wavelength_nm));
+            if (!(coating.design_wavelength_nm > 0.0) || !std::isfinite(n) || !(1.0 + coating.thickness_offset >= 0.0))
+                throw std::invalid_argument(fmt::format(
+                    "quarter-wave coating: bad design wavelength {} nm, layer index {} or thickness offset {}",
+                    coating.design_wavelength_nm, n, coating.thickness_offset));
+            out.layers.push_back({n, coating.design_wavelength_nm / (4.0 * n) * (1.0 + coating.thickness_offset)});
+            break;
+        }
+        case Coating::Kind::Stack:
+            for (std::size_t i = 0; i < coating.layers.size(); ++i) {
+                const auto& L = coating.layers[i];
+                const double n = L.material.index(wavelength_nm);
+                if (!(L.thickness_nm >= 0.0) || !std::isfinite(L.thickness_nm))
+                    throw std::invalid_argument(
+                        fmt::format("coating layer {} ({}): bad thickness {} nm", i + 1, L.material.name, L.thickness_nm));
+                out.layers.push_back({n, L.thickness_nm});
+            }
+            break;
+    }
+    return out;
+}
+
+Reflectance multilayer_reflectance(std::span<const FilmLayer> layers, double n_in, double n_out, double cos_i,
+                                   double wavelength_nm) {
+    const double ci0 = clamp_cos(cos_i);
+    if (layers.empty() || ci0 == 0.0) {
+        if (n_in == n_out && layers.empty()) return {0.0, 1.0};
+        if (ci0 == 0.0) return {1.0, 0.0};
+    }
+    const double ci = std::max(ci0, kMinCos);
+    auto at = [&](std::size_t k) -> const FilmLayer& { return layers[k]; };
+    const Reflectance s = matrix_one_polarisation(layers.size(), at, n_in, n_out, ci, wavelength_nm, false);
+    const Reflectance p = matrix_one_polarisation(layers.size(), at, n_in, n_out, ci, wavelength_nm, true);
+    return {0.5 * (s.R + p.R), 0.5 * (s.T + p.T)};
+}
+
+Reflectance single_layer_reflectance(const FilmLayer& layer, double n_in, double n_out, double cos_i,
+                                     double wavelength_nm) {
+    const double ci0 = clamp_cos(cos_i);
+    if (ci0 == 0.0) return {1.0, 0.0};
+    const double ci = std::max(ci0, kMinCos);
+    const Reflectance s = single_layer_one_polarisation(layer, n_in, n_out, ci, wavelength_nm, false);
+    const Reflectance p = single_layer_one_polarisation(layer, n_in, n_out, ci, wavelength_nm, true);
+    return {0.5 * (s.R + p.R), 0.5 * (s.T + p.T)};
+}
+
+Reflectance coated_reflectance(const ResolvedCoating& coating, double n_in, double n_out, double cos_i,
+                               double wavelength_nm, bool from_object_side) {
+    const auto& L = coating.layers;
+    if (L.empty()) return fresnel_unpolarized(n_in, n_out, cos_i);
+    if (L.size() == 1) return single_layer_reflectance(L[0], n_in, n_out, cos_i, wavelength_nm);
+    const double ci0 = clamp_cos(cos_i);
+    if (ci0 == 0.0) return {1.0, 0.0};
+    const double ci = std::max(ci0, kMinCos);
+    const std::size_t n = L.size();
+    auto at = [&](std::size_t k) -> const FilmLayer& { return from_object_side ? L[k] : L[n - 1 - k]; };
+    const Reflectance s = matrix_one_polarisation(n, at, n_in, n_out, ci, wavelength_nm, false);
+    const Reflectance p = matrix_one_polarisation(n, at, n_in, n_out, ci, wavelength_nm, true);
+    return {0.5 * (s.R + p.R), 0.5 * (s.T + p.T)};
+}
+
+}  // namespace lensfx::optics
