@@ -818,20 +818,47 @@ const std::vector<float>& blue_noise() {
     return table;
 }
 
+// The dither offsets of one row, channel by channel (what dither_offset gives, computed once per row).
+void row_offsets(Dither dither, std::size_t width, std::size_t y, std::size_t channels, std::uint64_t frame,
+                 std::vector<float>& out) {
+    out.resize(width * channels);
+    if (dither == Dither::Ordered && width > 16) {  // periodic: compute one period and repeat it
+        for (std::size_t x = 0; x < 16; ++x)
+            for (std::size_t c = 0; c < channels; ++c)
+                out[x * channels + c] = dither_offset(dither, x, y, static_cast<int>(c), frame);
+        for (std::size_t i = 16 * channels; i < out.size(); ++i) out[i] = out[i - 16 * channels];
+        return;
+    }
+    for (std::size_t x = 0; x < width; ++x)
+        for (std::size_t c = 0; c < channels; ++c)
+            out[x * channels + c] = dither_offset(dither, x, y, static_cast<int>(c), frame);
+}
+
 template <typename T>
-std::vector<T> quantise(const PixelSpan& px, Dither dither, std::uint64_t frame, double max) {
+std::vector<T> quantise(const PixelSpan& px, Dither dither, std::uint64_t frame, float max) {
     const std::size_t nc = static_cast<std::size_t>(px.channels);
     const std::size_t stride = px.row_stride ? px.row_stride : px.width * nc;
+    const std::size_t n = px.width * nc;
     std::vector<T> out(px.width * px.height * nc);
+    std::vector<float> offsets(n, 0.0f);
+    // Blue noise repeats every 64 rows and columns: rows 64 apart share their offsets.
+    std::vector<std::vector<float>> blue_rows;
     for (std::size_t y = 0; y < px.height; ++y) {
-        const float* row = px.data + y * stride;
-        T* o = out.data() + y * px.width * nc;
-        for (std::size_t x = 0; x < px.width; ++x)
-            for (std::size_t c = 0; c < nc; ++c) {
-                const double v = static_cast<double>(clamp01(row[x * nc + c]));
-                const double d = static_cast<double>(dither_offset(dither, x, y, static_cast<int>(c), frame));
-                o[x * nc + c] = static_cast<T>(std::clamp(std::floor(v * max + 0.5 + d), 0.0, max));
+        if (dither == Dither::Ordered) {
+            row_offsets(dither, px.width, y, nc, frame, offsets);
+        } else if (dither == Dither::BlueNoise) {
+            if (blue_rows.size() <= y % bn_size) {
+                blue_rows.emplace_back();
+                row_offsets(dither, px.width, y, nc, frame, blue_rows.back());
             }
+            offsets = blue_rows[y % bn_size];
+        }
+        const float* row = px.data + y * stride;
+        T* o = out.data() + y * n;
+        for (std::size_t i = 0; i < n; ++i) {
+            const float q = std::floor(clamp01(row[i]) * max + 0.5f + offsets[i]);
+            o[i] = static_cast<T>(q < 0.0f ? 0.0f : (q > max ? max : q));
+        }
     }
     return out;
 }
@@ -862,11 +889,11 @@ float dither_offset(Dither dither, std::size_t x, std::size_t y, int channel, st
 }
 
 std::vector<std::uint8_t> quantise8(const PixelSpan& pixels, Dither dither, std::uint64_t frame) {
-    return quantise<std::uint8_t>(pixels, dither, frame, 255.0);
+    return quantise<std::uint8_t>(pixels, dither, frame, 255.0f);
 }
 
 std::vector<std::uint16_t> quantise16(const PixelSpan& pixels, Dither dither, std::uint64_t frame) {
-    return quantise<std::uint16_t>(pixels, dither, frame, 65535.0);
+    return quantise<std::uint16_t>(pixels, dither, frame, 65535.0f);
 }
 
 }  // namespace lensfx::colour
