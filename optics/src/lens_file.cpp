@@ -234,7 +234,9 @@ std::string medium_fields(const Glass& g) {
     switch (g.formula) {
         case Glass::Formula::Abbe:
             return fmt::format("nd = {}, vd = {}{}", num(g.nd), num(g.vd), g.name.empty() ? "" : ", label = " + toml_string(g.name));
-        case Glass::Formula::Constant: return fmt::format("nd = {}, label = {}", num(g.nd), toml_string(g.name));
+        case Glass::Formula::Constant:
+            if (g.name == fmt::format("n={}", g.nd)) return fmt::format("nd = {}", num(g.nd));
+            return fmt::format("nd = {}, label = {}", num(g.nd), toml_string(g.name));
         case Glass::Formula::Sellmeier:
         case Glass::Formula::Polynomial: {
             if (auto c = catalog_glass(g.name); c && same_glass(*c, g)) return "glass = " + toml_string(g.name);
