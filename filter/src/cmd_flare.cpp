@@ -1,6 +1,223 @@
-// Placeholder until the flare renderer lands (issue 4).
+// `lensfx flare`: the ghosts of one collimated light of irradiance 1 on black, in sensor irradiance,
+// rendered on the GPU (or by the dense CPU reference with --reference), written as a float EXR, with an
+// optional tone-mapped PNG preview and a per-ghost power listing.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/core.h>
+#include <filter/colour.h>
+#include <gpu/context.h>
+#include <gpu/flare.h>
+#include <gpu/flare_renderer.h>
+#include <optics/lens_file.h>
+#include <optics/paraxial.h>
+#include <optics/system.h>
+
 #include "commands.h"
 
 namespace lensfx::filter {
-void register_flare_command(CLI::App&) {}
+namespace {
+
+struct FlareArgs {
+    std::string lens;
+    std::string zoom;
+    std::optional<double> fstop;
+    std::string angle;
+    std::string sensor = "36x24";
+    std::string size;
+    std::optional<int> blades;
+    std::optional<double> wavelength;
+    std::string coating = "lens";
+    std::vector<std::string> ghosts;
+    bool list = false;
+    std::string output;
+    std::string preview;
+    std::optional<double> preview_exposure;
+    bool reference = false;
+    int rays = 512;
+    int grid = 128;
+    int threads = 2;
+    std::string gpu = "auto";
+};
+
+std::pair<double, double> parse_pair(const std::string& text, char sep, const char* option) {
+    const auto at = text.find(sep);
+    try {
+        if (at == std::string::npos) throw std::invalid_argument("separator");
+        std::size_t used_a = 0;
+        std::size_t used_b = 0;
+        const double a = std::stod(text.substr(0, at), &used_a);
+        const double b = std::stod(text.substr(at + 1), &used_b);
+        if (used_a != at || used_b != text.size() - at - 1 || !std::isfinite(a) || !std::isfinite(b)) {
+            throw std::invalid_argument("trailing");
+        }
+        return {a, b};
+    } catch (const std::exception&) {
+        throw std::invalid_argument(fmt::format("{} {}: expected two numbers separated by '{}'", option, text, sep));
+    }
+}
+
+void write_exr(const gpu::FlareImage& image, const std::string& path) {
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) throw std::runtime_error(fmt::format("{}: cannot create an image writer: {}", path, OIIO::geterror()));
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"R", "G", "B"};
+    spec.attribute("compression", "zip");
+    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.rgb.data()) || !out->close()) {
+        throw std::runtime_error(fmt::format("{}: {}", path, out->geterror()));
+    }
+}
+
+// Ghosts are some 1e-3 .. 1e-6 of the light: without --preview-exposure the exposure puts the 99.5th
+// percentile of the lit pixels' brightest channel at scene value 1.
+void write_preview(const gpu::FlareImage& image, const std::string& path, std::optional<double> exposure_ev) {
+    std::vector<float> rgb = image.rgb;
+    double ev = 0.0;
+    if (exposure_ev) {
+        ev = *exposure_ev;
+    } else {
+        std::vector<float> lit;
+        for (std::size_t i = 0; i + 2 < rgb.size(); i += 3) {
+            const float m = std::max({rgb[i], rgb[i + 1], rgb[i + 2]});
+            if (m > 0.0f) lit.push_back(m);
+        }
+        if (!lit.empty()) {
+            auto nth = lit.begin() + static_cast<std::ptrdiff_t>(static_cast<double>(lit.size() - 1) * 0.995);
+            std::nth_element(lit.begin(), nth, lit.end());
+            if (*nth > 0.0f) ev = -std::log2(static_cast<double>(*nth));
+        }
+    }
+    colour::ColourOptions options;
+    options.colorspace = std::string(colour::builtin::lin_rec709);
+    options.exposure_ev = ev;
+    const colour::ColourPipeline pipeline(colour::ColourConfig::builtin_config(), options, std::nullopt);
+    colour::PixelSpan span{rgb.data(), static_cast<std::size_t>(image.width), static_cast<std::size_t>(image.height), 3, 0};
+    pipeline.to_display().apply(span);
+    const std::vector<std::uint8_t> bytes = colour::quantise8(span, colour::Dither::Ordered);
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) throw std::runtime_error(fmt::format("{}: cannot create an image writer: {}", path, OIIO::geterror()));
+    const OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close()) {
+        throw std::runtime_error(fmt::format("{}: {}", path, out->geterror()));
+    }
+    fmt::print(stderr, "lensfx flare: preview {} at exposure {:+.2f} EV\n", path, ev);
+}
+
+void run_flare(const FlareArgs& args) {
+    optics::Lens lens = optics::load_lens(args.lens);
+    if (args.blades) {
+        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2) {
+            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 and more", *args.blades));
+        }
+        lens.aperture.blades = *args.blades;
+    }
+    const double zoom = args.zoom.empty() ? 0.0 : optics::parse_zoom(lens, args.zoom);
+    optics::System system = optics::realize(lens, zoom, args.fstop);
+    if (args.coating == "none") system = gpu::without_coatings(std::move(system));
+
+    gpu::FlareView view;
+    std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
+    std::tie(view.sensor_width_mm, view.sensor_height_mm) = parse_pair(args.sensor, 'x', "--sensor");
+    if (!(view.sensor_width_mm > 0 && view.sensor_height_mm > 0)) {
+        throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", args.sensor));
+    }
+    if (args.size.empty()) {
+        view.width = 960;
+        view.height = std::max(1, static_cast<int>(std::lround(960.0 * view.sensor_height_mm / view.sensor_width_mm)));
+    } else {
+        const auto [w, h] = parse_pair(args.size, 'x', "--size");
+        if (w < 1 || h < 1 || w != std::floor(w) || h != std::floor(h) || w > 16384 || h > 16384) {
+            throw std::invalid_argument(fmt::format("--size {}: two whole numbers 1..16384 expected", args.size));
+        }
+        view.width = static_cast<int>(w);
+        view.height = static_cast<int>(h);
+    }
+    view.wavelength_nm = args.wavelength;
+    for (const std::string& g : args.ghosts) {
+        const auto [a, b] = parse_pair(g, ',', "--ghost");
+        const int count = static_cast<int>(system.interfaces.size());
+        if (a != std::floor(a) || b != std::floor(b) || a < 1 || b < 1 || a > count || b > count || a == b) {
+            throw std::invalid_argument(
+                fmt::format("--ghost {}: two different surface numbers 1..{} expected", g, count));
+        }
+        view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
+    }
+
+    const auto start = std::chrono::steady_clock::now();
+    gpu::FlareImage image;
+    if (args.reference) {
+        gpu::ReferenceOptions options;
+        options.rays = args.rays;
+        options.threads = args.threads;
+        options.per_ghost_power = args.list;
+        image = gpu::render_reference(system, view, options);
+    } else {
+        const gpu::Context context(gpu::parse_platform(args.gpu));
+        gpu::FlareRenderer renderer(context);
+        gpu::GpuFlareOptions options;
+        options.grid = args.grid;
+        options.per_ghost_power = args.list;
+        image = renderer.render(system, view, options);
+    }
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+
+    if (args.list) {
+        const auto total = image.total_power(view);
+        fmt::print("# {} at f/{:.3g}, light ({}, {}) deg, {} ghosts, {} ({:.1f} ms)\n", system.name,
+                   optics::paraxial(system).f_number, view.angle_x_deg, view.angle_y_deg, image.ghosts.size(),
+                   args.reference ? fmt::format("reference {}x{} rays", args.rays, args.rays)
+                                  : fmt::format("gpu grid {}", args.grid),
+                   ms);
+        fmt::print("# surfaces (1-based)   power R         power G         power B        (mm^2 per unit irradiance)\n");
+        for (const gpu::GhostPower& g : image.ghosts) {
+            fmt::print("{:>4},{:<4}            {:<15.6e} {:<15.6e} {:<15.6e}\n", g.second + 1, g.first + 1,
+                       g.power[0], g.power[1], g.power[2]);
+        }
+        fmt::print("total                  {:<15.6e} {:<15.6e} {:<15.6e}\n", total[0], total[1], total[2]);
+    }
+    if (!args.output.empty()) write_exr(image, args.output);
+    if (!args.preview.empty()) write_preview(image, args.preview, args.preview_exposure);
+}
+
+}  // namespace
+
+void register_flare_command(CLI::App& app) {
+    auto args = std::make_shared<FlareArgs>();
+    auto* cmd = app.add_subcommand("flare", "Render the ghosts of one collimated light of irradiance 1 (sensor irradiance)");
+    cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
+    cmd->add_option("--zoom", args->zoom, "Zoom: parameter 0..1 or focal label such as 135mm");
+    cmd->add_option("--fstop", args->fstop, "Set the stop so that the lens's f-number is F (default: wide open)");
+    cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
+    cmd->add_option("--sensor", args->sensor, "Sensor WxH in mm")->capture_default_str();
+    cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
+    cmd->add_option("--blades", args->blades, "Iris blades (0 = round), replacing the lens's");
+    cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)");
+    cmd->add_option("--coating", args->coating, "Anti-reflection coatings: lens (as prescribed) or none")
+        ->check(CLI::IsMember({"lens", "none"}))->capture_default_str();
+    cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
+    cmd->add_flag("--list", args->list, "Print each ghost's power on the image");
+    cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
+    cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
+    cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
+    cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
+    cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
+    cmd->add_option("--grid", args->grid, "GPU: ray grid cells per side per ghost")->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();
+    cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
+        ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
+    cmd->callback([args] {
+        if (args->output.empty() && args->preview.empty() && !args->list) {
+            throw std::invalid_argument("flare: nothing to do; give -o OUT.exr, --preview OUT.png or --list");
+        }
+        run_flare(*args);
+    });
+}
+
 }  // namespace lensfx::filter

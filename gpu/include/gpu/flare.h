@@ -1,0 +1,109 @@
+// What a ghost-flare image is, shared by the GPU renderer and the dense CPU reference: the view (light
+// angles, sensor, pixels, wavelengths), the image (sensor irradiance, upright, row 0 at the top), the
+// iris as a signed distance field, the entrance-pupil region of each ghost, and the reference renderer
+// itself (many exact double-precision rays per ghost, binned into pixels).
+#pragma once
+
+#include <array>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <optics/ghosts.h>
+#include <optics/lens.h>
+#include <optics/tracer.h>
+
+namespace lensfx::gpu {
+
+using optics::Aperture;
+using optics::Ghost;
+using optics::System;
+using optics::TraceResult;
+using optics::TraceSystem;
+
+// RGB mode renders one wavelength per channel: R 650 nm, G 550 nm, B 450 nm.
+inline constexpr std::array<double, 3> kRgbWavelengths_nm = {650.0, 550.0, 450.0};
+
+struct FlareView {
+    double angle_x_deg = 0.0;  // light ax degrees right of the view axis (DESIGN.md)
+    double angle_y_deg = 0.0;  // ay degrees above it
+    double sensor_width_mm = 36.0;
+    double sensor_height_mm = 24.0;
+    int width = 360;   // pixels
+    int height = 240;
+    // Empty: RGB mode (kRgbWavelengths_nm). One value: that wavelength into every channel.
+    std::optional<double> wavelength_nm;
+    // Only these ghosts (Ghost::first, Ghost::second as System interface indices); empty = all.
+    std::vector<std::pair<int, int>> only_ghosts;
+
+    double pixel_area_mm2() const { return (sensor_width_mm / width) * (sensor_height_mm / height); }
+    // (wavelength, channel mask) passes: three in RGB mode, one otherwise.
+    std::vector<std::pair<double, std::array<bool, 3>>> passes() const;
+};
+
+struct GhostPower {
+    int first = 0;   // System interface indices, as in Ghost
+    int second = 0;
+    std::array<double, 3> power{};  // per channel: power landing on the image (mm^2 x irradiance 1)
+};
+
+// RGB float image of sensor irradiance for a light of irradiance 1 per channel; row 0 is the top of the
+// upright photograph. ghosts: one entry per rendered ghost when the renderer was asked for them.
+struct FlareImage {
+    int width = 0;
+    int height = 0;
+    std::vector<float> rgb;  // width * height * 3
+    std::vector<GhostPower> ghosts;
+
+    float at(int x, int y, int c) const {
+        return rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3 +
+                   static_cast<std::size_t>(c)];
+    }
+    // Sum of irradiance x pixel area over the image, per channel.
+    std::array<double, 3> total_power(const FlareView& view) const;
+};
+
+// Signed distance to the iris edge in units of the stop radius at stop coordinates (u, v) (lens x/y over
+// the stop radius, the upright frame): negative inside. Round (blades = 0): |uv| - 1. With n >= 3 blades
+// the polygon's corners lie on the unit circle; its first edge is horizontal at the bottom when
+// rotation_deg = 0, then turned counter-clockwise; each edge is an arc of radius 1 / blade_curvature
+// through its two corners (curvature 0: straight, 1: the circle itself).
+double aperture_sdf(const Aperture& aperture, double u, double v);
+
+// Drops every anti-reflection coating (`--coating none`): bare Fresnel interfaces.
+System without_coatings(System system);
+
+// The ghosts a view asks for (all of them, or view.only_ghosts); throws std::invalid_argument naming a
+// requested pair that is no ghost of the system.
+std::vector<Ghost> selected_ghosts(const System& system, const FlareView& view);
+
+// Rectangle on the plane z = 0 (the first vertex's tangent plane) that the collimated rays of a ghost
+// cross. full_square: the whole front element seen along the light direction. bounds: where a coarse
+// trace found rays that reach the sensor unblocked (r_rel <= 1, inside the iris at every stop crossing),
+// grown by one coarse cell; empty when none did.
+struct PupilRect {
+    double x0 = 0.0, y0 = 0.0, x1 = 0.0, y1 = 0.0;
+    bool empty() const { return !(x1 > x0 && y1 > y0); }
+};
+PupilRect entrance_square(const TraceSystem& system, const FlareView& view);
+PupilRect ghost_pupil_bounds(const TraceSystem& system, const Ghost& ghost, const Aperture& aperture,
+                             const FlareView& view, double entrance_pupil_diameter_mm);
+
+// Whether a traced ray passes: traced to the sensor, r_rel <= 1 and inside the iris at each stop crossing.
+bool ray_passes(const TraceResult& result, const Aperture& aperture);
+
+// Upright image position (pixels, continuous, (0,0) = top-left corner) of a sensor point (lens x/y, mm).
+std::array<double, 2> sensor_to_pixel(const FlareView& view, double x_mm, double y_mm);
+
+struct ReferenceOptions {
+    int rays = 512;               // N: N x N rays per ghost and wavelength over the entrance square
+    int threads = 2;              // the result does not depend on it
+    bool per_ghost_power = true;  // fill FlareImage::ghosts
+};
+
+// The dense reference: for each ghost and wavelength, N x N collimated rays on a regular grid over the
+// entrance square, each traced exactly (double, coatings per ray) and carrying the power of its cell
+// (cell area x cos of the light's angle x transmission), added into the pixel it lands in.
+FlareImage render_reference(const System& system, const FlareView& view, const ReferenceOptions& options = {});
+
+}  // namespace lensfx::gpu

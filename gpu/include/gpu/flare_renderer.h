@@ -1,0 +1,35 @@
+// The GPU ghost renderer (flare paper section 4.1/4.3): per ghost and wavelength a regular grid of rays
+// over the ghost's entrance-pupil bounds is traced through the ghost's fixed interface sequence in a
+// compute shader (float); the grid's triangles are rasterised on the sensor with irradiance = flux /
+// sensor area, clipped where the interpolated r_rel > 1, shaded by the iris SDF texture at the
+// interpolated stop coordinates and the per-ray Fresnel/coating factor, and added in an RGBA32F target.
+#pragma once
+
+#include <memory>
+
+#include <gpu/context.h>
+#include <gpu/flare.h>
+
+namespace lensfx::gpu {
+
+struct GpuFlareOptions {
+    int grid = 128;                // cells per side of each ghost's ray grid
+    bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
+};
+
+class FlareRenderer {
+public:
+    // Compiles the shaders; the context must stay alive and current while the renderer is used.
+    explicit FlareRenderer(const Context& context);
+    ~FlareRenderer();
+    FlareRenderer(const FlareRenderer&) = delete;
+    FlareRenderer& operator=(const FlareRenderer&) = delete;
+
+    FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+}  // namespace lensfx::gpu

@@ -1,0 +1,215 @@
+// Shared flare definitions (view, image, iris SDF, ghost pupil bounds) and the dense CPU reference.
+#include <gpu/flare.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/core.h>
+
+namespace lensfx::gpu {
+
+using optics::Coating;
+using optics::Ray;
+using optics::TraceInterface;
+using optics::Vec2;
+using optics::collimated_ray;
+using optics::enumerate_ghosts;
+using optics::surface_sag;
+using optics::trace;
+
+std::vector<std::pair<double, std::array<bool, 3>>> FlareView::passes() const {
+    if (wavelength_nm) return {{*wavelength_nm, {true, true, true}}};
+    return {{kRgbWavelengths_nm[0], {true, false, false}},
+            {kRgbWavelengths_nm[1], {false, true, false}},
+            {kRgbWavelengths_nm[2], {false, false, true}}};
+}
+
+std::array<double, 3> FlareImage::total_power(const FlareView& view) const {
+    std::array<double, 3> sum{};
+    for (std::size_t i = 0; i < rgb.size(); ++i) sum[i % 3] += static_cast<double>(rgb[i]);
+    for (double& s : sum) s *= view.pixel_area_mm2();
+    return sum;
+}
+
+double aperture_sdf(const Aperture& aperture, double u, double v) {
+    const double radius = std::hypot(u, v);
+    if (aperture.blades < 3) return radius - 1.0;
+    const int n = aperture.blades;
+    const double half = std::numbers::pi / n;
+    const double apothem = std::cos(half);
+    const double half_chord = std::sin(half);
+    const double curvature = std::clamp(aperture.blade_curvature, 0.0, 1.0);
+    const double first = (aperture.rotation_deg - 90.0) * std::numbers::pi / 180.0;
+    double sdf = -1e300;
+    for (int k = 0; k < n; ++k) {
+        const double phi = first + 2.0 * half * k;
+        const double nx = std::cos(phi);
+        const double ny = std::sin(phi);
+        double edge;
+        if (curvature < 1e-9) {
+            edge = u * nx + v * ny - apothem;
+        } else {
+            const double arc_radius = 1.0 / curvature;
+            const double centre = apothem - std::sqrt(arc_radius * arc_radius - half_chord * half_chord);
+            edge = std::hypot(u - centre * nx, v - centre * ny) - arc_radius;
+        }
+        sdf = std::max(sdf, edge);
+    }
+    return sdf;
+}
+
+System without_coatings(System system) {
+    for (System::Interface& surface : system.interfaces) surface.coating = Coating{};
+    return system;
+}
+
+std::vector<Ghost> selected_ghosts(const System& system, const FlareView& view) {
+    std::vector<Ghost> all = enumerate_ghosts(system);
+    if (view.only_ghosts.empty()) return all;
+    std::vector<Ghost> chosen;
+    for (const auto& [a, b] : view.only_ghosts) {
+        const int first = std::max(a, b);
+        const int second = std::min(a, b);
+        auto it = std::find_if(all.begin(), all.end(),
+                               [&](const Ghost& g) { return g.first == first && g.second == second; });
+        if (it == all.end()) {
+            throw std::invalid_argument(fmt::format(
+                "{}: no ghost reflects at interfaces {} and {} (stop and index-matched interfaces do not reflect)",
+                system.name, second, first));
+        }
+        chosen.push_back(*it);
+    }
+    return chosen;
+}
+
+PupilRect entrance_square(const TraceSystem& system, const FlareView& view) {
+    const TraceInterface& front = system.interfaces().front();
+    double sag = 0.0;
+    if (!surface_sag(front, front.semi_diameter, sag)) sag = front.semi_diameter;
+    const double tan_x = std::tan(view.angle_x_deg * std::numbers::pi / 180.0);
+    const double tan_y = std::tan(view.angle_y_deg * std::numbers::pi / 180.0);
+    // A ray hitting the front surface at height h crosses z = 0 displaced by tan * sag (sag >= 0 ahead).
+    const double reach = front.semi_diameter * 1.01;
+    const double shift_x = -tan_x * sag;
+    const double shift_y = -tan_y * sag;
+    return {std::min(-reach, -reach - shift_x), std::min(-reach, -reach - shift_y),
+            std::max(reach, reach - shift_x), std::max(reach, reach - shift_y)};
+}
+
+bool ray_passes(const TraceResult& result, const Aperture& aperture) {
+    if (!result.ok() || result.r_rel > 1.0) return false;
+    for (int k = 0; k < result.stop_count; ++k) {
+        const Vec2& uv = result.stop_crossings[static_cast<std::size_t>(k)];
+        if (aperture_sdf(aperture, uv.x, uv.y) > 0.0) return false;
+    }
+    return true;
+}
+
+PupilRect ghost_pupil_bounds(const TraceSystem& system, const Ghost& ghost, const Aperture& aperture,
+                             const FlareView& view, double entrance_pupil_diameter_mm) {
+    const PupilRect square = entrance_square(system, view);
+    const double side = std::max(square.x1 - square.x0, square.y1 - square.y0);
+    // At least 8 coarse rays across the entrance pupil, so that a small iris is not stepped over.
+    const double spacing = std::min(side / 48.0, std::max(entrance_pupil_diameter_mm, 1e-3) / 8.0);
+    const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
+    const double dx = (square.x1 - square.x0) / res;
+    const double dy = (square.y1 - square.y0) / res;
+    PupilRect box{1e300, 1e300, -1e300, -1e300};
+    bool any = false;
+    for (int iy = 0; iy <= res; ++iy) {
+        for (int ix = 0; ix <= res; ++ix) {
+            const double x = square.x0 + dx * ix;
+            const double y = square.y0 + dy * iy;
+            const Ray ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, x, y, 0.0);
+            if (!ray_passes(trace(system, ray, ghost.path), aperture)) continue;
+            any = true;
+            box.x0 = std::min(box.x0, x);
+            box.y0 = std::min(box.y0, y);
+            box.x1 = std::max(box.x1, x);
+            box.y1 = std::max(box.y1, y);
+        }
+    }
+    if (!any) return {};
+    return {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy), std::min(square.x1, box.x1 + dx),
+            std::min(square.y1, box.y1 + dy)};
+}
+
+std::array<double, 2> sensor_to_pixel(const FlareView& view, double x_mm, double y_mm) {
+    // The photograph is the sensor image turned 180 degrees.
+    const double xu = -x_mm;
+    const double yu = -y_mm;
+    return {(xu / view.sensor_width_mm + 0.5) * view.width, (0.5 - yu / view.sensor_height_mm) * view.height};
+}
+
+FlareImage render_reference(const System& system, const FlareView& view, const ReferenceOptions& options) {
+    if (options.rays < 2) throw std::invalid_argument(fmt::format("--rays {}: at least 2 needed", options.rays));
+    if (view.width <= 0 || view.height <= 0) {
+        throw std::invalid_argument(fmt::format("image size {}x{} is not positive", view.width, view.height));
+    }
+    const std::vector<Ghost> ghosts = selected_ghosts(system, view);
+    const std::size_t pixels = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
+    const int threads = std::max(1, options.threads);
+    const double inv_area = 1.0 / view.pixel_area_mm2();
+    const int n = options.rays;
+
+    std::vector<double> image(pixels * 3, 0.0);
+    std::vector<GhostPower> powers;
+    for (const auto& [wavelength, mask] : view.passes()) {
+        const TraceSystem traced(system, wavelength);
+        const PupilRect square = entrance_square(traced, view);
+        const double dx = (square.x1 - square.x0) / n;
+        const double dy = (square.y1 - square.y0) / n;
+        const Ray axis_ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
+        const double cell_power = dx * dy * std::abs(axis_ray.direction.z);
+        for (std::size_t g = 0; g < ghosts.size(); ++g) {
+            const Ghost& ghost = ghosts[g];
+            // Contiguous bands of ray rows per thread, summed in thread order: deterministic for a thread count.
+            std::vector<std::vector<double>> partial(static_cast<std::size_t>(threads), std::vector<double>(pixels, 0.0));
+            std::vector<std::jthread> workers;
+            for (int t = 0; t < threads; ++t) {
+                workers.emplace_back([&, t] {
+                    std::vector<double>& acc = partial[static_cast<std::size_t>(t)];
+                    const int row0 = n * t / threads;
+                    const int row1 = n * (t + 1) / threads;
+                    for (int iy = row0; iy < row1; ++iy) {
+                        for (int ix = 0; ix < n; ++ix) {
+                            const double x = square.x0 + dx * (ix + 0.5);
+                            const double y = square.y0 + dy * (iy + 0.5);
+                            const Ray ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, x, y, 0.0);
+                            const TraceResult r = trace(traced, ray, ghost.path);
+                            if (!ray_passes(r, system.aperture)) continue;
+                            const auto [px, py] = sensor_to_pixel(view, r.position.x, r.position.y);
+                            if (!(px >= 0.0 && py >= 0.0 && px < view.width && py < view.height)) continue;
+                            const std::size_t idx = static_cast<std::size_t>(py) * static_cast<std::size_t>(view.width) +
+                                                    static_cast<std::size_t>(px);
+                            acc[idx] += cell_power * r.transmission;
+                        }
+                    }
+                });
+            }
+            workers.clear();
+            if (powers.size() <= g) powers.push_back({ghost.first, ghost.second, {}});
+            for (std::size_t i = 0; i < pixels; ++i) {
+                double sum = 0.0;
+                for (const auto& p : partial) sum += p[i];
+                if (sum == 0.0) continue;
+                for (int c = 0; c < 3; ++c) {
+                    if (!mask[static_cast<std::size_t>(c)]) continue;
+                    image[i * 3 + static_cast<std::size_t>(c)] += sum * inv_area;
+                    powers[g].power[static_cast<std::size_t>(c)] += sum;
+                }
+            }
+        }
+    }
+    FlareImage out;
+    out.width = view.width;
+    out.height = view.height;
+    out.rgb.assign(image.begin(), image.end());
+    if (options.per_ghost_power) out.ghosts = std::move(powers);
+    return out;
+}
+
+}  // namespace lensfx::gpu

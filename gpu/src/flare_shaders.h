@@ -1,0 +1,185 @@
+// GLSL sources of the ghost renderer: the bundle tracer (compute) and the grid rasteriser (vertex +
+// fragment). Data layouts match flare_renderer.cpp.
+#pragma once
+
+namespace lensfx::gpu::shaders {
+
+// One invocation per grid vertex. Steps: geom = (vertex z, curvature, conic, semi-diameter),
+// media = (n_in, n_out, kind 0 refract / 1 reflect / 2 stop, forward 1 / backward 0). Output per vertex:
+// (sensor x, sensor y, r_rel, factor), (stop uv 0, stop uv 1), (stop uv 2, valid, 0).
+inline constexpr const char* ghost_trace_comp = R"GLSL(
+#version 430
+layout(local_size_x = 8, local_size_y = 8) in;
+struct StepData { vec4 geom; vec4 media; };
+layout(std430, binding = 0) readonly buffer Steps { StepData steps[]; };
+layout(std430, binding = 1) readonly buffer Tables { float factors[]; };
+layout(std430, binding = 2) writeonly buffer Vertices { vec4 vertices[]; };
+uniform int step_count;
+uniform int grid;
+uniform vec4 rect;       // entrance plane z = 0: x0, y0, x1, y1 (mm)
+uniform vec3 direction;  // unit, towards +z
+uniform float sensor_z;
+uniform int table_size;
+
+float factor(int s, float cos_i) {
+    float x = clamp(cos_i, 0.0, 1.0) * float(table_size - 1);
+    int i = min(int(x), table_size - 2);
+    float f = x - float(i);
+    int base = s * table_size;
+    return mix(factors[base + i], factors[base + i + 1], f);
+}
+
+void main() {
+    uvec2 id = gl_GlobalInvocationID.xy;
+    if (id.x > uint(grid) || id.y > uint(grid)) return;
+    vec2 f = vec2(id) / float(grid);
+    vec3 o = vec3(mix(rect.xy, rect.zw, f), 0.0);
+    vec3 d = direction;
+    float r_rel = 0.0;
+    float transmission = 1.0;
+    vec2 uv[3] = vec2[3](vec2(0.0), vec2(0.0), vec2(0.0));
+    int crossings = 0;
+    bool ok = true;
+    for (int s = 0; s < step_count; ++s) {
+        vec4 geom = steps[s].geom;
+        vec4 media = steps[s].media;
+        vec3 p = o - vec3(0.0, 0.0, geom.x);
+        float c = geom.y;
+        float k1 = 1.0 + geom.z;
+        float t;
+        if (c == 0.0) {
+            if (abs(d.z) < 1e-9) { ok = false; break; }
+            t = -p.z / d.z;
+        } else {
+            // c (x^2 + y^2 + (1+k) z^2) - 2 z = 0, root on the cap through the vertex for this travel direction.
+            float A = c * (d.x * d.x + d.y * d.y + k1 * d.z * d.z);
+            float B = c * (p.x * d.x + p.y * d.y + k1 * p.z * d.z) - d.z;
+            float C = c * (p.x * p.x + p.y * p.y + k1 * p.z * p.z) - 2.0 * p.z;
+            float disc = B * B - A * C;
+            if (disc < 0.0) { ok = false; break; }
+            float sign_b = media.w > 0.5 ? -1.0 : 1.0;
+            float den = -B - sign_b * sqrt(disc);
+            if (abs(den) < 1e-20) { ok = false; break; }
+            t = C / den;
+        }
+        p += t * d;
+        vec3 hit = p + vec3(0.0, 0.0, geom.x);
+        o = hit;
+        int kind = int(media.z + 0.5);
+        if (kind == 2) {
+            if (crossings < 3) uv[crossings] = hit.xy / geom.w;
+            crossings += 1;
+            continue;
+        }
+        if (geom.w > 0.0) r_rel = max(r_rel, length(hit.xy) / geom.w);
+        vec3 n = c == 0.0 ? vec3(0.0, 0.0, -1.0) : normalize(vec3(c * p.x, c * p.y, k1 * c * p.z - 1.0));
+        float cos_i = dot(n, d);
+        if (cos_i > 0.0) n = -n; else cos_i = -cos_i;
+        transmission *= factor(s, cos_i);
+        if (kind == 1) {
+            d = d - 2.0 * dot(d, n) * n;
+        } else {
+            float eta = media.x / media.y;
+            float k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+            if (k < 0.0) { ok = false; break; }
+            d = normalize(eta * d + (eta * cos_i - sqrt(k)) * n);
+        }
+    }
+    vec2 sensor = vec2(0.0);
+    if (ok) {
+        if (d.z <= 1e-9) ok = false;
+        else sensor = (o + ((sensor_z - o.z) / d.z) * d).xy;
+    }
+    if (!ok || any(isnan(sensor)) || any(isinf(sensor)) || isnan(transmission)) {
+        ok = false;
+        sensor = vec2(0.0);
+    }
+    uint index = id.y * uint(grid + 1) + id.x;
+    vertices[3u * index + 0u] = vec4(sensor, r_rel, transmission);
+    vertices[3u * index + 1u] = vec4(uv[0], uv[1]);
+    vertices[3u * index + 2u] = vec4(uv[2], ok ? 1.0 : 0.0, 0.0);
+}
+)GLSL";
+
+// Two triangles per grid cell, fetched by gl_VertexID; each carries half the cell's flux over its own
+// sensor area. Triangles with a lost corner (missed surface, total internal reflection) are dropped.
+inline constexpr const char* ghost_raster_vert = R"GLSL(
+#version 430
+layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
+uniform int grid;
+uniform vec2 half_sensor;     // mm
+uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
+out float v_r_rel;
+out float v_transmission;
+out vec2 v_uv0;
+out vec2 v_uv1;
+out vec2 v_uv2;
+flat out float v_irradiance;
+
+void main() {
+    int tri = gl_VertexID / 3;
+    int corner = gl_VertexID - 3 * tri;
+    int cell = tri / 2;
+    bool upper = (tri & 1) == 1;
+    int cx = cell % grid;
+    int cy = cell / grid;
+    int stride = grid + 1;
+    int a = cy * stride + cx;
+    int i0 = a;
+    int i1 = upper ? a + stride + 1 : a + 1;
+    int i2 = upper ? a + stride : a + stride + 1;
+    vec4 p0 = vertices[3 * i0];
+    vec4 p1 = vertices[3 * i1];
+    vec4 p2 = vertices[3 * i2];
+    bool valid = vertices[3 * i0 + 2].z > 0.5 && vertices[3 * i1 + 2].z > 0.5 && vertices[3 * i2 + 2].z > 0.5;
+    int me = corner == 0 ? i0 : (corner == 1 ? i1 : i2);
+    vec4 q = vertices[3 * me];
+    vec4 s = vertices[3 * me + 1];
+    vec4 w = vertices[3 * me + 2];
+    vec2 e1 = p1.xy - p0.xy;
+    vec2 e2 = p2.xy - p0.xy;
+    float area = 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
+    if (!valid || !(area > 0.0)) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        v_irradiance = 0.0;
+    } else {
+        // Upright photograph: the sensor image turned 180 degrees.
+        gl_Position = vec4(-q.x / half_sensor.x, -q.y / half_sensor.y, 0.0, 1.0);
+        v_irradiance = triangle_flux / area;
+    }
+    v_r_rel = q.z;
+    v_transmission = q.w;
+    v_uv0 = s.xy;
+    v_uv1 = s.zw;
+    v_uv2 = w.xy;
+}
+)GLSL";
+
+inline constexpr const char* ghost_raster_frag = R"GLSL(
+#version 430
+in float v_r_rel;
+in float v_transmission;
+in vec2 v_uv0;
+in vec2 v_uv1;
+in vec2 v_uv2;
+flat in float v_irradiance;
+uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
+uniform float iris_extent;
+uniform int stop_crossings;
+uniform vec4 channels;
+out vec4 colour;
+
+bool inside(vec2 uv) {
+    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r <= 0.0;
+}
+
+void main() {
+    if (v_r_rel > 1.0) discard;
+    if (stop_crossings > 0 && !inside(v_uv0)) discard;
+    if (stop_crossings > 1 && !inside(v_uv1)) discard;
+    if (stop_crossings > 2 && !inside(v_uv2)) discard;
+    colour = channels * (v_irradiance * v_transmission);
+}
+)GLSL";
+
+}  // namespace lensfx::gpu::shaders
