@@ -1,0 +1,96 @@
+// The frame that travels through the lensfx pipeline, and the hook effects plug into.
+// A Frame carries the image exactly as read (every channel in its native type, both windows, all
+// metadata) plus a float RGB working buffer; effects change only that buffer, everything else passes
+// through bit-exact.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+
+namespace lensfx::filter {
+
+// An uninitialised byte buffer (no zero fill: frames are large and are always overwritten by a read).
+// Copyable, so Frame stays a value type.
+class PixelBuffer {
+public:
+    PixelBuffer() = default;
+    explicit PixelBuffer(std::size_t size) : data_(new std::byte[size]), size_(size) {}
+    PixelBuffer(const PixelBuffer& other);
+    PixelBuffer& operator=(const PixelBuffer& other);
+    PixelBuffer(PixelBuffer&&) noexcept = default;
+    PixelBuffer& operator=(PixelBuffer&&) noexcept = default;
+    ~PixelBuffer() = default;
+
+    std::byte* data() { return data_.get(); }
+    const std::byte* data() const { return data_.get(); }
+    std::size_t size() const { return size_; }
+
+private:
+    std::unique_ptr<std::byte[]> data_;
+    std::size_t size_ = 0;
+};
+
+struct Frame {
+    std::int64_t number = 0;  // frame number from the input pattern; 1, 2, ... for a stream or a single file
+    std::size_t index = 0;    // 0-based position in this run
+    std::string source;       // the input file, or "-" for stdin
+    std::string format;       // the input's format: OpenImageIO's name ("openexr", "tiff", "hdr"), "pfm" or "raw"
+
+    // Channel names, per-channel types and order, data window (x, y, width, height), display window
+    // (full_*), and every metadata attribute of the input (compression, chromaticities, timecode...).
+    OIIO::ImageSpec spec;
+    // Every channel over the data window, interleaved, each channel in its native type
+    // (spec.channelformats when they differ, else spec.format); rows top first. Size spec.image_bytes(true).
+    PixelBuffer pixels;
+
+    // Indices in spec of the channels an effect works on (R, G, B); -1 where the image has none.
+    std::array<int, 3> rgb_channels{-1, -1, -1};
+    // The working buffer: R, G, B as float, interleaved, over the data window, rows top first.
+    // Empty until load_rgb(); the pipeline fills it before the stages that ask for it and writes it back
+    // with store_rgb() after them, so a frame no stage touches is written from `pixels` unconverted.
+    std::vector<float> rgb;
+
+    bool has_rgb() const { return rgb_channels[0] >= 0 && rgb_channels[1] >= 0 && rgb_channels[2] >= 0; }
+    std::size_t pixel_count() const {
+        return static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+               static_cast<std::size_t>(spec.depth);
+    }
+};
+
+// Finds R, G and B among the spec's channel names (exact names first, then a "layer.R" suffix on the
+// first layer that has all three) and stores their indices in frame.rgb_channels.
+void find_rgb_channels(Frame& frame);
+// Byte offset of each channel inside one pixel of `pixels`.
+std::vector<std::size_t> channel_offsets(const OIIO::ImageSpec& spec);
+// Copies the R, G, B channels of `pixels` into `rgb` as float. Throws if the frame has no R, G, B.
+void load_rgb(Frame& frame);
+// Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types.
+void store_rgb(Frame& frame);
+// The given channels of `pixels` as float, interleaved in the order given.
+std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels);
+
+// An effect: detection, flare, colour. The pipeline calls process() on one thread, once per frame, in
+// frame order, so a stage may keep state from frame to frame (tracking). A stage changes frame.rgb
+// (filled by the pipeline when wants_rgb() is true) and may read anything else; it must not change the
+// spec's channels or windows. It throws std::exception to reject the frame: the message should say why;
+// the pipeline adds the file and frame.
+class Stage {
+public:
+    Stage() = default;
+    Stage(const Stage&) = delete;
+    Stage& operator=(const Stage&) = delete;
+    virtual ~Stage() = default;
+
+    virtual std::string_view name() const = 0;
+    virtual bool wants_rgb() const { return true; }
+    virtual void process(Frame& frame) = 0;
+};
+
+}  // namespace lensfx::filter

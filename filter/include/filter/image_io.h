@@ -1,0 +1,30 @@
+// Reading and writing single image files: OpenImageIO for EXR, TIFF, Radiance HDR and the display
+// formats, our own PFM code (filter/stream.h) for PFM. Writes go to a temporary name in the target's
+// directory and are renamed into place only when complete, so a failure never leaves a partial file.
+#pragma once
+
+#include <string>
+
+#include <filter/frame.h>
+#include <filter/stream.h>
+
+namespace lensfx::filter {
+
+// Reads the first part (subimage) of a file at its full resolution (mip level 0); tiles are read into
+// scanline order. Every channel keeps its native type. Throws std::runtime_error on a missing, damaged
+// or unrecognised file, and for deep images.
+Frame read_image(const std::string& path, PfmOrder pfm_order = PfmOrder::automatic);
+
+struct WriteOptions {
+    // EXR compression ("piz", "zip", "dwaa:45", ...). Empty: the input's own when it was an EXR, else piz.
+    std::string compression;
+    PfmOrder pfm_order = PfmOrder::automatic;
+};
+
+// Writes a frame; the format follows the extension. EXR: every channel, type, window and attribute as
+// in the frame, scanline. TIFF: every channel (float when the types differ). HDR, PFM: R, G, B as float.
+// Other formats (PNG, JPEG...): R, G, B and A if present, converted by OpenImageIO to 8 bits.
+// Throws std::runtime_error (unknown format, unwritable directory, failed write); leaves no file then.
+void write_image(const Frame& frame, const std::string& path, const WriteOptions& options = {});
+
+}  // namespace lensfx::filter

@@ -1,0 +1,66 @@
+// The frame pipeline of `lensfx -i IN -o OUT`: a reader thread (read-ahead), the effect stages on the
+// calling thread, a writer thread (write-behind), joined by bounded queues; frames are written in order.
+// Failures name the file and frame; with skip_bad_frames a bad input frame is reported and left out.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <filter/frame.h>
+#include <filter/image_io.h>
+#include <filter/stream.h>
+
+namespace lensfx::filter {
+
+enum class Progress { automatic, on, off };  // automatic: on when stderr is a terminal and IN is a sequence or stream
+
+struct PipelineOptions {
+    std::string input;   // a file, a pattern (filter/sequence.h) or "-" for stdin
+    std::string output;  // the same, "-" for stdout
+    std::string frames;  // frame list for a pattern input ("1-100x2"); empty: every frame found on disk
+    int threads = 0;     // OpenImageIO / OpenEXR worker threads; 0: one per core
+    std::size_t queue_depth = 2;  // frames held between reader, stages and writer (each queue)
+    bool skip_bad_frames = false;
+    Progress progress = Progress::automatic;
+    bool quiet = false;           // no progress line and no per-frame warnings
+    std::string report_path;      // --report FILE.json; empty: none
+    WriteOptions write;           // EXR compression, PFM row order of output files
+    PfmOrder pfm_order = PfmOrder::automatic;   // for PFM input and output (streams and files)
+    std::optional<RawPixFmt> pix_fmt;           // raw planar float on "-" instead of PFM
+    int raw_width = 0, raw_height = 0;          // raw input frame size (--size)
+};
+
+// What happened to one frame. Times are wall-clock milliseconds spent in each stage on this frame.
+struct FrameRecord {
+    std::size_t index = 0;
+    std::int64_t number = 0;
+    std::string input, output;
+    bool written = false;
+    std::string error;  // why it was skipped, when it was
+    double read_ms = 0, process_ms = 0, write_ms = 0;
+    std::vector<std::pair<std::string, double>> stage_ms;  // process_ms broken down by effect stage
+};
+
+struct RunReport {
+    std::string input, output;
+    int threads = 0;
+    std::vector<FrameRecord> frames;  // in frame order
+    double wall_seconds = 0;
+    std::string error;  // the failure that stopped the run, if one did
+    std::size_t written() const;
+    std::size_t skipped() const;
+};
+
+// Runs the filter. `stages` run in order on each frame (none: a pass-through). Throws std::runtime_error
+// with a one-line message naming the file and frame when the run fails; frames already written stay, a
+// frame being written leaves nothing. The report (when asked for) is written in both cases.
+RunReport run_pipeline(const PipelineOptions& options, const std::vector<Stage*>& stages = {});
+
+// The report as JSON: the run's totals and one record per frame.
+void write_report(const RunReport& report, const std::string& path);
+
+}  // namespace lensfx::filter

@@ -1,0 +1,38 @@
+// Frames as byte streams: PFM (one image or many concatenated, as ffmpeg's image2pipe writes them) and
+// raw planar float video (ffmpeg's gbrpf32le / gbrapf32le: planes G, B, R[, A], rows top first).
+// OpenImageIO cannot read a stream of concatenated images from a pipe, so these are our own.
+#pragma once
+
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <filter/frame.h>
+
+namespace lensfx::filter {
+
+// PFM row order. The format puts the bottom row first; ffmpeg 5.1 writes and reads the top row first.
+// `automatic` means top-first on stdin/stdout (the other end is ffmpeg in practice) and bottom-first in files.
+enum class PfmOrder { automatic, top_first, bottom_first };
+enum class RawPixFmt { gbrpf32le, gbrapf32le };
+
+PfmOrder parse_pfm_order(std::string_view text);             // "auto", "top", "bottom"
+RawPixFmt parse_raw_pix_fmt(std::string_view text);          // "gbrpf32le", "gbrapf32le"
+std::string_view to_string(RawPixFmt fmt);
+int channel_count(RawPixFmt fmt);
+
+// Reads the next PFM image ("PF": R, G, B; "Pf": one channel "Y"). Returns nothing at a clean end of
+// stream (no byte before the header); throws std::runtime_error on a malformed header or a short read.
+// The frame's spec is float, its format "pfm"; `top_first` says how the rows are stored.
+std::optional<Frame> read_pfm(std::FILE* in, bool top_first);
+// Writes a PFM (little endian) of R, G, B (or "PF" of Y repeated when the frame has one channel only
+// and no RGB: "Pf"). Throws std::runtime_error if the frame has neither or the write fails.
+void write_pfm(std::FILE* out, const Frame& frame, bool top_first);
+
+// Reads one raw planar frame of width x height; nothing at a clean end of stream; throws on a short frame.
+std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int height);
+// Writes the frame's R, G, B (and A, or 1 where it has none) as planes G, B, R[, A].
+void write_raw(std::FILE* out, const Frame& frame, RawPixFmt fmt);
+
+}  // namespace lensfx::filter

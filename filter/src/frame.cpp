@@ -1,0 +1,116 @@
+// Frame helpers: the RGB working buffer and per-channel conversions (see filter/frame.h).
+#include <filter/frame.h>
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+#include <fmt/core.h>
+
+namespace lensfx::filter {
+
+PixelBuffer::PixelBuffer(const PixelBuffer& other) : PixelBuffer(other.size_) {
+    if (size_ > 0) std::memcpy(data_.get(), other.data_.get(), size_);
+}
+
+PixelBuffer& PixelBuffer::operator=(const PixelBuffer& other) {
+    if (this != &other) {
+        PixelBuffer copy(other);
+        *this = std::move(copy);
+    }
+    return *this;
+}
+
+void find_rgb_channels(Frame& frame) {
+    const auto& names = frame.spec.channelnames;
+    auto find = [&](const std::string& name) -> int {
+        auto it = std::find(names.begin(), names.end(), name);
+        return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+    };
+    frame.rgb_channels = {find("R"), find("G"), find("B")};
+    if (frame.has_rgb()) return;
+    for (const auto& name : names) {
+        if (name.size() < 3 || name.compare(name.size() - 2, 2, ".R") != 0) continue;
+        const std::string layer = name.substr(0, name.size() - 1);
+        std::array<int, 3> idx{find(layer + "R"), find(layer + "G"), find(layer + "B")};
+        if (idx[0] >= 0 && idx[1] >= 0 && idx[2] >= 0) {
+            frame.rgb_channels = idx;
+            return;
+        }
+    }
+    frame.rgb_channels = {-1, -1, -1};
+}
+
+std::vector<std::size_t> channel_offsets(const OIIO::ImageSpec& spec) {
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(spec.nchannels));
+    std::size_t offset = 0;
+    for (int c = 0; c < spec.nchannels; ++c) {
+        offsets[static_cast<std::size_t>(c)] = offset;
+        offset += spec.channel_bytes(c, true);
+    }
+    return offsets;
+}
+
+namespace {
+
+// Where one channel lies in `pixels`, and the strides of it and of an interleaved float buffer.
+struct ChannelLayout {
+    std::size_t offset;
+    OIIO::TypeDesc type;
+    OIIO::stride_t native_x, native_y, float_x, float_y;
+    int width, rows;
+};
+
+ChannelLayout layout(const OIIO::ImageSpec& spec, int channel, std::size_t float_stride) {
+    const auto native_x = static_cast<OIIO::stride_t>(spec.pixel_bytes(true));
+    const auto float_x = static_cast<OIIO::stride_t>(float_stride * sizeof(float));
+    return {channel_offsets(spec)[static_cast<std::size_t>(channel)], spec.channelformat(channel), native_x,
+            native_x * spec.width, float_x, float_x * spec.width, spec.width, spec.height * spec.depth};
+}
+
+void check(bool ok, const OIIO::ImageSpec& spec, int channel, const char* direction) {
+    if (!ok) {
+        throw std::runtime_error(fmt::format("cannot convert channel {} ({}) {} float", spec.channel_name(channel),
+                                             spec.channelformat(channel).c_str(), direction));
+    }
+}
+
+void channel_to_float(const Frame& frame, int channel, float* dst, std::size_t float_stride) {
+    const auto l = layout(frame.spec, channel, float_stride);
+    check(OIIO::convert_image(1, l.width, l.rows, 1, frame.pixels.data() + l.offset, l.type, l.native_x,
+                              l.native_y, OIIO::AutoStride, dst, OIIO::TypeFloat, l.float_x, l.float_y,
+                              OIIO::AutoStride),
+          frame.spec, channel, "to");
+}
+
+void channel_from_float(Frame& frame, int channel, const float* src, std::size_t float_stride) {
+    const auto l = layout(frame.spec, channel, float_stride);
+    check(OIIO::convert_image(1, l.width, l.rows, 1, src, OIIO::TypeFloat, l.float_x, l.float_y,
+                              OIIO::AutoStride, frame.pixels.data() + l.offset, l.type, l.native_x, l.native_y,
+                              OIIO::AutoStride),
+          frame.spec, channel, "from");
+}
+
+}  // namespace
+
+void load_rgb(Frame& frame) {
+    if (!frame.has_rgb()) throw std::runtime_error("the image has no R, G, B channels");
+    frame.rgb.resize(frame.pixel_count() * 3);
+    for (std::size_t k = 0; k < 3; ++k) channel_to_float(frame, frame.rgb_channels[k], frame.rgb.data() + k, 3);
+}
+
+void store_rgb(Frame& frame) {
+    if (frame.rgb.size() != frame.pixel_count() * 3) {
+        throw std::runtime_error(fmt::format("the RGB working buffer holds {} values, the data window needs {}",
+                                             frame.rgb.size(), frame.pixel_count() * 3));
+    }
+    for (std::size_t k = 0; k < 3; ++k) channel_from_float(frame, frame.rgb_channels[k], frame.rgb.data() + k, 3);
+}
+
+std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels) {
+    std::vector<float> out(frame.pixel_count() * channels.size());
+    for (std::size_t k = 0; k < channels.size(); ++k) channel_to_float(frame, channels[k], out.data() + k, channels.size());
+    return out;
+}
+
+}  // namespace lensfx::filter
