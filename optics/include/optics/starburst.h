@@ -1,0 +1,63 @@
+// The diffraction starburst (flare paper section 3.3, eqs. 2-4): the Fraunhofer pattern of the iris, i.e.
+// the Fourier power spectrum of its transmission function, summed over 380-780 nm in 5 nm steps (each
+// wavelength's copy scaled with the wavelength, weighted by the CIE 1931 colour-matching functions and
+// converted to linear RGB), normalised to unit flux per channel. Computed once per iris shape (FFTW) and
+// placed at a light's image, sized with the f-number.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include <optics/lens.h>
+
+namespace lensfx::optics {
+
+using Mat3 = std::array<std::array<double, 3>, 3>;
+
+// CIE XYZ -> linear Rec.709 / sRGB (D65), the default working space.
+inline constexpr Mat3 kXyzToRec709 = {{{3.2404542, -1.5371385, -0.4985314},
+                                       {-0.9692660, 1.8760108, 0.0415560},
+                                       {0.0556434, -0.2040259, 1.0572252}}};
+
+// CIE 1931 2-degree colour-matching functions (x-bar, y-bar, z-bar) at a wavelength in nm, by the
+// multi-lobe Gaussian fit of Wyman, Sloan and Shirley (JCGT 2013), within about 1% of the tabulated
+// functions where they are not small.
+std::array<double, 3> cie1931_xyz(double wavelength_nm);
+
+struct StarburstOptions {
+    int size = 512;                 // texture side in texels (power of two recommended)
+    int pupil_samples = 96;         // samples across the iris radius in the FFT (resolution of the spikes)
+    double first_nm = 380.0;
+    double last_nm = 780.0;
+    double step_nm = 5.0;
+    Mat3 xyz_to_rgb = kXyzToRec709;  // the working space's primaries
+    double smoothing = 0.6;          // Gaussian sigma in texels applied before summing, against aliasing
+};
+
+// A square RGB texture centred on the light; texel (size/2, size/2) holds the centre. Each channel sums to
+// 1. One texel spans texel_per_fnumber_mm x f-number millimetres on the sensor (for a lens working at
+// f-number N, the pattern's scale is proportional to wavelength x N, eq. 2 with z0 / D = N).
+struct Starburst {
+    int size = 0;
+    double texel_per_fnumber_mm = 0.0;
+    std::vector<float> rgb;  // size * size * 3, row 0 at the top of the upright image
+
+    float at(int x, int y, int c) const {
+        return rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(size) + static_cast<std::size_t>(x)) * 3 +
+                   static_cast<std::size_t>(c)];
+    }
+    std::array<double, 3> sums() const;
+};
+
+Starburst make_starburst(const Aperture& aperture, const StarburstOptions& options = {});
+
+// Adds a starburst of the given total power per channel (image units x mm^2) centred at (cx, cy) (pixels,
+// continuous, (0,0) the top-left corner) to an RGB float image of width x height whose pixels span
+// pixel_w_mm x pixel_h_mm on the sensor, for a lens at f-number N. Each output pixel integrates the
+// texture over its footprint (box filter), so energy is kept at any scale.
+void splat_starburst(const Starburst& starburst, double f_number, double cx, double cy,
+                     const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
+                     float* rgb, int width, int height);
+
+}  // namespace lensfx::optics

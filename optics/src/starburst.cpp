@@ -1,0 +1,234 @@
+#include <optics/starburst.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include <fftw3.h>
+#include <fmt/core.h>
+
+#include <optics/aperture.h>
+
+namespace lensfx::optics {
+
+namespace {
+
+constexpr double kReferenceNm = 550.0;
+
+double lobe(double x, double mu, double sigma_left, double sigma_right) {
+    const double t = (x - mu) / (x < mu ? sigma_left : sigma_right);
+    return std::exp(-0.5 * t * t);
+}
+
+struct FftwFree {
+    void operator()(void* p) const { fftw_free(p); }
+};
+template <class T>
+std::unique_ptr<T[], FftwFree> fftw_buffer(std::size_t n) {
+    auto* p = static_cast<T*>(fftw_malloc(sizeof(T) * n));
+    if (!p) throw std::bad_alloc();
+    return std::unique_ptr<T[], FftwFree>(p);
+}
+
+// Transmission of the iris on an m x m grid, the iris radius spanning r samples, with 4 x 4 supersampling
+// at the edge; row 0 at the top (v up), centred on sample (m/2, m/2).
+void rasterise_iris(const Aperture& aperture, int m, int r, double* out) {
+    const double inv = 1.0 / r;
+    const double pixel = inv;  // one sample in stop units
+    for (int y = 0; y < m; ++y) {
+        for (int x = 0; x < m; ++x) {
+            const double u = (x - m / 2) * inv;
+            const double v = (m / 2 - y) * inv;
+            const double d = aperture_sdf(aperture, u, v);
+            double t;
+            if (d < -pixel) {
+                t = 1.0;
+            } else if (d > pixel) {
+                t = 0.0;
+            } else {
+                int inside = 0;
+                for (int sy = 0; sy < 4; ++sy)
+                    for (int sx = 0; sx < 4; ++sx)
+                        inside += aperture_sdf(aperture, u + (sx - 1.5) * 0.25 * inv, v - (sy - 1.5) * 0.25 * inv) <= 0.0;
+                t = inside / 16.0;
+            }
+            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = t;
+        }
+    }
+}
+
+// Separable Gaussian blur of one float plane in place (edges clamped).
+void blur(std::vector<double>& plane, int n, double sigma) {
+    if (sigma <= 0.0) return;
+    const int radius = static_cast<int>(std::ceil(3.0 * sigma));
+    std::vector<double> kernel(static_cast<std::size_t>(2 * radius + 1));
+    double total = 0.0;
+    for (int i = -radius; i <= radius; ++i) total += kernel[static_cast<std::size_t>(i + radius)] = std::exp(-0.5 * i * i / (sigma * sigma));
+    for (double& k : kernel) k /= total;
+    std::vector<double> tmp(plane.size());
+    const auto idx = [n](int x, int y) { return static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x); };
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            double s = 0.0;
+            for (int i = -radius; i <= radius; ++i) s += kernel[static_cast<std::size_t>(i + radius)] * plane[idx(std::clamp(x + i, 0, n - 1), y)];
+            tmp[idx(x, y)] = s;
+        }
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            double s = 0.0;
+            for (int i = -radius; i <= radius; ++i) s += kernel[static_cast<std::size_t>(i + radius)] * tmp[idx(x, std::clamp(y + i, 0, n - 1))];
+            plane[idx(x, y)] = s;
+        }
+}
+
+}  // namespace
+
+std::array<double, 3> cie1931_xyz(double l) {
+    const double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
+                     0.065 * lobe(l, 501.1, 20.4, 26.2);
+    const double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
+    const double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
+    return {x, y, z};
+}
+
+std::array<double, 3> Starburst::sums() const {
+    std::array<double, 3> s{};
+    for (std::size_t i = 0; i < rgb.size(); ++i) s[i % 3] += static_cast<double>(rgb[i]);
+    return s;
+}
+
+Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
+    if (o.size < 16 || o.size > 8192) throw std::invalid_argument(fmt::format("starburst size {} outside 16..8192", o.size));
+    if (o.pupil_samples < 8) throw std::invalid_argument(fmt::format("starburst pupil samples {} below 8", o.pupil_samples));
+    if (!(o.step_nm > 0.0) || !(o.last_nm >= o.first_nm) || !(o.first_nm > 0.0))
+        throw std::invalid_argument("starburst wavelength range must be positive and increasing");
+
+    // FFT size: the shortest wavelength stretches the spectrum least, so it must still cover the texture,
+    // and the iris must be padded at least 2x for the power spectrum to be sampled finely enough.
+    const double reach = 0.5 * o.size * kReferenceNm / o.first_nm + 2.0;
+    int m = 64;
+    while (m < 2.0 * reach || m < 4 * o.pupil_samples) m *= 2;
+
+    const std::size_t mm = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
+    const std::size_t half = static_cast<std::size_t>(m / 2 + 1);
+    auto in = fftw_buffer<double>(mm);
+    auto out = fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * half);
+    fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.get(), out.get(), FFTW_ESTIMATE);
+    if (!plan) throw std::runtime_error("FFTW could not plan the starburst transform");
+    rasterise_iris(aperture, m, o.pupil_samples, in.get());
+    fftw_execute(plan);
+    fftw_destroy_plan(plan);
+
+    // Centred power spectrum P[y][x], frequency (0, 0) at (m/2, m/2); the real input's spectrum is
+    // conjugate-symmetric, so the missing half is the mirrored one.
+    std::vector<double> power(mm);
+    for (int y = 0; y < m; ++y) {
+        for (int x = 0; x < m; ++x) {
+            int fx = x - m / 2, fy = y - m / 2;
+            if (fx < 0) { fx = -fx; fy = -fy; }
+            const int row = (fy % m + m) % m;
+            const fftw_complex& c = out[static_cast<std::size_t>(row) * half + static_cast<std::size_t>(fx)];
+            power[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = c[0] * c[0] + c[1] * c[1];
+        }
+    }
+    const auto sample = [&](double fx, double fy) {
+        const double px = fx + m / 2, py = fy + m / 2;
+        const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+        if (x0 < 0 || y0 < 0 || x0 + 1 >= m || y0 + 1 >= m) return 0.0;
+        const double ax = px - x0, ay = py - y0;
+        const auto at = [&](int x, int y) { return power[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)]; };
+        return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) + ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
+    };
+
+    // One FFT bin at 550 nm is one texel: wavelength x N x (2 r / m) on the sensor (eq. 2 with z0/D = N).
+    const int n = o.size;
+    const std::size_t nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+    std::array<std::vector<double>, 3> xyz{std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0)};
+    for (double l = o.first_nm; l <= o.last_nm + 1e-9; l += o.step_nm) {
+        const std::array<double, 3> cmf = cie1931_xyz(l);
+        const double s = kReferenceNm / l;          // texel -> FFT bin at this wavelength
+        const double energy = s * s;                // a pattern stretched by 1/s spreads its energy over 1/s^2 the area
+        for (int y = 0; y < n; ++y) {
+            for (int x = 0; x < n; ++x) {
+                const double p = sample((x - n / 2) * s, (y - n / 2) * s) * energy;
+                const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x);
+                for (std::size_t c = 0; c < 3; ++c) xyz[c][i] += cmf[c] * p;
+            }
+        }
+    }
+    for (auto& plane : xyz) blur(plane, n, o.smoothing);
+
+    Starburst sb;
+    sb.size = n;
+    sb.texel_per_fnumber_mm = kReferenceNm * 1e-6 * 2.0 * o.pupil_samples / m;
+    sb.rgb.assign(nn * 3, 0.0f);
+    std::array<double, 3> total{};
+    std::vector<double> rgb(nn * 3);
+    for (std::size_t i = 0; i < nn; ++i) {
+        for (std::size_t c = 0; c < 3; ++c) {
+            const auto& row = o.xyz_to_rgb[c];
+            const double v = std::max(0.0, row[0] * xyz[0][i] + row[1] * xyz[1][i] + row[2] * xyz[2][i]);
+            rgb[i * 3 + c] = v;
+            total[c] += v;
+        }
+    }
+    for (std::size_t i = 0; i < nn * 3; ++i) sb.rgb[i] = total[i % 3] > 0.0 ? static_cast<float>(rgb[i] / total[i % 3]) : 0.0f;
+    return sb;
+}
+
+void splat_starburst(const Starburst& sb, double f_number, double cx, double cy, const std::array<double, 3>& power,
+                     double pixel_w_mm, double pixel_h_mm, float* rgb, int width, int height) {
+    if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+    const double texel_mm = sb.texel_per_fnumber_mm * f_number;
+    const double tx = texel_mm / pixel_w_mm;  // texel size in pixels
+    const double ty = texel_mm / pixel_h_mm;
+    const double pixel_area = pixel_w_mm * pixel_h_mm;
+    const double half = sb.size / 2;
+    const auto add = [&](int x, int y, double w, int texel) {
+        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0) return;
+        float* px = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
+        for (std::size_t c = 0; c < 3; ++c)
+            px[c] += static_cast<float>(w * power[c] / pixel_area * static_cast<double>(sb.rgb[static_cast<std::size_t>(texel) * 3 + c]));
+    };
+    if (tx <= 1.0 && ty <= 1.0) {
+        // Texels smaller than pixels: each texel's energy goes bilinearly into the pixels around its centre.
+        for (int j = 0; j < sb.size; ++j) {
+            for (int i = 0; i < sb.size; ++i) {
+                const double px = cx + (i - half) * tx - 0.5;
+                const double py = cy + (j - half) * ty - 0.5;
+                const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+                const double ax = px - x0, ay = py - y0;
+                const int t = j * sb.size + i;
+                add(x0, y0, (1 - ax) * (1 - ay), t);
+                add(x0 + 1, y0, ax * (1 - ay), t);
+                add(x0, y0 + 1, (1 - ax) * ay, t);
+                add(x0 + 1, y0 + 1, ax * ay, t);
+            }
+        }
+        return;
+    }
+    // Texels larger than pixels: each pixel takes the texture at its centre, weighted by its share of a texel.
+    const double reach_x = half * tx + 1.0, reach_y = half * ty + 1.0;
+    const int x_begin = std::max(0, static_cast<int>(std::floor(cx - reach_x)));
+    const int x_end = std::min(width, static_cast<int>(std::ceil(cx + reach_x)));
+    const int y_begin = std::max(0, static_cast<int>(std::floor(cy - reach_y)));
+    const int y_end = std::min(height, static_cast<int>(std::ceil(cy + reach_y)));
+    const double share = 1.0 / (tx * ty);
+    for (int y = y_begin; y < y_end; ++y) {
+        for (int x = x_begin; x < x_end; ++x) {
+            const double u = (x + 0.5 - cx) / tx + half - 0.5;
+            const double v = (y + 0.5 - cy) / ty + half - 0.5;
+            const int i0 = static_cast<int>(std::floor(u)), j0 = static_cast<int>(std::floor(v));
+            const double au = u - i0, av = v - j0;
+            for (int dj = 0; dj < 2; ++dj)
+                for (int di = 0; di < 2; ++di) {
+                    const int i = i0 + di, j = j0 + dj;
+                    if (i < 0 || j < 0 || i >= sb.size || j >= sb.size) continue;
+                    add(x, y, share * (di ? au : 1 - au) * (dj ? av : 1 - av), j * sb.size + i);
+                }
+        }
+    }
+}
+
+}  // namespace lensfx::optics
