@@ -289,14 +289,20 @@ void validate_lens(const Lens& lens, std::string_view origin) {
         for (std::size_t i = lens.surfaces.size(); i-- > 0;)
             if (lens.surfaces[i].is_stop) at(i, "stop", "a second aperture stop (a lens has exactly one)");
     }
-    const int zooms = lens.zoom_positions();
+    // The first row with several zoom columns sets their number; a row that differs is the one at fault.
+    int zooms = 1;
+    for (const auto& s : lens.surfaces)
+        if (s.thickness_mm.size() > 1) {
+            zooms = static_cast<int>(s.thickness_mm.size());
+            break;
+        }
     Glass before = Glass::air();
     for (std::size_t i = 0; i < lens.surfaces.size(); ++i) {
         const auto& s = lens.surfaces[i];
         if (!std::isfinite(s.radius_mm)) at(i, "r", "not a finite number (write 0 or inf for a plane)");
         if (s.thickness_mm.empty()) at(i, "t", "missing (axial distance to the next surface)");
         if (s.thickness_mm.size() != 1 && static_cast<int>(s.thickness_mm.size()) != zooms)
-            at(i, "t", fmt::format("{} zoom columns where other rows have {}", s.thickness_mm.size(), zooms));
+            at(i, "t", fmt::format("{} zoom columns where the rows before have {}", s.thickness_mm.size(), zooms));
         const Glass& after = s.is_stop ? before : s.medium;
         const bool next_to_stop = s.is_stop || (i + 1 < lens.surfaces.size() && lens.surfaces[i + 1].is_stop);
         for (double t : s.thickness_mm) {
