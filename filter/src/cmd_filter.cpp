@@ -9,6 +9,7 @@
 
 #include <fmt/core.h>
 
+#include <filter/colour.h>
 #include <filter/pipeline.h>
 
 namespace lensfx::filter {
@@ -21,6 +22,7 @@ struct FilterArgs {
     std::string pix_fmt;
     std::string size;
     bool progress = false;
+    colour::ColourArgs colour;
 };
 
 void parse_size(const std::string& text, int& width, int& height) {
@@ -36,8 +38,15 @@ void parse_size(const std::string& text, int& width, int& height) {
     }
 }
 
-// The effects to run on each frame, in order. Empty for now: a pass-through.
-std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs&) { return {}; }
+// The effects to run on each frame, in order: colour-in (to the working space) first, colour-out (to the
+// display or back to the input's space) last; the other effects go between them.
+std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
+    std::vector<std::unique_ptr<Stage>> stages;
+    auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
+    stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
+    stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session));
+    return stages;
+}
 
 void run_filter(FilterArgs& args) {
     PipelineOptions& o = args.pipeline;
@@ -46,6 +55,8 @@ void run_filter(FilterArgs& args) {
     if (!args.pix_fmt.empty()) o.pix_fmt = parse_raw_pix_fmt(args.pix_fmt);
     if (!args.size.empty()) parse_size(args.size, o.raw_width, o.raw_height);
     if (args.progress) o.progress = Progress::on;
+    o.write.display_bits = args.colour.bits;
+    o.write.dither = args.colour.dither_mode();
 
     auto owned = make_stages(args);
     std::vector<Stage*> stages;
@@ -84,6 +95,7 @@ void register_filter(CLI::App& app) {
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
     app.add_flag("--progress", args->progress, "Show progress even when stderr is not a terminal");
     app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");
+    colour::add_colour_options(app, args->colour);
 
     app.callback([&app, args] {
         if (!app.get_subcommands().empty()) return;

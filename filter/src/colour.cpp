@@ -896,4 +896,120 @@ std::vector<std::uint16_t> quantise16(const PixelSpan& pixels, Dither dither, st
     return quantise<std::uint16_t>(pixels, dither, frame, 65535.0f);
 }
 
+// ---------------------------------------------------------------------------------------------------------
+// The colour stages
+
+std::optional<std::array<float, 8>> exr_chromaticities(const OIIO::ImageSpec& spec) {
+    std::array<float, 8> c{};
+    if (!spec.getattribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), c.data())) return std::nullopt;
+    return c;
+}
+
+Dither ColourArgs::dither_mode() const {
+    if (dither == "none") return Dither::None;
+    if (dither == "ordered") return Dither::Ordered;
+    if (dither == "blue-noise") return Dither::BlueNoise;
+    throw std::runtime_error(fmt::format("--dither must be none, ordered or blue-noise, not \"{}\"", dither));
+}
+
+bool ColourArgs::display_asked() const {
+    return !options.display.empty() || !options.view.empty() || !options.look.empty();
+}
+
+void add_colour_options(CLI::App& app, ColourArgs& args) {
+    ColourOptions& o = args.options;
+    const char* group = "Colour";
+    app.add_option("--colorspace", o.colorspace,
+                   "OCIO colour space of the input (default: from the EXR chromaticities, else linear Rec.709)")
+        ->group(group);
+    app.add_option("--ocio", o.ocio_config, "OCIO config file (default: $OCIO, else the built-in ACES config)")
+        ->group(group);
+    app.add_option("--display", o.display,
+                   "Display to tone map for (built-in config: srgb, rec709, rec2100-pq); also applies it to "
+                   "scene-linear outputs")
+        ->group(group);
+    app.add_option("--view", o.view, "View of the display (default: the display's first)")->group(group);
+    app.add_option("--look", o.look, "OCIO look(s) applied before the view, replacing the view's own")->group(group);
+    app.add_option("--exposure", o.exposure_ev, "Exposure in stops, applied in scene-linear before the display")
+        ->group(group);
+    app.add_option("--bits", args.bits, "Bits per channel of display-referred files: 8 or 16 (JPEG: 8)")
+        ->check(CLI::IsMember({8, 16}))
+        ->group(group);
+    app.add_option("--dither", args.dither, "Dither when quantising display outputs: none, ordered, blue-noise")
+        ->check(CLI::IsMember({"none", "ordered", "blue-noise"}))
+        ->group(group);
+}
+
+ColourSession::ColourSession(const ColourArgs& args, const std::string& output)
+    : config_(ColourConfig::load(args.options.ocio_config)),
+      options_(args.options),
+      display_output_(args.display_asked() || is_display_referred_format(output)) {
+    // Check every name now, before any frame is read.
+    if (!options_.colorspace.empty()) config_.check_colour_space(options_.colorspace);
+    if (options_.display.empty()) options_.display = config_.default_display();
+    const auto displays = config_.displays();
+    if (std::find(displays.begin(), displays.end(), options_.display) == displays.end())
+        config_.check_display_view(options_.display, options_.view);
+    if (options_.view.empty()) options_.view = config_.default_view(options_.display);
+    config_.check_display_view(options_.display, options_.view);
+    if (!options_.look.empty()) config_.check_looks(options_.look);
+}
+
+const ColourPipeline& ColourSession::pipeline_for(const filter::Frame& frame) {
+    const auto chroma = exr_chromaticities(frame.spec);
+    if (!pipeline_) {
+        pipeline_.emplace(config_, options_, chroma);
+        first_chromaticities_ = chroma;
+    } else if (options_.colorspace.empty() && chroma != first_chromaticities_) {
+        throw std::runtime_error(fmt::format("its chromaticities ({}) differ from the first frame's ({})",
+                                             chroma ? describe(*chroma) : "none",
+                                             first_chromaticities_ ? describe(*first_chromaticities_) : "none"));
+    }
+    return *pipeline_;
+}
+
+namespace {
+
+PixelSpan rgb_span(filter::Frame& frame) {
+    return PixelSpan{frame.rgb.data(), static_cast<std::size_t>(frame.spec.width),
+                     static_cast<std::size_t>(frame.spec.height) * static_cast<std::size_t>(frame.spec.depth), 3, 0};
+}
+
+}  // namespace
+
+void ColourInputStage::process(filter::Frame& frame) {
+    if (frame.rgb.empty()) return;  // no stage touches the pixels: nothing to resolve
+    session_->pipeline_for(frame).to_working().apply(rgb_span(frame));
+}
+
+bool ColourOutputStage::wants_rgb() const {
+    const auto& o = session_->options();
+    return session_->display_output() || o.exposure_ev != 0.0 || !o.colorspace.empty();
+}
+
+void ColourOutputStage::process(filter::Frame& frame) {
+    if (frame.rgb.empty()) return;
+    const auto& p = session_->pipeline_for(frame);
+    auto px = rgb_span(frame);
+    if (session_->display_output()) {
+        p.to_display().apply(px);
+        // The pixels are display code values now: the input's primaries no longer describe them.
+        frame.spec.erase_attribute("chromaticities");
+        const std::string& display = p.display();
+        if (display == builtin::display_srgb && session_->config().is_builtin())
+            frame.spec.attribute("oiio:ColorSpace", "sRGB");
+        else if (display == builtin::display_rec709 && session_->config().is_builtin())
+            frame.spec.attribute("oiio:ColorSpace", "Rec709");
+        else
+            frame.spec.attribute("oiio:ColorSpace", display);
+        return;
+    }
+    const double ev = session_->options().exposure_ev;
+    if (ev != 0.0) {
+        const float s = static_cast<float>(std::exp2(ev));
+        for (float& v : frame.rgb) v *= s;
+    }
+    p.to_scene_output().apply(px);
+}
+
 }  // namespace lensfx::colour

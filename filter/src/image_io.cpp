@@ -124,6 +124,13 @@ Frame read_image(const std::string& path, PfmOrder pfm_order) {
     return frame;
 }
 
+bool is_known_output_format(const std::string& path) {
+    if (lower_extension(path) == ".pfm") return true;
+    const bool known = OIIO::ImageOutput::create(path) != nullptr;
+    if (!known) (void)OIIO::geterror();
+    return known;
+}
+
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options) {
     if (lower_extension(path) == ".pfm") {
         write_pfm_file(frame, path, options);
@@ -139,6 +146,8 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
     const void* data = frame.pixels.data();
     OIIO::TypeDesc data_type = OIIO::TypeUnknown;  // native, channel by channel
     std::vector<float> converted;
+    std::vector<std::uint8_t> quantised8;
+    std::vector<std::uint16_t> quantised16;
 
     auto select = [&](std::vector<int> channels, OIIO::TypeDesc file_type) {
         std::vector<std::string> names;
@@ -181,7 +190,19 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
         select(rgb(false), OIIO::TypeFloat);
     } else {
         spec.erase_attribute("compression");
-        select(rgb(true), OIIO::TypeUInt8);
+        const bool wide = options.display_bits == 16 && (format == "png" || format == "pnm" || format == "dpx");
+        select(rgb(true), wide ? OIIO::TypeUInt16 : OIIO::TypeUInt8);
+        const colour::PixelSpan span{converted.data(), static_cast<std::size_t>(spec.width),
+                                     static_cast<std::size_t>(spec.height), spec.nchannels, 0};
+        if (wide) {
+            quantised16 = colour::quantise16(span, options.dither, frame.index);
+            data = quantised16.data();
+            data_type = OIIO::TypeUInt16;
+        } else {
+            quantised8 = colour::quantise8(span, options.dither, frame.index);
+            data = quantised8.data();
+            data_type = OIIO::TypeUInt8;
+        }
     }
 
     TempFile tmp(path);

@@ -13,7 +13,10 @@
 #include <string_view>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <OpenColorIO/OpenColorIO.h>
+
+#include <filter/frame.h>
 
 namespace lensfx::colour {
 
@@ -197,5 +200,73 @@ std::vector<std::uint8_t> quantise8(const PixelSpan& pixels, Dither dither, std:
 std::vector<std::uint16_t> quantise16(const PixelSpan& pixels, Dither dither, std::uint64_t frame = 0);
 // The dither threshold offset in (-0.5, 0.5) LSB at a pixel and channel, for tests and the GPU path.
 float dither_offset(Dither dither, std::size_t x, std::size_t y, int channel, std::uint64_t frame);
+
+// ---------------------------------------------------------------------------------------------------------
+// The colour stages of `lensfx -i IN -o OUT`.
+
+// The EXR chromaticities attribute of a frame, when it has one.
+std::optional<std::array<float, 8>> exr_chromaticities(const OIIO::ImageSpec& spec);
+
+struct ColourArgs {
+    ColourOptions options;
+    int bits = 8;                       // --bits: 8 or 16 for display-referred files (PNG, TIFF; JPEG is 8)
+    std::string dither = "blue-noise";  // --dither: none, ordered, blue-noise
+    Dither dither_mode() const;
+    // A display transform was asked for (--display, --view or --look): scene-linear outputs get it too.
+    bool display_asked() const;
+};
+
+// Adds --colorspace, --ocio, --display, --view, --look, --exposure, --bits, --dither to the filter.
+void add_colour_options(CLI::App& app, ColourArgs& args);
+
+// What the colour stages of one run share: the config (loaded and checked when the run starts) and the
+// ColourPipeline, made from the first frame's chromaticities. Stages run on one thread, in frame order.
+class ColourSession {
+public:
+    // `output`: the -o argument; display-referred formats always get the display transform.
+    ColourSession(const ColourArgs& args, const std::string& output);
+
+    bool display_output() const { return display_output_; }
+    const ColourConfig& config() const { return config_; }
+    const ColourOptions& options() const { return options_; }  // display and view filled in
+    // The pipeline for a frame: made from the first frame; a later frame whose chromaticities differ
+    // from the first's is rejected (throws).
+    const ColourPipeline& pipeline_for(const filter::Frame& frame);
+    // Null before the first frame. The renderer reads working().rgb_to_xyz from here.
+    const ColourPipeline* pipeline() const { return pipeline_ ? &*pipeline_ : nullptr; }
+
+private:
+    ColourConfig config_;
+    ColourOptions options_;
+    bool display_output_ = false;
+    std::optional<ColourPipeline> pipeline_;
+    std::optional<std::array<float, 8>> first_chromaticities_;
+};
+
+// Input -> working space: first in the chain. Does nothing (and asks for no float buffer) unless the
+// input is in a non-linear colour space (--colorspace).
+class ColourInputStage final : public filter::Stage {
+public:
+    explicit ColourInputStage(std::shared_ptr<ColourSession> session) : session_(std::move(session)) {}
+    std::string_view name() const override { return "colour-in"; }
+    bool wants_rgb() const override { return !session_->options().colorspace.empty(); }
+    void process(filter::Frame& frame) override;
+
+private:
+    std::shared_ptr<ColourSession> session_;
+};
+
+// Working space -> output: last in the chain. Display outputs: exposure, look, view, clamp (and the
+// frame's colour metadata says display); scene-linear outputs: exposure, back to the input's space.
+class ColourOutputStage final : public filter::Stage {
+public:
+    explicit ColourOutputStage(std::shared_ptr<ColourSession> session) : session_(std::move(session)) {}
+    std::string_view name() const override { return "colour-out"; }
+    bool wants_rgb() const override;
+    void process(filter::Frame& frame) override;
+
+private:
+    std::shared_ptr<ColourSession> session_;
+};
 
 }  // namespace lensfx::colour

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include <filter/colour.h>
 #include <filter/frame.h>
 #include <filter/stream.h>
 
@@ -19,6 +20,10 @@ struct WriteOptions {
     // EXR compression ("piz", "zip", "dwaa:45", ...). Empty: the input's own when it was an EXR, else piz.
     std::string compression;
     PfmOrder pfm_order = PfmOrder::automatic;
+    // Display-referred formats (PNG, JPEG...): 8 or 16 bits (where the format has 16: PNG, PNM, DPX),
+    // quantised with this dither (the frame's index moves the pattern over time).
+    int display_bits = 8;
+    colour::Dither dither = colour::Dither::BlueNoise;
 };
 
 // Writes a frame; the format follows the extension. EXR: every channel, type, window and attribute as
@@ -26,5 +31,8 @@ struct WriteOptions {
 // Other formats (PNG, JPEG...): R, G, B and A if present, converted by OpenImageIO to 8 bits.
 // Throws std::runtime_error (unknown format, unwritable directory, failed write); leaves no file then.
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options = {});
+
+// Whether write_image() knows the format of this path's extension.
+bool is_known_output_format(const std::string& path);
 
 }  // namespace lensfx::filter
