@@ -17,6 +17,7 @@
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
+#include <optics/starburst.h>
 #include <optics/system.h>
 #include <optics/tracer.h>
 
@@ -64,7 +65,28 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--tracks", s.tracks, "Render the lights of this track file (lensfx track) instead of detecting")->group(group);
     app.add_option("--gpu", s.gpu, "EGL platform: auto, device (a GPU driver), surfaceless (Mesa)")->capture_default_str()->group(group)
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
+    app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
+    app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
+    app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
+}
+
+FlareParts parse_parts(std::string_view text) {
+    FlareParts parts{false, false};
+    std::size_t begin = 0;
+    while (begin <= text.size()) {
+        const std::size_t end = std::min(text.find(',', begin), text.size());
+        const std::string_view part = text.substr(begin, end - begin);
+        if (part == "ghosts") {
+            parts.ghosts = true;
+        } else if (part == "starburst") {
+            parts.starburst = true;
+        } else {
+            throw std::invalid_argument(fmt::format("--parts: unknown part \"{}\" (ghosts, starburst)", part));
+        }
+        begin = end + 1;
+    }
+    return parts;
 }
 
 std::array<double, 2> FlareGeometry::angles_at(double x, double y) const {
@@ -112,6 +134,9 @@ struct FlareStage::State {
     detect::Tracker tracker;
     std::unique_ptr<gpu::Context> context;  // created at the first frame that has a light
     std::unique_ptr<gpu::FlareRenderer> renderer;
+    FlareParts parts;
+    double f_number = 0.0;
+    std::optional<optics::Starburst> starburst;  // computed at the first light
 
     explicit State(FlareSettings s)
         : settings(std::move(s)),
@@ -125,7 +150,10 @@ struct FlareStage::State {
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
         if (settings.blades) system.aperture.blades = *settings.blades;
-        efl_mm = optics::paraxial(system).efl_mm;
+        const optics::Paraxial first_order = optics::paraxial(system);
+        efl_mm = first_order.efl_mm;
+        f_number = first_order.f_number;
+        parts = parse_parts(settings.parts);
         sensor = parse_sensor(settings.sensor);
         if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
     }
@@ -166,11 +194,12 @@ FlareStage::~FlareStage() = default;
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
     const std::vector<detect::Light> lights = s.lights(frame);
+    FlareParts& parts = s.parts;
     if (s.settings.flare_only) std::fill(frame.rgb.begin(), frame.rgb.end(), 0.0f);
     if (lights.empty() || s.settings.gain == 0.0) return;  // no light: the GPU is never touched
 
     const FlareGeometry geo = s.geometry(frame);
-    if (!s.context) {
+    if (!s.context && parts.ghosts) {
         s.context = std::make_unique<gpu::Context>(gpu::parse_platform(s.settings.gpu));
         s.renderer = std::make_unique<gpu::FlareRenderer>(*s.context);
     }
@@ -193,6 +222,19 @@ void FlareStage::process(Frame& frame) {
             any = any || scale[c] > 0.0f;
         }
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
+
+        if (parts.starburst && s.settings.starburst_gain > 0.0) {
+            if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture);
+            // The light's diffraction pattern carries its recorded energy, centred on its image.
+            std::array<double, 3> energy{};
+            for (std::size_t c = 0; c < 3; ++c)
+                energy[c] = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost;
+            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x - dx0,
+                                    light.y - dy0, energy, geo.sensor_width_mm / geo.width,
+                                    geo.sensor_height_mm / geo.height, frame.rgb.data(), frame.spec.width,
+                                    frame.spec.height);
+        }
+        if (!parts.ghosts) continue;
 
         gpu::FlareView view;
         view.angle_x_deg = ax;

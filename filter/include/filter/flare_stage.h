@@ -33,10 +33,13 @@ struct FlareSettings {
     std::string tracks;               // render the lights of this track file instead of detecting
     std::string gpu = "auto";         // EGL platform: auto, device, surfaceless
     int grid = 128;                   // ray grid per ghost (cells per side)
+    std::string parts = "ghosts,starburst";  // what to render: ghosts, starburst, or both
+    double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
+    double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
-// --source-gain, --flare-only, --tracks, --gpu, --grid to the filter's command line.
+// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale.
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
@@ -52,6 +55,13 @@ struct FlareGeometry {
     std::array<double, 2> angles_at(double x, double y) const;
     double pixel_area_mm2() const;
 };
+
+struct FlareParts {
+    bool ghosts = true;
+    bool starburst = true;
+};
+// "ghosts", "starburst", "ghosts,starburst" (any order); throws std::invalid_argument naming a bad part.
+FlareParts parse_parts(std::string_view text);
 
 // Power (mm^2 per unit irradiance) that a collimated light at angles (ax, ay) delivers through the lens's
 // direct path to the sensor, per RGB wavelength: pupil area seen along the beam x transmission, with
