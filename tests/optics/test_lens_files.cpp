@@ -1,4 +1,5 @@
 // Lens files, importers, presets, realize() and paraxial analysis, and the `lensfx lens` commands end to end.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -199,6 +200,28 @@ TEST(Presets, PresetFilesInTheSourceTreeAreTheEmbeddedOnes) {
         const fs::path p = fs::path(LENSFX_SOURCE_DIR) / "presets" / "lenses" / (name + ".toml");
         ASSERT_TRUE(fs::exists(p)) << p;
         EXPECT_EQ(paraxial(realize(load_lens(p.string()))).efl_mm, paraxial(realize(load_preset(name))).efl_mm) << name;
+    }
+}
+
+// Neighbouring surfaces must not cross inside their clear apertures: a glass element keeps a positive edge,
+// an air gap does not close (except the stop plane, which may sit inside a surface's sag).
+TEST(Presets, NeighbouringSurfacesDoNotCrossWithinTheirApertures) {
+    const auto sag = [](double r, double h) {
+        return r == 0.0 ? 0.0 : r - std::copysign(std::sqrt(std::max(r * r - h * h, 0.0)), r);
+    };
+    for (const auto& name : preset_names()) {
+        const Lens lens = load_preset(name);
+        for (double zoom : {0.0, 0.5, 1.0}) {
+            const System sys = realize(lens, zoom);
+            for (std::size_t i = 0; i + 1 < sys.interfaces.size(); ++i) {
+                const auto& a = sys.interfaces[i];
+                const auto& b = sys.interfaces[i + 1];
+                if (a.is_stop || b.is_stop) continue;
+                const double h = std::min(a.semi_diameter_mm, b.semi_diameter_mm);
+                const double edge = (b.z_mm + sag(b.radius_mm, h)) - (a.z_mm + sag(a.radius_mm, h));
+                EXPECT_GE(edge, 0.0) << name << " zoom " << zoom << ": surfaces " << i + 1 << " and " << i + 2;
+            }
+        }
     }
 }
 
