@@ -1,0 +1,242 @@
+// End to end: the lensfx program tone maps files and ffmpeg pipes as the README says, and its outputs
+// agree with the colour module (itself checked against OCIO in test_colour.cpp).
+#include <filter/colour.h>
+
+#include <gtest/gtest.h>
+
+#include <OpenImageIO/imageio.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace lensfx::colour;
+namespace fs = std::filesystem;
+
+constexpr int W = 64, H = 32;
+
+// The whole file as bytes (empty when it cannot be read).
+std::string slurp(const std::string& file) {
+    std::string data;
+    if (std::FILE* f = std::fopen(file.c_str(), "rb")) {
+        char buffer[65536];
+        std::size_t n = 0;
+        while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) data.append(buffer, n);
+        std::fclose(f);
+    }
+    return data;
+}
+
+struct Result {
+    int status;
+    std::string err;
+};
+
+class ColourEndToEnd : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() /
+               ("lensfx_colour_e2e_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+    // Left half `left`, right half `right` (RGB), as a half-float EXR; with chromaticities when given.
+    void write_exr(const std::string& name, std::array<float, 3> left, std::array<float, 3> right,
+                   const std::optional<std::array<float, 8>>& chroma = std::nullopt) const {
+        std::vector<float> px(W * H * 3);
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x)
+                for (int c = 0; c < 3; ++c) px[static_cast<std::size_t>((y * W + x) * 3 + c)] = (x < W / 2 ? left : right)[c];
+        OIIO::ImageSpec spec(W, H, 3, OIIO::TypeHalf);
+        if (chroma) spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), chroma->data());
+        auto out = OIIO::ImageOutput::create(path(name));
+        ASSERT_TRUE(out && out->open(path(name), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+
+    Result run(const std::string& command) const {
+        const std::string err = path("stderr.txt");
+        const int status = std::system((command + " 2> " + err).c_str());
+        return {status, slurp(err)};
+    }
+
+    static std::string lensfx() { return LENSFX_BINARY; }
+
+    fs::path dir_;
+};
+
+std::vector<float> read_pixels(const std::string& file, OIIO::ImageSpec* spec_out = nullptr) {
+    auto in = OIIO::ImageInput::open(file);
+    if (!in) return {};
+    const OIIO::ImageSpec spec = in->spec();
+    std::vector<float> px(static_cast<std::size_t>(spec.width * spec.height * spec.nchannels));
+    in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeFloat, px.data());
+    if (spec_out) *spec_out = spec;
+    return px;
+}
+
+// Mean of channel c over one half of a W x H RGB image.
+double half_mean(const std::vector<float>& px, bool right, int c, int channels = 3) {
+    double sum = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = right ? W / 2 : 0; x < (right ? W : W / 2); ++x)
+            sum += static_cast<double>(px[static_cast<std::size_t>((y * W + x) * channels + c)]);
+    return sum / (W / 2 * H);
+}
+
+float expected_display(const std::string& display, std::array<float, 3> rgb, int c) {
+    ColourOptions o;
+    o.display = display;
+    ColourPipeline p(ColourConfig::builtin_config(), o, std::nullopt);
+    p.to_display().apply_rgb(rgb.data(), 1);
+    return rgb[static_cast<std::size_t>(c)];
+}
+
+bool have_ffmpeg() { return std::system("ffmpeg -hide_banner -version > /dev/null 2>&1") == 0; }
+
+// ----------------------------------------------------------------------------------------------------------
+
+TEST_F(ColourEndToEnd, PngIsToneMappedWithDitherThatKeepsTheMean) {
+    write_exr("in.exr", {0.18f, 0.18f, 0.18f}, {50.f, 50.f, 50.f});
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png")).status, 0);
+    OIIO::ImageSpec spec;
+    const auto px = read_pixels(path("out.png"), &spec);
+    ASSERT_EQ(spec.format, OIIO::TypeUInt8);
+    EXPECT_EQ(spec.get_string_attribute("oiio:ColorSpace"), "sRGB");
+    const double grey = static_cast<double>(expected_display("srgb", {0.18f, 0.18f, 0.18f}, 0));
+    EXPECT_NEAR(grey, 0.356, 1e-3);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(half_mean(px, false, c), grey, 0.3 / 255);  // dithered: the mean, not just the nearest code
+        EXPECT_EQ(half_mean(px, true, c), 1.0);
+    }
+    for (std::size_t i = 0; i < px.size(); ++i) {
+        if ((i / 3) % W < W / 2) {
+            EXPECT_LE(std::abs(static_cast<double>(px[i]) - grey), 1.0 / 255) << i;
+        }
+    }
+
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out16.png") + " --bits 16").status, 0);
+    const auto px16 = read_pixels(path("out16.png"), &spec);
+    ASSERT_EQ(spec.format, OIIO::TypeUInt16);
+    EXPECT_NEAR(half_mean(px16, false, 1), grey, 0.3 / 65535);
+}
+
+TEST_F(ColourEndToEnd, SceneLinearOutputsAreUntouchedUnlessAsked) {
+    write_exr("in.exr", {0.18f, 0.05f, 0.6f}, {3.f, 2.f, 1.f});
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("same.exr")).status, 0);
+    EXPECT_EQ(read_pixels(path("same.exr")), read_pixels(path("in.exr")));
+
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("shown.exr") + " --display rec709").status, 0);
+    const auto shown = read_pixels(path("shown.exr"));
+    for (int c = 0; c < 3; ++c) {
+        // Written as half: within half precision of the module's value.
+        EXPECT_NEAR(half_mean(shown, false, c), expected_display("rec709", {0.18f, 0.05f, 0.6f}, c), 1e-3);
+        EXPECT_NEAR(half_mean(shown, true, c), expected_display("rec709", {3.f, 2.f, 1.f}, c), 1e-3);
+    }
+
+    // Exposure applies to scene-linear outputs too: +1 EV doubles them.
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("bright.exr") + " --exposure 1").status, 0);
+    EXPECT_NEAR(half_mean(read_pixels(path("bright.exr")), true, 0), 6.0, 1e-3);
+}
+
+TEST_F(ColourEndToEnd, ChromaticitiesOfTheFileChooseTheInputSpace) {
+    // The same colour stored as Rec.709 and as ACES AP0 (with the EXR attribute saying so) displays the same.
+    const std::array<double, 3> rec709{0.6, 0.2, 0.05};
+    const auto ap0 = chromaticities(KnownPrimaries::AcesAP0);
+    const Mat3 m = multiply(inverse(rgb_to_xyz(ap0)),
+                            multiply(bradford(0.3127, 0.3290, ap0.wx, ap0.wy), rgb_to_xyz(chromaticities(KnownPrimaries::Rec709))));
+    std::array<float, 3> in_ap0{};
+    for (int i = 0; i < 3; ++i)
+        in_ap0[static_cast<std::size_t>(i)] =
+            static_cast<float>(m[3 * i] * rec709[0] + m[3 * i + 1] * rec709[1] + m[3 * i + 2] * rec709[2]);
+    const std::array<float, 8> ap0_attr{0.7347f, 0.2653f, 0.0f, 1.0f, 0.0001f, -0.077f, 0.32168f, 0.33767f};
+    write_exr("rec709.exr", {0.6f, 0.2f, 0.05f}, {0.6f, 0.2f, 0.05f});
+    write_exr("ap0.exr", in_ap0, in_ap0, ap0_attr);
+    ASSERT_EQ(run(lensfx() + " -i " + path("rec709.exr") + " -o " + path("a.exr") + " --display srgb").status, 0);
+    ASSERT_EQ(run(lensfx() + " -i " + path("ap0.exr") + " -o " + path("b.exr") + " --display srgb").status, 0);
+    const auto a = read_pixels(path("a.exr")), b = read_pixels(path("b.exr"));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(half_mean(a, false, c), half_mean(b, false, c), 2e-3) << c;
+}
+
+TEST_F(ColourEndToEnd, UnknownNamesFailWithTheValidOnes) {
+    write_exr("in.exr", {0.18f, 0.18f, 0.18f}, {1.f, 1.f, 1.f});
+    Result r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --display cinema");
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find("unknown display 'cinema'"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("srgb, rec709, rec2100-pq"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(path("out.png")));
+    r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --colorspace 'Log C'");
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find("unknown colour space 'Log C'"), std::string::npos) << r.err;
+    r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --ocio " + path("missing.ocio"));
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find(path("missing.ocio")), std::string::npos) << r.err;
+}
+
+// The README's video examples, verbatim apart from paths and sizes, decoded back by ffmpeg.
+TEST_F(ColourEndToEnd, FfmpegExrSequenceToH264Rec709) {
+    if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not found: the video example is not tested";
+    write_exr("shot.0001.exr", {0.18f, 0.18f, 0.18f}, {50.f, 50.f, 50.f});
+    fs::copy_file(path("shot.0001.exr"), path("shot.0002.exr"));
+    const std::string cmd =
+        "ffmpeg -v error -i " + path("shot.%04d.exr") + " -f image2pipe -c:v pfm - | " + lensfx() +
+        " -i - -o - --display rec709 | ffmpeg -v error -y -f image2pipe -c:v pfm -i - "
+        "-vf scale=out_color_matrix=bt709:out_range=tv -c:v libx264 -crf 18 -pix_fmt yuv420p "
+        "-colorspace bt709 -color_primaries bt709 -color_trc bt709 " + path("shot.mp4");
+    const Result r = run(cmd);
+    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(run("ffmpeg -v error -i " + path("shot.mp4") +
+                  " -vf scale=in_color_matrix=bt709:in_range=tv -f rawvideo -pix_fmt rgb24 " + path("back.rgb")).status, 0);
+    const std::string data = slurp(path("back.rgb"));
+    const std::vector<unsigned char> bytes(data.begin(), data.end());
+    ASSERT_EQ(bytes.size(), static_cast<std::size_t>(2 * W * H * 3));
+    const double grey = static_cast<double>(expected_display("rec709", {0.18f, 0.18f, 0.18f}, 0)) * 255;
+    // 8-bit video range loses about a code value each way.
+    EXPECT_NEAR(bytes[static_cast<std::size_t>((H / 2 * W + W / 4) * 3)], grey, 2.0);
+    EXPECT_NEAR(bytes[static_cast<std::size_t>((H / 2 * W + 3 * W / 4) * 3)], 255.0, 2.0);
+}
+
+TEST_F(ColourEndToEnd, FfmpegHdr10PqRec2020) {
+    if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg not found: the HDR10 example is not tested";
+    if (std::system("ffmpeg -hide_banner -h encoder=libx265 2>/dev/null | grep -q yuv420p10le") != 0)
+        GTEST_SKIP() << "this ffmpeg has no 10-bit libx265: the HDR10 example is not tested";
+    write_exr("shot.0001.exr", {0.18f, 0.18f, 0.18f}, {50.f, 50.f, 50.f});
+    const std::string cmd =
+        "ffmpeg -v error -i " + path("shot.%04d.exr") + " -f image2pipe -c:v pfm - | " + lensfx() +
+        " -i - -o - --display rec2100-pq | ffmpeg -v error -y -f image2pipe -c:v pfm -i - "
+        "-vf scale=out_color_matrix=bt2020:out_range=tv -c:v libx265 -crf 18 -pix_fmt yuv420p10le "
+        "-color_primaries bt2020 -color_trc smpte2084 -colorspace bt2020nc "
+        "-x265-params log-level=error:hdr10=1:colorprim=bt2020:transfer=smpte2084:colormatrix=bt2020nc:"
+        "master-display='G(13250,34500)B(7500,3000)R(34000,16000)WP(15635,16450)L(10000000,1)':max-cll=1000,400 " +
+        path("shot_hdr10.mp4");
+    const Result r = run(cmd);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const Result probe = run("ffprobe -v error -show_streams " + path("shot_hdr10.mp4") + " > " + path("probe.txt"));
+    ASSERT_EQ(probe.status, 0);
+    const std::string info = slurp(path("probe.txt"));
+    EXPECT_NE(info.find("color_transfer=smpte2084"), std::string::npos) << info;
+    EXPECT_NE(info.find("color_primaries=bt2020"), std::string::npos) << info;
+    EXPECT_NE(info.find("pix_fmt=yuv420p10le"), std::string::npos) << info;
+    ASSERT_EQ(run("ffmpeg -v error -i " + path("shot_hdr10.mp4") +
+                  " -vf scale=in_color_matrix=bt2020:in_range=tv -f rawvideo -pix_fmt rgb48le " + path("back.rgb")).status, 0);
+    const std::string bytes = slurp(path("back.rgb"));
+    ASSERT_EQ(bytes.size(), static_cast<std::size_t>(W * H * 3 * 2));
+    auto value = [&](int x, int y) {
+        const std::size_t i = static_cast<std::size_t>((y * W + x) * 3) * 2;
+        return (static_cast<unsigned char>(bytes[i]) | (static_cast<unsigned char>(bytes[i + 1]) << 8)) / 65535.0;
+    };
+    // PQ code values of the ACES 1000-nit output; 10-bit video range is about 0.001 per code.
+    EXPECT_NEAR(value(W / 4, H / 2), static_cast<double>(expected_display("rec2100-pq", {0.18f, 0.18f, 0.18f}, 1)), 3e-3);
+    EXPECT_NEAR(value(3 * W / 4, H / 2), static_cast<double>(expected_display("rec2100-pq", {50.f, 50.f, 50.f}, 1)), 3e-3);
+}
+
+}  // namespace
