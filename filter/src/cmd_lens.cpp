@@ -3,7 +3,9 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
@@ -27,8 +29,22 @@ struct LensOptions {
     std::string zoom = "0";
     double wavelength_nm = optics::kLambdaD_nm;
     std::optional<double> f_number;
+    std::string sensor = "36x24";
     bool json = false;
 };
+
+// "36x24" -> {36, 24} (mm).
+std::pair<double, double> parse_sensor(const std::string& text) {
+    const auto x = text.find('x');
+    try {
+        std::size_t used_w = 0, used_h = 0;
+        const double w = std::stod(text.substr(0, x), &used_w);
+        const double h = x == std::string::npos ? 0.0 : std::stod(text.substr(x + 1), &used_h);
+        if (x != std::string::npos && used_w == x && used_h == text.size() - x - 1 && w > 0 && h > 0) return {w, h};
+    } catch (const std::exception&) {
+    }
+    throw std::invalid_argument(fmt::format("--sensor '{}': expected WxH in mm, e.g. 36x24", text));
+}
 
 void add_lens_options(CLI::App* cmd, LensOptions& o) {
     cmd->add_option("lens", o.lens, "Preset name or lens file (.toml, pbrt .dat, lentil .fx)")->required();
@@ -36,6 +52,7 @@ void add_lens_options(CLI::App* cmd, LensOptions& o) {
     cmd->add_option("--wavelength", o.wavelength_nm, "Wavelength in nm")->check(CLI::Range(300.0, 1100.0));
     cmd->add_option("--fstop", o.f_number, "Set the stop for this paraxial f-number (default: the stop wide open)")
         ->check(CLI::PositiveNumber);
+    cmd->add_option("--sensor", o.sensor, "Sensor WxH in mm, for the field of view (default 36x24)");
     cmd->add_flag("--json", o.json, "Print JSON");
 }
 
@@ -70,7 +87,8 @@ void lens_info(const LensOptions& o) {
         fmt::print("{}\n", j.dump(2));
         return;
     }
-    const optics::FieldOfView fov = optics::field_of_view(p);
+    const auto [sensor_w, sensor_h] = parse_sensor(o.sensor);
+    const optics::FieldOfView fov = optics::field_of_view(p, sensor_w, sensor_h);
     fmt::print("lens:            {}\n", lens.name);
     if (!lens.source.empty()) fmt::print("source:          {}\n", lens.source);
     if (lens.zoom_positions() > 1) fmt::print("zoom:            {} of {} columns\n", o.zoom, lens.zoom_positions());
@@ -83,8 +101,8 @@ void lens_info(const LensOptions& o) {
                p.entrance_pupil_diameter_mm);
     fmt::print("exit pupil:      {:.4f} mm from the last vertex, diameter {:.4f} mm\n", p.exit_pupil_mm,
                p.exit_pupil_diameter_mm);
-    fmt::print("field of view:   {:.2f} x {:.2f} deg, {:.2f} diagonal (36 x 24 mm, rectilinear)\n", fov.horizontal_deg,
-               fov.vertical_deg, fov.diagonal_deg);
+    fmt::print("field of view:   {:.2f} x {:.2f} deg, {:.2f} diagonal ({:g} x {:g} mm sensor, paraxial rectilinear)\n",
+               fov.horizontal_deg, fov.vertical_deg, fov.diagonal_deg, sensor_w, sensor_h);
     fmt::print("length:          {:.3f} mm first vertex -> sensor\n", sys.sensor_z_mm);
     fmt::print("surfaces:        {} (stop = surface {})\n", sys.interfaces.size(), sys.stop + 1);
     fmt::print("ghosts:          {} (two-reflection paths)\n", ghosts);
