@@ -613,6 +613,75 @@ std::string ColourTransform::description() const {
     return os.str();
 }
 
+GpuShader gpu_shader(const ColourTransform& transform, const std::string& function) {
+    GpuShader out;
+    out.function = function;
+    const std::string ocio_function = function + "_ocio";
+    const std::string body = "    return " + ocio_function + "(c);\n";
+    if (transform.processor()) {
+        auto desc = OCIO::GpuShaderDesc::CreateShaderDesc();
+        desc->setLanguage(OCIO::GPU_LANGUAGE_GLSL_4_0);
+        desc->setFunctionName(ocio_function.c_str());
+        desc->setResourcePrefix((function + "_").c_str());
+        transform.processor()->getDefaultGPUProcessor()->extractGpuShaderInfo(desc);
+        if (desc->getNumUniforms() > 0)
+            throw std::runtime_error(fmt::format("colour: the GPU path does not feed uniforms, and this transform "
+                                                 "needs {} (dynamic properties)", desc->getNumUniforms()));
+        for (unsigned i = 0; i < desc->getNumTextures(); ++i) {
+            const char *texture = nullptr, *sampler = nullptr;
+            unsigned w = 0, h = 0;
+            OCIO::GpuShaderDesc::TextureType type{};
+            OCIO::Interpolation interp{};
+            desc->getTexture(i, texture, sampler, w, h, type, interp);
+            const float* values = nullptr;
+            desc->getTextureValues(i, values);
+            GpuShader::Texture t;
+            t.sampler = sampler;
+            t.dimensions = h > 1 ? 2 : 1;
+            t.width = w;
+            t.height = h;
+            t.channels = type == OCIO::GpuShaderDesc::TEXTURE_RED_CHANNEL ? 1 : 3;
+            t.linear = interp != OCIO::INTERP_NEAREST;
+            t.values.assign(values, values + std::size_t{w} * h * static_cast<std::size_t>(t.channels));
+            out.textures.push_back(std::move(t));
+        }
+        for (unsigned i = 0; i < desc->getNum3DTextures(); ++i) {
+            const char *texture = nullptr, *sampler = nullptr;
+            unsigned edge = 0;
+            OCIO::Interpolation interp{};
+            desc->get3DTexture(i, texture, sampler, edge, interp);
+            const float* values = nullptr;
+            desc->get3DTextureValues(i, values);
+            GpuShader::Texture t;
+            t.sampler = sampler;
+            t.dimensions = 3;
+            t.width = t.height = t.depth = edge;
+            t.channels = 3;
+            t.linear = interp != OCIO::INTERP_NEAREST;
+            t.values.assign(values, values + std::size_t{edge} * edge * edge * 3);
+            out.textures.push_back(std::move(t));
+        }
+        out.source = desc->getShaderText();
+    } else {
+        out.source = fmt::format("vec4 {}(vec4 c) {{ return c; }}\n", function);  // identity: untouched, as on the CPU
+        return out;
+    }
+    const std::string end = transform.clamps() ? "clamp01" : "sanitise";
+    out.source += fmt::format(R"(
+float {0}_sanitise(float v) {{ return isnan(v) ? 0.0 : (isinf(v) ? (v > 0.0 ? {1:.1f} : 0.0) : v); }}
+float {0}_clamp01(float v) {{ return v > 0.0 ? min(v, 1.0) : 0.0; }}
+vec4 {0}_core(vec4 c) {{
+{2}}}
+vec4 {0}(vec4 c) {{
+    c.rgb = vec3({0}_sanitise(c.r), {0}_sanitise(c.g), {0}_sanitise(c.b));
+    vec4 o = {0}_core(c);
+    return vec4({0}_{3}(o.r), {0}_{3}(o.g), {0}_{3}(o.b), c.a);
+}}
+)",
+                              function, static_cast<double>(inf_replacement), body, end);
+    return out;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // ColourPipeline
 

@@ -146,6 +146,26 @@ private:
     bool clamp_ = false;
 };
 
+// The same transform as GLSL (4.x) for the GPU path, from OCIO's shader generator. `source` declares the
+// LUT samplers and defines `vec4 <function>(vec4 rgba)`, which sanitises, applies the transform and clamps
+// (display transforms) exactly as ColourTransform::apply does; alpha passes through. Each texture is to be
+// uploaded as given (GL order, x fastest; R32F or RGB32F) and bound to the sampler uniform of its name.
+struct GpuShader {
+    struct Texture {
+        std::string sampler;        // the sampler uniform in `source`
+        int dimensions = 1;         // 1, 2 (a long 1D LUT folded into rows) or 3
+        unsigned width = 0, height = 1, depth = 1;
+        int channels = 3;           // 1 (red only) or 3
+        bool linear = true;         // linear filtering, else nearest
+        std::vector<float> values;  // width * height * depth * channels
+    };
+    std::string function;
+    std::string source;
+    std::vector<Texture> textures;
+};
+// Throws when the transform needs uniforms (dynamic properties), which this path does not feed.
+GpuShader gpu_shader(const ColourTransform& transform, const std::string& function = "lensfx_colour");
+
 // Colour space to colour space (names or roles of the config).
 ColourTransform make_transform(const ColourConfig& config, const std::string& src, const std::string& dst);
 
