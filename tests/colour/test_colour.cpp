@@ -112,6 +112,42 @@ TEST(Primaries, IdentifiesExrChromaticitiesTolerantly) {
               KnownPrimaries::AcesAP1);
 }
 
+TEST(Spectral, ColourMatchingFunctionsFollowTheCieTable) {
+    // CIE 1931 2-degree observer, tabulated values.
+    const std::pair<double, std::array<double, 3>> table[] = {
+        {450, {0.3362, 0.0380, 1.7721}}, {500, {0.0049, 0.3230, 0.2720}}, {530, {0.1655, 0.8620, 0.0422}},
+        {555, {0.5121, 1.0000, 0.0057}}, {600, {1.0622, 0.6310, 0.0008}}, {650, {0.2835, 0.1070, 0.0000}}};
+    for (const auto& [nm, xyz] : table) {
+        const auto got = cie1931_xyz(nm);
+        for (std::size_t i = 0; i < 3; ++i) EXPECT_NEAR(got[i], xyz[i], 0.015) << nm << " nm, component " << i;
+    }
+    // The three functions have (nearly) equal areas: an equal-energy spectrum is the white E (x = y = 1/3).
+    std::array<double, 3> area{};
+    for (double nm = 360; nm <= 830; nm += 1)
+        for (std::size_t i = 0; i < 3; ++i) area[i] += cie1931_xyz(nm)[i];
+    EXPECT_NEAR(area[0] / area[1], 1.0, 0.01);
+    EXPECT_NEAR(area[2] / area[1], 1.0, 0.01);
+    EXPECT_NEAR(area[1], 106.86, 1.0);  // the CIE table's sum at 1 nm
+}
+
+TEST(Spectral, WavelengthsLandInTheWorkingPrimaries) {
+    const Mat3 rec709 = rgb_to_xyz(chromaticities(KnownPrimaries::Rec709));
+    const auto green = wavelength_to_rgb(540, rec709);
+    EXPECT_GT(green[1], green[0]);
+    EXPECT_GT(green[1], green[2]);
+    // 450 nm is outside Rec.709 (negative green) but inside AP0, whose gamut holds every spectral colour.
+    EXPECT_LT(wavelength_to_rgb(450, rec709)[1], 0.0);
+    const Mat3 ap0 = rgb_to_xyz(chromaticities(KnownPrimaries::AcesAP0));
+    for (double nm = 420; nm <= 680; nm += 10)
+        for (double v : wavelength_to_rgb(nm, ap0)) EXPECT_GT(v, -1e-3) << nm;
+    // Back to XYZ exactly.
+    const auto rgb = wavelength_to_rgb(580, rec709);
+    const auto xyz = cie1931_xyz(580);
+    for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(rec709[3 * i] * rgb[0] + rec709[3 * i + 1] * rgb[1] + rec709[3 * i + 2] * rgb[2],
+                    xyz[static_cast<std::size_t>(i)], 1e-12);
+}
+
 // ----------------------------------------------------------------------------------------------------------
 
 TEST(BuiltinConfig, HasTheDocumentedDisplaysViewsAndLooks) {
