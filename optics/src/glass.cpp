@@ -1,6 +1,7 @@
 #include <optics/glass.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <stdexcept>
@@ -68,17 +69,55 @@ Glass from_entry(const detail::CatalogEntry& e) {
     return g;
 }
 
-// Abbe-model coefficients for a given C1: B1 from nd, the rest fixed.
-double abbe_b1(double nd, double c1) {
-    const double l2 = (kLineD_nm * 1e-3) * (kLineD_nm * 1e-3);
-    const double ir = kAbbeB2 * l2 / (l2 - kAbbeC2);
-    return (nd * nd - 1.0 - ir) * (l2 - c1) / l2;
+constexpr double kLineG_nm = 435.8343;
+
+// Schott's "normal line" of the relative partial dispersion P_g,F = (ng - nF) / (nF - nC) of normal glasses.
+double normal_line_pgf(double vd) { return 0.6438 - 0.001682 * vd; }
+
+double abbe_n(const std::array<double, 4>& c, double nm) {
+    const double l2 = nm * nm * 1e-6;
+    return std::sqrt(1.0 + c[0] * l2 / (l2 - c[1]) + c[2] * l2 / (l2 - c[3]));
 }
 
-double abbe_vd(double nd, double c1) {
-    const std::vector<double> c{abbe_b1(nd, c1), c1, kAbbeB2, kAbbeC2};
-    auto n = [&](double nm) { return std::sqrt(sellmeier_n2(c, nm * nm * 1e-6)); };
-    return (nd - 1.0) / (n(kLineF_nm) - n(kLineC_nm));
+// Model coefficients B1, C1, B2, C2 for given C1 and B2, with B1 set so that n(d) = nd.
+std::array<double, 4> abbe_coefficients(double nd, double c1, double b2) {
+    const double l2 = (kLineD_nm * 1e-3) * (kLineD_nm * 1e-3);
+    const double b1 = (nd * nd - 1.0 - b2 * l2 / (l2 - kAbbeC2)) * (l2 - c1) / l2;
+    return {b1, c1, b2, kAbbeC2};
+}
+
+struct AbbeFit {
+    double vd, pgf;
+};
+AbbeFit abbe_properties(double nd, double c1, double b2) {
+    const auto c = abbe_coefficients(nd, c1, b2);
+    const double nf = abbe_n(c, kLineF_nm);
+    const double nc = abbe_n(c, kLineC_nm);
+    return {(nd - 1.0) / (nf - nc), (abbe_n(c, kLineG_nm) - nf) / (nf - nc)};
+}
+
+// Newton on (C1, B2) for Vd and the normal-line P_g,F; false when it leaves the valid region or stalls.
+bool fit_normal_line(double nd, double vd, double& c1, double& b2) {
+    const double pgf = normal_line_pgf(vd);
+    c1 = 0.01;
+    b2 = kAbbeB2;
+    for (int it = 0; it < 60; ++it) {
+        const AbbeFit r = abbe_properties(nd, c1, b2);
+        const double f1 = r.vd - vd;
+        const double f2 = r.pgf - pgf;
+        if (std::abs(f1) < 1e-11 * vd && std::abs(f2) < 1e-12) return true;
+        const double h1 = 1e-7, h2 = 1e-6;
+        const AbbeFit a = abbe_properties(nd, c1 + h1, b2);
+        const AbbeFit b = abbe_properties(nd, c1, b2 + h2);
+        const double j11 = (a.vd - r.vd) / h1, j12 = (b.vd - r.vd) / h2;
+        const double j21 = (a.pgf - r.pgf) / h1, j22 = (b.pgf - r.pgf) / h2;
+        const double det = j11 * j22 - j12 * j21;
+        if (!std::isfinite(det) || det == 0.0) return false;
+        c1 -= (f1 * j22 - f2 * j12) / det;
+        b2 -= (j11 * f2 - j21 * f1) / det;
+        if (!(c1 > 0.0 && c1 < kAbbeC1Max) || !std::isfinite(b2)) return false;
+    }
+    return false;
 }
 
 }  // namespace
@@ -142,26 +181,30 @@ Glass glass_from_abbe(double nd, double vd, std::string name) {
     if (name.empty()) name = fmt::format("nd={} vd={}", nd, vd);
     if (!(nd > 1.0) || !(vd > 0.0) || !std::isfinite(nd) || !std::isfinite(vd))
         throw std::invalid_argument(fmt::format("glass '{}': nd must be > 1 and vd > 0 (nd={}, vd={})", name, nd, vd));
-    // Vd falls monotonically as the UV resonance C1 moves towards the visible: bisect on C1.
-    double lo = 0.0;
-    double hi = kAbbeC1Max;
-    const double vd_lo = abbe_vd(nd, lo);
-    const double vd_hi = abbe_vd(nd, hi);
-    if (!(vd <= vd_lo && vd >= vd_hi))
-        throw std::invalid_argument(fmt::format(
-            "glass '{}': no dispersion model for nd={} vd={} (this nd allows vd from {:.2f} to {:.2f})", name, nd,
-            vd, vd_hi, vd_lo));
-    for (int it = 0; it < 200 && hi - lo > 1e-17; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (abbe_vd(nd, mid) > vd ? lo : hi) = mid;
+    double c1 = 0.0, b2 = kAbbeB2;
+    if (!fit_normal_line(nd, vd, c1, b2)) {
+        // Fallback: B2 fixed; Vd falls monotonically as C1 moves towards the visible, so bisect on C1.
+        b2 = kAbbeB2;
+        double lo = 0.0, hi = kAbbeC1Max;
+        const double vd_lo = abbe_properties(nd, lo, b2).vd;
+        const double vd_hi = abbe_properties(nd, hi, b2).vd;
+        if (!(vd <= vd_lo && vd >= vd_hi))
+            throw std::invalid_argument(fmt::format(
+                "glass '{}': no dispersion model for nd={} vd={} (this nd allows vd from {:.2f} to {:.2f})", name,
+                nd, vd, vd_hi, vd_lo));
+        for (int it = 0; it < 200 && hi - lo > 1e-17; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            (abbe_properties(nd, mid, b2).vd > vd ? lo : hi) = mid;
+        }
+        c1 = 0.5 * (lo + hi);
     }
-    const double c1 = 0.5 * (lo + hi);
+    const auto c = abbe_coefficients(nd, c1, b2);
     Glass g;
     g.name = std::move(name);
     g.formula = Glass::Formula::Abbe;
     g.nd = nd;
     g.vd = vd;
-    g.coefficients = {abbe_b1(nd, c1), c1, kAbbeB2, kAbbeC2};
+    g.coefficients.assign(c.begin(), c.end());
     return g;
 }
 

@@ -79,7 +79,13 @@ Hit intersect(const TraceInterface& s, const Vec3& o, const Vec3& d, bool forwar
         n = {0.0, 0.0, 1.0};
         return is_finite(p) ? Hit::Ok : Hit::NonFinite;
     }
-    const Hit h = intersect_quadric(s, q, d, forward, t);
+    // Solve from the point of the ray nearest the vertex: a far origin would cost the quadratic's
+    // discriminant its precision (cancellation between B^2 and a C).
+    const double t0 = -dot(q, d);
+    const Vec3 q_near = q + t0 * d;
+    Hit h = intersect_quadric(s, q_near, d, forward, t);
+    t += t0;
+    if (h == Hit::Ok && !std::isfinite(t)) h = Hit::NonFinite;
     if (h != Hit::Ok) {
         if (!s.has_aspheric || h == Hit::NonFinite) return h;
         t = -q.z / d.z;  // start the asphere iteration from the tangent plane
