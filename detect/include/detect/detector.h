@@ -25,7 +25,7 @@ struct DetectorOptions {
     double cluster_cell = 0.0;     // px, grid cell of the clustering; 0: max(width, height) / 32
     double clip_level = 0.0;       // channel value at which the camera clipped; 0: flat-top test only
     int shape_cells = 32;          // largest side of a source's shape image, in cells
-    double shape_min_size = 6.0;   // px: sources with a wider or taller bounding box keep a shape
+    double shape_min_size = 16.0;  // px: sources with a wider or taller bounding box keep a shape
 
     // Throws std::invalid_argument naming the option when a value is out of range.
     void validate() const;
