@@ -2,6 +2,7 @@
 #include <gpu/flare.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -144,6 +145,27 @@ std::array<double, 2> sensor_to_pixel(const FlareView& view, double x_mm, double
     return {(xu / view.sensor_width_mm + 0.5) * view.width, (0.5 - yu / view.sensor_height_mm) * view.height};
 }
 
+namespace {
+
+// Stratified sampling: one ray at a fixed pseudo-random point of each grid cell (a hash of the cell and
+// the ghost), so the regular ray grid does not alias against the pixel grid, and runs repeat exactly.
+std::pair<double, double> jitter(int ix, int iy, std::size_t ghost) {
+    std::uint64_t h = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(ix)) << 32) ^
+                      static_cast<std::uint32_t>(iy) ^ (static_cast<std::uint64_t>(ghost) * 0x9e3779b97f4a7c15ull);
+    auto next = [&h] {
+        h += 0x9e3779b97f4a7c15ull;  // splitmix64
+        std::uint64_t z = h;
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        z ^= z >> 31;
+        return static_cast<double>(z >> 11) * 0x1.0p-53;
+    };
+    const double a = next();
+    return {a, next()};
+}
+
+}  // namespace
+
 FlareImage render_reference(const System& system, const FlareView& view, const ReferenceOptions& options) {
     if (options.rays < 2) throw std::invalid_argument(fmt::format("--rays {}: at least 2 needed", options.rays));
     if (view.width <= 0 || view.height <= 0) {
@@ -176,8 +198,9 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
                     const int row1 = n * (t + 1) / threads;
                     for (int iy = row0; iy < row1; ++iy) {
                         for (int ix = 0; ix < n; ++ix) {
-                            const double x = square.x0 + dx * (ix + 0.5);
-                            const double y = square.y0 + dy * (iy + 0.5);
+                            const auto [jx, jy] = jitter(ix, iy, g);
+                            const double x = square.x0 + dx * (ix + jx);
+                            const double y = square.y0 + dy * (iy + jy);
                             const Ray ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, x, y, 0.0);
                             const TraceResult r = trace(traced, ray, ghost.path);
                             if (!ray_passes(r, system.aperture)) continue;
@@ -210,6 +233,45 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
     out.rgb.assign(image.begin(), image.end());
     if (options.per_ghost_power) out.ghosts = std::move(powers);
     return out;
+}
+
+FlareError compare_flare(const FlareImage& image, const FlareImage& reference, const FlareView& view, int block) {
+    if (image.width != reference.width || image.height != reference.height || block < 1) {
+        throw std::invalid_argument(fmt::format("compare_flare: {}x{} against {}x{} (block {})", image.width,
+                                                image.height, reference.width, reference.height, block));
+    }
+    FlareError error;
+    const auto power = image.total_power(view);
+    const auto reference_power = reference.total_power(view);
+    for (std::size_t c = 0; c < 3; ++c) {
+        if (reference_power[c] <= 0.0) continue;
+        error.total = std::max(error.total, std::abs(power[c] - reference_power[c]) / reference_power[c]);
+        double l1 = 0.0;
+        for (int by = 0; by < image.height; by += block) {
+            for (int bx = 0; bx < image.width; bx += block) {
+                double a = 0.0;
+                double b = 0.0;
+                for (int y = by; y < std::min(by + block, image.height); ++y) {
+                    for (int x = bx; x < std::min(bx + block, image.width); ++x) {
+                        a += static_cast<double>(image.at(x, y, static_cast<int>(c)));
+                        b += static_cast<double>(reference.at(x, y, static_cast<int>(c)));
+                    }
+                }
+                l1 += std::abs(a - b);
+            }
+        }
+        error.block_l1 = std::max(error.block_l1, l1 * view.pixel_area_mm2() / reference_power[c]);
+        for (const GhostPower& ref : reference.ghosts) {
+            if (ref.power[c] <= 0.01 * reference_power[c]) continue;
+            auto it = std::find_if(image.ghosts.begin(), image.ghosts.end(), [&](const GhostPower& g) {
+                return g.first == ref.first && g.second == ref.second;
+            });
+            const double p = it == image.ghosts.end() ? 0.0 : it->power[c];
+            error.worst_ghost = std::max(error.worst_ghost, std::abs(p - ref.power[c]) / ref.power[c]);
+            if (c == 0) ++error.compared_ghosts;
+        }
+    }
+    return error;
 }
 
 }  // namespace lensfx::gpu

@@ -1,6 +1,7 @@
 // GPU ghost renderer: CPU side (ghost sequences, coating tables, pupil bounds) and the GL passes.
 #include <gpu/flare_renderer.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -74,6 +75,88 @@ FlareRenderer::FlareRenderer(const Context& context) {
 
 FlareRenderer::~FlareRenderer() = default;
 
+namespace {
+
+// Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
+struct GhostSequences {
+    std::vector<StepData> steps;
+    std::vector<float> tables;            // kTableSize factors (R or T over cos incidence) per step
+    std::vector<int> offset;              // first step of each ghost
+    std::vector<int> count;               // steps of each ghost
+    std::vector<int> stop_crossings;      // of each ghost
+};
+
+GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
+    GhostSequences out;
+    for (const Ghost& ghost : ghosts) {
+        out.offset.push_back(static_cast<int>(out.steps.size()));
+        out.count.push_back(static_cast<int>(ghost.path.size()));
+        int crossings = 0;
+        for (const optics::Step& step : ghost.path) {
+            const optics::TraceInterface& surface = traced.interfaces()[static_cast<std::size_t>(step.interface)];
+            const double n_in = step.forward ? surface.n_before : surface.n_after;
+            const double n_out = step.forward ? surface.n_after : surface.n_before;
+            const int kind = surface.is_stop ? 2 : (step.reflect ? 1 : 0);
+            out.steps.push_back({{static_cast<float>(surface.z), static_cast<float>(surface.curvature),
+                                  static_cast<float>(surface.conic), static_cast<float>(surface.semi_diameter)},
+                                 {static_cast<float>(n_in), static_cast<float>(n_out), static_cast<float>(kind),
+                                  step.forward ? 1.0f : 0.0f}});
+            if (kind == 2) {
+                ++crossings;
+                out.tables.insert(out.tables.end(), kTableSize, 1.0f);
+                continue;
+            }
+            for (int i = 0; i < kTableSize; ++i) {
+                const double cos_i = static_cast<double>(i) / (kTableSize - 1);
+                const optics::Reflectance rt =
+                    optics::coated_reflectance(surface.coating, n_in, n_out, cos_i, traced.wavelength_nm(), step.forward);
+                out.tables.push_back(static_cast<float>(step.reflect ? rt.R : rt.T));
+            }
+        }
+        out.stop_crossings.push_back(crossings);
+    }
+    return out;
+}
+
+// Where a ghost's coarse rays got through, from the coarse pass's vertices.
+struct CoarseResult {
+    PupilRect rect;
+    double power = 0.0;  // estimated power on the sensor plane (unclipped by the image frame)
+};
+
+CoarseResult coarse_bounds(const float* vertices, int res, const PupilRect& square, int stop_crossings,
+                           const Aperture& aperture, double cos_angle) {
+    const double dx = (square.x1 - square.x0) / res;
+    const double dy = (square.y1 - square.y0) / res;
+    CoarseResult out;
+    PupilRect box{1e300, 1e300, -1e300, -1e300};
+    bool any = false;
+    for (int iy = 0; iy <= res; ++iy) {
+        for (int ix = 0; ix <= res; ++ix) {
+            const float* v = vertices + (static_cast<std::size_t>(iy) * static_cast<std::size_t>(res + 1) +
+                                         static_cast<std::size_t>(ix)) * 12;
+            if (v[10] < 0.5f || v[2] > 1.0f) continue;
+            bool inside = true;
+            for (int k = 0; k < std::min(stop_crossings, 3) && inside; ++k) {
+                inside = aperture_sdf(aperture, static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
+            }
+            if (!inside) continue;
+            any = true;
+            out.power += static_cast<double>(v[3]) * dx * dy * cos_angle;
+            const double x = square.x0 + dx * ix;
+            const double y = square.y0 + dy * iy;
+            box = {std::min(box.x0, x), std::min(box.y0, y), std::max(box.x1, x), std::max(box.y1, y)};
+        }
+    }
+    if (any) {
+        out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy),
+                    std::min(square.x1, box.x1 + dx), std::min(square.y1, box.y1 + dy)};
+    }
+    return out;
+}
+
+}  // namespace
+
 FlareImage FlareRenderer::render(const System& system, const FlareView& view, const GpuFlareOptions& options) {
     if (options.grid < 2 || options.grid > 2048) {
         throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
@@ -87,12 +170,11 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     s.upload_iris(system.aperture);
 
     const int grid = options.grid;
-    const std::size_t vertex_count = static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1);
-    const std::size_t bytes = vertex_count * 3 * 4 * sizeof(float);
-    if (bytes != s.vertices_bytes) {
+    const std::size_t dense_bytes = static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12 * sizeof(float);
+    if (dense_bytes != s.vertices_bytes) {
         s.vertices = GlObject::buffer();
-        glNamedBufferStorage(s.vertices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
-        s.vertices_bytes = bytes;
+        glNamedBufferStorage(s.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
+        s.vertices_bytes = dense_bytes;
     }
 
     glBindVertexArray(s.vao.get());
@@ -101,17 +183,31 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.steps.get());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
     glBindTextureUnit(0, s.iris.get());
 
     const optics::Ray axis = optics::collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
+    const double cos_angle = std::abs(axis.direction.z);
     const double pixel_area = view.pixel_area_mm2();
     const std::size_t pixels = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
     std::vector<GhostPower> powers(ghosts.size());
     for (std::size_t g = 0; g < ghosts.size(); ++g) powers[g] = {ghosts[g].first, ghosts[g].second, {}};
     std::vector<double> accumulated;  // per-ghost mode: the image summed on the CPU
     if (options.per_ghost_power) accumulated.assign(pixels * 3, 0.0);
+
+    auto dispatch_trace = [&](int res, const PupilRect& rect, int first_step, int step_count, GLuint vertex_offset) {
+        glUseProgram(s.trace.get());
+        glUniform1i(s.trace.uniform("step_offset"), first_step);
+        glUniform1i(s.trace.uniform("step_count"), step_count);
+        glUniform1ui(s.trace.uniform("vertex_offset"), vertex_offset);
+        glUniform1i(s.trace.uniform("grid"), res);
+        glUniform4f(s.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
+                    static_cast<float>(rect.x1), static_cast<float>(rect.y1));
+        glUniform3f(s.trace.uniform("direction"), static_cast<float>(axis.direction.x),
+                    static_cast<float>(axis.direction.y), static_cast<float>(axis.direction.z));
+        glUniform1i(s.trace.uniform("table_size"), kTableSize);
+        const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
+        glDispatchCompute(groups, groups, 1);
+    };
 
     for (const auto& [wavelength, mask] : view.passes()) {
         const TraceSystem traced(system, wavelength);
@@ -122,68 +218,76 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                     system.name, k + 1));
             }
         }
+        if (ghosts.empty()) break;
+        const GhostSequences seq = build_sequences(traced, ghosts);
+        s.steps = GlObject::buffer();
+        glNamedBufferStorage(s.steps.get(), static_cast<GLsizeiptr>(seq.steps.size() * sizeof(StepData)), seq.steps.data(), 0);
+        s.tables = GlObject::buffer();
+        glNamedBufferStorage(s.tables.get(), static_cast<GLsizeiptr>(seq.tables.size() * sizeof(float)), seq.tables.data(), 0);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.steps.get());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, s.tables.get());
+        glUseProgram(s.trace.get());
+        glUniform1f(s.trace.uniform("sensor_z"), static_cast<float>(traced.sensor_z()));
+
+        // Coarse pass over the whole entrance square, all ghosts in batches: which part of the pupil each
+        // ghost's light gets through, and roughly how much. At least 8 coarse rays span the entrance pupil.
+        const PupilRect square = entrance_square(traced, view);
+        const double side = std::max(square.x1 - square.x0, square.y1 - square.y0);
         const double epd = optics::paraxial(system, wavelength).entrance_pupil_diameter_mm;
+        const double spacing = std::min(side / 48.0, std::max(epd, 1e-3) / 8.0);
+        const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
+        const std::size_t coarse_vertices = static_cast<std::size_t>(res + 1) * static_cast<std::size_t>(res + 1);
+        const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (coarse_vertices * 48));
+        std::vector<CoarseResult> coarse(ghosts.size());
+        std::vector<float> readback;
+        for (std::size_t first = 0; first < ghosts.size(); first += batch) {
+            const std::size_t n = std::min(batch, ghosts.size() - first);
+            GlObject coarse_buffer = GlObject::buffer();
+            glNamedBufferStorage(coarse_buffer.get(), static_cast<GLsizeiptr>(n * coarse_vertices * 48), nullptr,
+                                 GL_MAP_READ_BIT);
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, coarse_buffer.get());
+            for (std::size_t g = first; g < first + n; ++g) {
+                dispatch_trace(res, square, seq.offset[g], seq.count[g], static_cast<GLuint>((g - first) * coarse_vertices));
+            }
+            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+            readback.resize(n * coarse_vertices * 12);
+            glGetNamedBufferSubData(coarse_buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)),
+                                    readback.data());
+            check_gl("the coarse ghost pass");
+            for (std::size_t g = first; g < first + n; ++g) {
+                coarse[g] = coarse_bounds(readback.data() + (g - first) * coarse_vertices * 12, res, square,
+                                          seq.stop_crossings[g], system.aperture, cos_angle);
+            }
+        }
+        double total_estimate = 0.0;
+        for (const CoarseResult& c : coarse) total_estimate += c.power;
+
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
         for (std::size_t g = 0; g < ghosts.size(); ++g) {
             const Ghost& ghost = ghosts[g];
-            const PupilRect rect = ghost_pupil_bounds(traced, ghost, system.aperture, view, epd);
+            const PupilRect& rect = coarse[g].rect;
             if (rect.empty()) continue;
-
-            std::vector<StepData> steps;
-            std::vector<float> table(ghost.path.size() * kTableSize, 1.0f);
-            int stop_crossings = 0;
-            for (std::size_t k = 0; k < ghost.path.size(); ++k) {
-                const optics::Step& step = ghost.path[k];
-                const optics::TraceInterface& surface = traced.interfaces()[static_cast<std::size_t>(step.interface)];
-                const double n_in = step.forward ? surface.n_before : surface.n_after;
-                const double n_out = step.forward ? surface.n_after : surface.n_before;
-                const int kind = surface.is_stop ? 2 : (step.reflect ? 1 : 0);
-                if (surface.is_stop) ++stop_crossings;
-                steps.push_back({{static_cast<float>(surface.z), static_cast<float>(surface.curvature),
-                                  static_cast<float>(surface.conic), static_cast<float>(surface.semi_diameter)},
-                                 {static_cast<float>(n_in), static_cast<float>(n_out), static_cast<float>(kind),
-                                  step.forward ? 1.0f : 0.0f}});
-                if (kind == 2) continue;
-                for (int i = 0; i < kTableSize; ++i) {
-                    const double cos_i = static_cast<double>(i) / (kTableSize - 1);
-                    const optics::Reflectance rt =
-                        optics::coated_reflectance(surface.coating, n_in, n_out, cos_i, wavelength, step.forward);
-                    table[k * kTableSize + static_cast<std::size_t>(i)] = static_cast<float>(step.reflect ? rt.R : rt.T);
-                }
-            }
-            s.steps = GlObject::buffer();
-            glNamedBufferStorage(s.steps.get(), static_cast<GLsizeiptr>(steps.size() * sizeof(StepData)), steps.data(), 0);
-            s.tables = GlObject::buffer();
-            glNamedBufferStorage(s.tables.get(), static_cast<GLsizeiptr>(table.size() * sizeof(float)), table.data(), 0);
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.steps.get());
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, s.tables.get());
-
-            glUseProgram(s.trace.get());
-            glUniform1i(s.trace.uniform("step_count"), static_cast<GLint>(steps.size()));
-            glUniform1i(s.trace.uniform("grid"), grid);
-            glUniform4f(s.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
-                        static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-            glUniform3f(s.trace.uniform("direction"), static_cast<float>(axis.direction.x),
-                        static_cast<float>(axis.direction.y), static_cast<float>(axis.direction.z));
-            glUniform1f(s.trace.uniform("sensor_z"), static_cast<float>(traced.sensor_z()));
-            glUniform1i(s.trace.uniform("table_size"), kTableSize);
-            const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
-            glDispatchCompute(groups, groups, 1);
+            // Intensity LOD: ghosts holding 1% of the estimated total or more get the full grid; dimmer
+            // ones a grid whose ray count scales with their power (at least 16 x 16 cells).
+            const double share = total_estimate > 0.0 ? coarse[g].power / total_estimate : 1.0;
+            const int ghost_grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / 0.01))),
+                                              std::min(16, grid), grid);
+            dispatch_trace(ghost_grid, rect, seq.offset[g], seq.count[g], 0);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
             check_gl(fmt::format("tracing ghost {},{}", ghost.second, ghost.first));
 
-            const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(grid) * grid);
+            const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
             glUseProgram(s.raster.get());
-            glUniform1i(s.raster.uniform("grid"), grid);
+            glUniform1i(s.raster.uniform("grid"), ghost_grid);
             glUniform2f(s.raster.uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
                         static_cast<float>(view.sensor_height_mm / 2));
-            glUniform1f(s.raster.uniform("triangle_flux"),
-                        static_cast<float>(0.5 * cell_area * std::abs(axis.direction.z)));
+            glUniform1f(s.raster.uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
             glUniform1i(s.raster.uniform("iris_sdf"), 0);
             glUniform1f(s.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-            glUniform1i(s.raster.uniform("stop_crossings"), stop_crossings);
+            glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
             glUniform4f(s.raster.uniform("channels"), mask[0] ? 1.0f : 0.0f, mask[1] ? 1.0f : 0.0f,
                         mask[2] ? 1.0f : 0.0f, 0.0f);
-            glDrawArrays(GL_TRIANGLES, 0, 6 * grid * grid);
+            glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
 
             if (options.per_ghost_power) {

@@ -14,7 +14,9 @@ struct StepData { vec4 geom; vec4 media; };
 layout(std430, binding = 0) readonly buffer Steps { StepData steps[]; };
 layout(std430, binding = 1) readonly buffer Tables { float factors[]; };
 layout(std430, binding = 2) writeonly buffer Vertices { vec4 vertices[]; };
+uniform int step_offset;  // this ghost's first step in steps[] (and table in factors[])
 uniform int step_count;
+uniform uint vertex_offset;  // this ghost's first vertex in vertices[]
 uniform int grid;
 uniform vec4 rect;       // entrance plane z = 0: x0, y0, x1, y1 (mm)
 uniform vec3 direction;  // unit, towards +z
@@ -25,7 +27,7 @@ float factor(int s, float cos_i) {
     float x = clamp(cos_i, 0.0, 1.0) * float(table_size - 1);
     int i = min(int(x), table_size - 2);
     float f = x - float(i);
-    int base = s * table_size;
+    int base = (step_offset + s) * table_size;
     return mix(factors[base + i], factors[base + i + 1], f);
 }
 
@@ -41,8 +43,8 @@ void main() {
     int crossings = 0;
     bool ok = true;
     for (int s = 0; s < step_count; ++s) {
-        vec4 geom = steps[s].geom;
-        vec4 media = steps[s].media;
+        vec4 geom = steps[step_offset + s].geom;
+        vec4 media = steps[step_offset + s].media;
         vec3 p = o - vec3(0.0, 0.0, geom.x);
         float c = geom.y;
         float k1 = 1.0 + geom.z;
@@ -94,7 +96,7 @@ void main() {
         ok = false;
         sensor = vec2(0.0);
     }
-    uint index = id.y * uint(grid + 1) + id.x;
+    uint index = vertex_offset + id.y * uint(grid + 1) + id.x;
     vertices[3u * index + 0u] = vec4(sensor, r_rel, transmission);
     vertices[3u * index + 1u] = vec4(uv[0], uv[1]);
     vertices[3u * index + 2u] = vec4(uv[2], ok ? 1.0 : 0.0, 0.0);

@@ -97,13 +97,24 @@ std::array<double, 2> sensor_to_pixel(const FlareView& view, double x_mm, double
 
 struct ReferenceOptions {
     int rays = 512;               // N: N x N rays per ghost and wavelength over the entrance square
-    int threads = 2;              // the result does not depend on it
+    int threads = 2;              // bands of ray rows; the same thread count repeats the image exactly
     bool per_ghost_power = true;  // fill FlareImage::ghosts
 };
 
-// The dense reference: for each ghost and wavelength, N x N collimated rays on a regular grid over the
-// entrance square, each traced exactly (double, coatings per ray) and carrying the power of its cell
-// (cell area x cos of the light's angle x transmission), added into the pixel it lands in.
+// The dense reference: for each ghost and wavelength, N x N collimated rays over the entrance square,
+// one at a fixed pseudo-random point of each cell of an N x N grid (stratified, so no moire), each traced
+// exactly (double, coatings per ray) and carrying the power of its cell (cell area x cos of the light's
+// angle x transmission), added into the pixel it lands in.
 FlareImage render_reference(const System& system, const FlareView& view, const ReferenceOptions& options = {});
+
+// How far a flare image is from a reference of the same view, channel by channel (the worst channel).
+struct FlareError {
+    double total = 0.0;        // |power - reference power| / reference power over the whole image
+    double worst_ghost = 0.0;  // the same per ghost, over the ghosts holding more than 1% of the total
+                               // (both images need FlareImage::ghosts; 0 when either lacks them)
+    double block_l1 = 0.0;     // sum over block x block pixel tiles of |sum - reference sum| / reference total
+    int compared_ghosts = 0;
+};
+FlareError compare_flare(const FlareImage& image, const FlareImage& reference, const FlareView& view, int block = 8);
 
 }  // namespace lensfx::gpu

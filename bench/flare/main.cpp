@@ -1,0 +1,123 @@
+// bench_flare: for each lens preset, the number of ghosts, milliseconds per flare on the GPU at the
+// default grid (RGB and one wavelength) and for the dense CPU reference, and the GPU image's error
+// against the reference (total power, worst ghost over 1% of the total, 8x8-block relative L1).
+//   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
+//               [--repeat K] [--gpu auto|device|surfaceless]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+#include <gpu/context.h>
+#include <gpu/flare.h>
+#include <gpu/flare_renderer.h>
+#include <optics/lens_file.h>
+#include <optics/paraxial.h>
+#include <optics/presets.h>
+#include <optics/system.h>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::vector<std::string> split(const std::string& text, char sep) {
+    std::vector<std::string> out;
+    std::stringstream in(text);
+    for (std::string item; std::getline(in, item, sep);) {
+        if (!item.empty()) out.push_back(item);
+    }
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+    std::vector<std::string> presets = lensfx::optics::preset_names();
+    double ax = 8.0;
+    double ay = 5.0;
+    std::optional<double> fstop;
+    int width = 240;
+    int height = 160;
+    int grid = lensfx::gpu::GpuFlareOptions{}.grid;
+    int rays = 400;
+    int repeat = 3;
+    std::string platform = "auto";
+    for (int i = 1; i + 1 < argc; i += 2) {
+        const std::string key = argv[i];
+        const std::string value = argv[i + 1];
+        if (key == "--presets") presets = split(value, ',');
+        else if (key == "--angle") { const auto v = split(value, ','); ax = std::stod(v.at(0)); ay = std::stod(v.at(1)); }
+        else if (key == "--fstop") fstop = std::stod(value);
+        else if (key == "--size") { const auto v = split(value, 'x'); width = std::stoi(v.at(0)); height = std::stoi(v.at(1)); }
+        else if (key == "--grid") grid = std::stoi(value);
+        else if (key == "--rays") rays = std::stoi(value);
+        else if (key == "--repeat") repeat = std::max(1, std::stoi(value));
+        else if (key == "--gpu") platform = value;
+        else throw std::invalid_argument("unknown option " + key);
+    }
+
+    const lensfx::gpu::Context context(lensfx::gpu::parse_platform(platform));
+    lensfx::gpu::FlareRenderer renderer(context);
+    fmt::print("# {} | {} | light ({}, {}) deg | {}x{} px | GPU grid {} | reference {}x{} rays, 2 threads\n",
+               context.info().gl_renderer, lensfx::gpu::platform_name(context.info().platform), ax, ay, width,
+               height, grid, rays, rays);
+    fmt::print("# error of the GPU image against the reference at 550 nm (total power, worst ghost > 1%, 8x8 L1)\n");
+    fmt::print("{:<24} {:>6} {:>6} {:>11} {:>11} {:>12} {:>8} {:>8} {:>8}\n", "preset", "f/", "ghosts", "gpu_rgb_ms",
+               "gpu_1wl_ms", "ref_1wl_ms", "total%", "ghost%", "L1%");
+    for (const std::string& name : presets) {
+        try {
+            const lensfx::optics::Lens lens = lensfx::optics::load_lens(name);
+            const lensfx::optics::System system = lensfx::optics::realize(lens, 0.0, fstop);
+            lensfx::gpu::FlareView view;
+            view.angle_x_deg = ax;
+            view.angle_y_deg = ay;
+            view.width = width;
+            view.height = height;
+            const std::size_t ghosts = lensfx::optics::ghost_count(system);
+            lensfx::gpu::GpuFlareOptions options;
+            options.grid = grid;
+            renderer.render(system, view, options);  // warm-up: shader caches, buffers
+            double rgb_ms = 1e300;
+            for (int k = 0; k < repeat; ++k) {
+                const auto start = Clock::now();
+                renderer.render(system, view, options);
+                rgb_ms = std::min(rgb_ms, ms_since(start));
+            }
+            view.wavelength_nm = 550.0;
+            double one_ms = 1e300;
+            for (int k = 0; k < repeat; ++k) {
+                const auto start = Clock::now();
+                renderer.render(system, view, options);
+                one_ms = std::min(one_ms, ms_since(start));
+            }
+            options.per_ghost_power = true;
+            const lensfx::gpu::FlareImage gpu_image = renderer.render(system, view, options);
+            lensfx::gpu::ReferenceOptions ref_options;
+            ref_options.rays = rays;
+            const auto start = Clock::now();
+            const lensfx::gpu::FlareImage reference = lensfx::gpu::render_reference(system, view, ref_options);
+            const double ref_ms = ms_since(start);
+            const lensfx::gpu::FlareError error = lensfx::gpu::compare_flare(gpu_image, reference, view);
+            fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f} {:>12.1f} {:>8.2f} {:>8.2f} {:>8.2f}\n", name,
+                       lensfx::optics::paraxial(system).f_number, ghosts, rgb_ms, one_ms, ref_ms,
+                       100 * error.total, 100 * error.worst_ghost, 100 * error.block_l1);
+            std::fflush(stdout);
+        } catch (const std::exception& e) {
+            fmt::print("{:<24} failed: {}\n", name, e.what());
+        }
+    }
+    return 0;
+} catch (const std::exception& e) {
+    fmt::print(stderr, "bench_flare: {}\n", e.what());
+    return 1;
+}
