@@ -42,12 +42,26 @@ struct Item {
     bool fatal = false;  // a bad stream cannot be resynchronised: never skipped
 };
 
+// One line: library messages (OpenImageIO's) may hold several.
+std::string one_line(std::string text) {
+    while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+    std::string out;
+    for (char c : text) {
+        if (c == '\n' || c == '\r') {
+            if (!out.empty() && out.back() != ' ') out += "; ";
+        } else {
+            out += c;
+        }
+    }
+    return out;
+}
+
 // The first failure of a run; later ones (consequences of cancelling) are dropped.
 class Failure {
 public:
     void set(std::string message) {
         std::lock_guard lock(mutex_);
-        if (message_.empty()) message_ = std::move(message);
+        if (message_.empty()) message_ = one_line(std::move(message));
     }
     std::string get() {
         std::lock_guard lock(mutex_);
@@ -99,6 +113,9 @@ Plan make_plan(const PipelineOptions& o) {
         if (dir.empty()) dir = ".";
         if (!fs::is_directory(dir)) throw std::runtime_error(fmt::format("{}: output directory {} does not exist", o.output, dir.string()));
         if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(fmt::format("{}: output directory {} is not writable", o.output, dir.string()));
+        if (!is_known_output_format(o.output)) {
+            throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", o.output, fs::path(o.output).extension().string()));
+        }
     }
     if (plan.stream_in) {
         if (!o.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
@@ -209,7 +226,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     item.frame->source = "-";
                 } catch (const std::exception& e) {
                     item.frame.reset();
-                    item.record.error = e.what();
+                    item.record.error = one_line(e.what());
                     item.fatal = true;
                 }
                 item.record.read_ms = ms_since(t0);
@@ -234,7 +251,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     item.frame->number = plan.numbers[i];
                 } catch (const std::exception& e) {
                     item.frame.reset();
-                    item.record.error = e.what();
+                    item.record.error = one_line(e.what());
                 }
                 item.record.read_ms = ms_since(t0);
                 if (!read_queue.push(std::move(item))) break;
@@ -312,7 +329,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 }
             } catch (const std::exception& e) {
                 item->frame.reset();
-                rec.error = e.what();
+                rec.error = one_line(e.what());
             }
             rec.process_ms = ms_since(t0);
         }
@@ -334,11 +351,11 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
 }
 
 void write_report(const RunReport& report, const std::string& path) {
-    nlohmann::json frames = nlohmann::json::array();
+    nlohmann::ordered_json frames = nlohmann::ordered_json::array();
     for (const auto& f : report.frames) {
-        nlohmann::json stages = nlohmann::json::object();
+        nlohmann::ordered_json stages = nlohmann::ordered_json::object();
         for (const auto& [name, ms] : f.stage_ms) stages[name] = ms;
-        nlohmann::json j = {{"index", f.index},       {"number", f.number},         {"input", f.input},
+        nlohmann::ordered_json j = {{"index", f.index},       {"number", f.number},         {"input", f.input},
                             {"output", f.output},     {"status", f.written ? "written" : "skipped"},
                             {"read_ms", f.read_ms},   {"process_ms", f.process_ms}, {"write_ms", f.write_ms},
                             {"stages_ms", stages}};
@@ -346,7 +363,7 @@ void write_report(const RunReport& report, const std::string& path) {
         frames.push_back(std::move(j));
     }
     const double fps = report.wall_seconds > 0 ? static_cast<double>(report.written()) / report.wall_seconds : 0.0;
-    nlohmann::json j = {{"input", report.input},
+    nlohmann::ordered_json j = {{"input", report.input},
                         {"output", report.output},
                         {"threads", report.threads},
                         {"frames_written", report.written()},
