@@ -17,6 +17,7 @@ namespace lensfx::detect {
 namespace {
 
 using nlohmann::json;
+using ojson = nlohmann::ordered_json;
 
 constexpr const char* kFormat = "lensfx-tracks";
 constexpr int kVersion = 1;
@@ -34,8 +35,8 @@ bool shape_differs(const std::optional<Shape>& a, const std::optional<Shape>& b)
     return d > kShapeChange;
 }
 
-json shape_json(const Shape& s) {
-    return json{{"size", {s.width, s.height}}, {"cell", s.cell}, {"origin", {s.origin_x, s.origin_y}}, {"weights", s.weights}};
+ojson shape_json(const Shape& s) {
+    return ojson{{"size", {s.width, s.height}}, {"cell", s.cell}, {"origin", {s.origin_x, s.origin_y}}, {"weights", s.weights}};
 }
 
 Light light_of(int id, const TrackKey& k) {
@@ -140,27 +141,31 @@ std::pair<int, int> TrackFile::frame_range() const {
 }
 
 std::string to_json_text(const TrackFile& file) {
-    json tracks = json::array();
-    for (const Track& t : file.tracks) {
-        json keys = json::array();
+    // One line per key, so a shot reads (and diffs) as one line per light and frame.
+    std::string out = fmt::format("{{\n \"format\": \"{}\",\n \"version\": {},\n \"width\": {},\n \"height\": {},\n \"tracks\": [",
+                                  kFormat, kVersion, file.width, file.height);
+    for (std::size_t ti = 0; ti < file.tracks.size(); ++ti) {
+        const Track& t = file.tracks[ti];
+        out += fmt::format("{}\n  {{\"id\": {}, \"origin\": {}, \"keys\": [", ti ? "," : "", t.id, ojson(t.origin).dump());
         std::optional<Shape> stored;
-        for (const TrackKey& k : t.keys) {
-            json jk{{"frame", k.frame},
-                    {"position", {k.x, k.y}},
-                    {"flux", {k.flux[0], k.flux[1], k.flux[2]}},
-                    {"extent", {k.extent.major, k.extent.minor, k.extent.angle_deg}},
-                    {"weight", k.weight}};
+        for (std::size_t ki = 0; ki < t.keys.size(); ++ki) {
+            const TrackKey& k = t.keys[ki];
+            ojson jk{{"frame", k.frame},
+                     {"position", {k.x, k.y}},
+                     {"flux", {k.flux[0], k.flux[1], k.flux[2]}},
+                     {"extent", {k.extent.major, k.extent.minor, k.extent.angle_deg}},
+                     {"weight", k.weight}};
             if (k.clipped) jk["clipped"] = true;
             if (shape_differs(k.shape, stored)) {
-                jk["shape"] = k.shape ? shape_json(*k.shape) : json(nullptr);
+                jk["shape"] = k.shape ? shape_json(*k.shape) : ojson(nullptr);
                 stored = k.shape;
             }
-            keys.push_back(std::move(jk));
+            out += fmt::format("{}\n   {}", ki ? "," : "", jk.dump());
         }
-        tracks.push_back(json{{"id", t.id}, {"origin", t.origin}, {"keys", std::move(keys)}});
+        out += "\n  ]}";
     }
-    const json doc{{"format", kFormat}, {"version", kVersion}, {"width", file.width}, {"height", file.height}, {"tracks", std::move(tracks)}};
-    return doc.dump(1) + "\n";
+    out += "\n ]\n}\n";
+    return out;
 }
 
 TrackFile parse_track_json(std::string_view text, const std::string& name) {

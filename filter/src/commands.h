@@ -15,5 +15,7 @@ void register_lens_commands(CLI::App& app);
 void register_gpu_command(CLI::App& app);
 // `lensfx flare --lens LENS --angle AX,AY ... -o OUT.exr`.
 void register_flare_command(CLI::App& app);
+// `lensfx track -i IN --tracks-out tracks.json`: detected and tracked lights of a shot as a track file.
+void register_track_command(CLI::App& app);
 
 }  // namespace lensfx::filter

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
     lensfx::filter::register_lens_commands(app);
     lensfx::filter::register_gpu_command(app);
     lensfx::filter::register_flare_command(app);
+    lensfx::filter::register_track_command(app);
 
     try {
         app.parse(argc, argv);
