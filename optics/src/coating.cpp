@@ -64,6 +64,32 @@ Reflectance matrix_one_polarisation(std::size_t count, LayerAt layer_at, double 
     return finite_or_total(std::norm(r), T);
 }
 
+// The propagating case (real cosines in the layer and the substrate) in real arithmetic: the ray
+// tracer's hot path. r = (r01 + r12 e^{-2i beta}) / (1 + r01 r12 e^{-2i beta}) with real r01, r12.
+bool single_layer_real(const FilmLayer& layer, double n_in, double n_out, double ci, double wavelength_nm,
+                       Reflectance& s_out, Reflectance& p_out) {
+    const double sin2 = std::max(0.0, (1.0 - ci) * (1.0 + ci));
+    const double n_sin2 = n_in * n_in * sin2;
+    const double c1_2 = 1.0 - n_sin2 / (layer.index * layer.index);
+    const double c2_2 = 1.0 - n_sin2 / (n_out * n_out);
+    if (c1_2 <= kMinCos || c2_2 <= kMinCos) return false;
+    const double c1 = std::sqrt(c1_2);
+    const double c2 = std::sqrt(c2_2);
+    const double cos2b = std::cos(4.0 * std::numbers::pi * layer.index * layer.thickness_nm * c1 / wavelength_nm);
+    const auto one = [&](double e0, double e1, double e2) {
+        const double r01 = (e0 - e1) / (e0 + e1);
+        const double r12 = (e1 - e2) / (e1 + e2);
+        const double t01 = 2.0 * e0 / (e0 + e1);
+        const double t12 = 2.0 * e1 / (e1 + e2);
+        const double cross = 2.0 * r01 * r12 * cos2b;
+        const double den = 1.0 + r01 * r01 * r12 * r12 + cross;
+        return Reflectance{(r01 * r01 + r12 * r12 + cross) / den, e2 / e0 * t01 * t01 * t12 * t12 / den};
+    };
+    s_out = one(n_in * ci, layer.index * c1, n_out * c2);
+    p_out = one(n_in / ci, layer.index / c1, n_out / c2);
+    return std::isfinite(s_out.R + s_out.T + p_out.R + p_out.T);
+}
+
 Reflectance single_layer_one_polarisation(const FilmLayer& layer, double n_in, double n_out, double ci,
                                           double wavelength_nm, bool p) {
     const double n_sin = n_in * std::sqrt(std::max(0.0, (1.0 - ci) * (1.0 + ci)));
@@ -136,6 +162,8 @@ Reflectance single_layer_reflectance(const FilmLayer& layer, double n_in, double
     const double ci0 = clamp_cos(cos_i);
     if (ci0 == 0.0) return {1.0, 0.0};
     const double ci = std::max(ci0, kMinCos);
+    Reflectance rs, rp;
+    if (single_layer_real(layer, n_in, n_out, ci, wavelength_nm, rs, rp)) return {0.5 * (rs.R + rp.R), 0.5 * (rs.T + rp.T)};
     const Reflectance s = single_layer_one_polarisation(layer, n_in, n_out, ci, wavelength_nm, false);
     const Reflectance p = single_layer_one_polarisation(layer, n_in, n_out, ci, wavelength_nm, true);
     return {0.5 * (s.R + p.R), 0.5 * (s.T + p.T)};

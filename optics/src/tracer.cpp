@@ -235,7 +235,7 @@ TraceResult trace(const TraceSystem& system, const Ray& ray, std::span<const Ste
             return fail(r, h == Hit::Miss ? TraceStatus::NoIntersection : TraceStatus::NonFinite, si, st.interface);
         if (t < 0.0) r.virtual_path = true;
         const double opl = r.optical_path_mm + n_cur * t;
-        const double rad = std::hypot(p.x, p.y);
+        const double rad = std::sqrt(p.x * p.x + p.y * p.y);
         double cos_i = std::min(1.0, std::abs(dot(d, n)));
         double factor = 1.0;
         Vec3 d_new = d;
