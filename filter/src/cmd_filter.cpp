@@ -10,6 +10,7 @@
 #include <fmt/core.h>
 
 #include <filter/colour.h>
+#include <filter/flare_stage.h>
 #include <filter/pipeline.h>
 
 namespace lensfx::filter {
@@ -23,6 +24,7 @@ struct FilterArgs {
     std::string size;
     bool progress = false;
     colour::ColourArgs colour;
+    FlareSettings flare;
 };
 
 void parse_size(const std::string& text, int& width, int& height) {
@@ -44,6 +46,7 @@ std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
     std::vector<std::unique_ptr<Stage>> stages;
     auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
+    if (!args.flare.lens.empty()) stages.push_back(std::make_unique<FlareStage>(args.flare));
     stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session));
     return stages;
 }
@@ -96,6 +99,7 @@ void register_filter(CLI::App& app) {
     app.add_flag("--progress", args->progress, "Show progress even when stderr is not a terminal");
     app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");
     colour::add_colour_options(app, args->colour);
+    add_flare_options(app, args->flare);
 
     app.callback([&app, args] {
         if (!app.get_subcommands().empty()) return;

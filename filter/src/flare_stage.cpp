@@ -225,14 +225,20 @@ void FlareStage::process(Frame& frame) {
 
         if (parts.starburst && s.settings.starburst_gain > 0.0) {
             if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture);
-            // The light's diffraction pattern carries its recorded energy, centred on its image.
+            // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
+            // already in the recorded pixels, so only the spikes and rings are added.
             std::array<double, 3> energy{};
             for (std::size_t c = 0; c < 3; ++c)
                 energy[c] = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost;
+            // An artistic --starburst-scale enlarges the core too; never leave out more than the light's
+            // own pixel, or a small light would show a hole.
+            const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
+                                    (geo.sensor_width_mm / geo.width);
+            const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
             optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x - dx0,
                                     light.y - dy0, energy, geo.sensor_width_mm / geo.width,
                                     geo.sensor_height_mm / geo.height, frame.rgb.data(), frame.spec.width,
-                                    frame.spec.height);
+                                    frame.spec.height, core_texels);
         }
         if (!parts.ghosts) continue;
 

@@ -92,6 +92,10 @@ std::array<double, 3> cie1931_xyz(double l) {
     return {x, y, z};
 }
 
+double starburst_core_radius_texels(const Starburst& starburst) {
+    return starburst.texel_per_fnumber_mm > 0.0 ? 2.23 * kReferenceNm * 1e-6 / starburst.texel_per_fnumber_mm : 0.0;
+}
+
 std::array<double, 3> Starburst::sums() const {
     std::array<double, 3> s{};
     for (std::size_t i = 0; i < rgb.size(); ++i) s[i % 3] += static_cast<double>(rgb[i]);
@@ -158,6 +162,16 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
         }
     }
     for (auto& plane : xyz) blur(plane, n, o.smoothing);
+    // The texture ends at its inscribed circle, fading over its outer third so no square edge shows.
+    for (int y = 0; y < n; ++y) {
+        for (int x = 0; x < n; ++x) {
+            const double r = std::hypot(x - n / 2, y - n / 2) / (0.5 * n);
+            const double t = std::clamp((r - 2.0 / 3.0) * 3.0, 0.0, 1.0);
+            const double w = 1.0 - t * t * (3.0 - 2.0 * t);
+            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x);
+            for (auto& plane : xyz) plane[i] *= w;
+        }
+    }
 
     Starburst sb;
     sb.size = n;
@@ -178,15 +192,21 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
 }
 
 void splat_starburst(const Starburst& sb, double f_number, double cx, double cy, const std::array<double, 3>& power,
-                     double pixel_w_mm, double pixel_h_mm, float* rgb, int width, int height) {
+                     double pixel_w_mm, double pixel_h_mm, float* rgb, int width, int height,
+                     double core_radius_texels) {
     if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
     const double texel_mm = sb.texel_per_fnumber_mm * f_number;
     const double tx = texel_mm / pixel_w_mm;  // texel size in pixels
     const double ty = texel_mm / pixel_h_mm;
     const double pixel_area = pixel_w_mm * pixel_h_mm;
     const double half = sb.size / 2;
+    const double core2 = core_radius_texels * core_radius_texels;
+    const auto in_core = [&](int texel) {
+        const double dx = texel % sb.size - half, dy = texel / sb.size - half;
+        return dx * dx + dy * dy < core2;
+    };
     const auto add = [&](int x, int y, double w, int texel) {
-        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0) return;
+        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0 || in_core(texel)) return;
         float* px = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
         for (std::size_t c = 0; c < 3; ++c)
             px[c] += static_cast<float>(w * power[c] / pixel_area * static_cast<double>(sb.rgb[static_cast<std::size_t>(texel) * 3 + c]));

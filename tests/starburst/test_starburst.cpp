@@ -106,3 +106,17 @@ TEST(Starburst, SplatKeepsEnergyAndGrowsWithTheFNumber) {
         }
     }
 }
+
+TEST(Starburst, CoreLeftOutHoldsMostOfTheEnergy) {
+    // A round iris at one wavelength: inside the second dark ring lies about 91% of the Airy pattern.
+    const Starburst s = make_starburst(Aperture{0, 0.0, 0.0}, small(550.0, 550.0));
+    const int w = 64, h = 64;
+    std::vector<float> img(static_cast<std::size_t>(w * h * 3), 0.0f);
+    const double pixel = s.texel_per_fnumber_mm * 8.0 * 20.0;  // texels much smaller than pixels at f/8
+    splat_starburst(s, 8.0, 32.0, 32.0, {1.0, 1.0, 1.0}, pixel, pixel, img.data(), w, h,
+                    starburst_core_radius_texels(s));
+    double sum = 0.0;
+    for (std::size_t i = 1; i < img.size(); i += 3) sum += static_cast<double>(img[i]) * pixel * pixel;
+    EXPECT_GT(sum, 0.05);
+    EXPECT_LT(sum, 0.13);
+}

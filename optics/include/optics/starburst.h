@@ -36,7 +36,7 @@ struct StarburstOptions {
 };
 
 // A square RGB texture centred on the light; texel (size/2, size/2) holds the centre. Each channel sums to
-// 1. One texel spans texel_per_fnumber_mm x f-number millimetres on the sensor (for a lens working at
+// 1; the pattern fades out towards the texture's inscribed circle. One texel spans texel_per_fnumber_mm x f-number millimetres on the sensor (for a lens working at
 // f-number N, the pattern's scale is proportional to wavelength x N, eq. 2 with z0 / D = N).
 struct Starburst {
     int size = 0;
@@ -55,9 +55,15 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& optio
 // Adds a starburst of the given total power per channel (image units x mm^2) centred at (cx, cy) (pixels,
 // continuous, (0,0) the top-left corner) to an RGB float image of width x height whose pixels span
 // pixel_w_mm x pixel_h_mm on the sensor, for a lens at f-number N. Each output pixel integrates the
-// texture over its footprint (box filter), so energy is kept at any scale.
+// texture over its footprint (box filter), so energy is kept at any scale. Texels closer to the centre
+// than core_radius_texels are left out: for a light already in the image, its recorded pixels hold the
+// pattern's core, and only the spikes and rings around it are new.
 void splat_starburst(const Starburst& starburst, double f_number, double cx, double cy,
                      const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                     float* rgb, int width, int height);
+                     float* rgb, int width, int height, double core_radius_texels = 0.0);
+
+// Radius in texels of the second dark ring of a round iris's pattern at 550 nm (2.23 lambda N), inside
+// which about 91% of the energy lies: the core an image of the light already holds.
+double starburst_core_radius_texels(const Starburst& starburst);
 
 }  // namespace lensfx::optics
