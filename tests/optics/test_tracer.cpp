@@ -5,6 +5,9 @@
 #include <cmath>
 #include <numbers>
 
+#include <optics/paraxial.h>
+#include <optics/presets.h>
+#include <optics/system.h>
 #include <optics/tracer.h>
 
 #include "physics_systems.h"
@@ -248,4 +251,24 @@ TEST(Tracer, ReversedPathRetracesTheRay) {
     ASSERT_TRUE(b.ok());
     EXPECT_NEAR(length(b.position - hits[0].position), 0.0, 1e-10);
     EXPECT_NEAR(b.transmission, f.transmission, 1e-14);
+}
+
+TEST(Tracer, NearAxisRaysAgreeWithParaxialAnalysisOnEveryPreset) {
+    // Two independent computations of the same first-order data: this tracer's near-axis real ray and
+    // the y-nu paraxial trace of optics/paraxial.h, at every zoom end and the middle.
+    int checked = 0;
+    for (const auto& name : preset_names()) {
+        const Lens lens = load_preset(name);
+        for (double zoom : lens.zoom_positions() > 1 ? std::vector<double>{0.0, 0.5, 1.0} : std::vector<double>{0.0}) {
+            const System sys = realize(lens, zoom);
+            for (double nm : {450.0, 587.56, 650.0}) {
+                const Paraxial p = paraxial(sys, nm);
+                const Focal f = focal_from_ray(sys, nm);
+                EXPECT_NEAR(f.efl, p.efl_mm, 1e-6 * std::abs(p.efl_mm)) << name << " zoom " << zoom << " " << nm << " nm";
+                EXPECT_NEAR(f.bfl, p.bfl_mm, 1e-6 * std::abs(p.efl_mm)) << name << " zoom " << zoom << " " << nm << " nm";
+                ++checked;
+            }
+        }
+    }
+    EXPECT_GT(checked, 30);
 }
