@@ -141,8 +141,17 @@ Lens parse_pbrt_dat(std::string_view text, std::string_view origin) {
     coat_air_glass(lens);
     if (!lens.surfaces.empty()) lens.surfaces.back().thickness_mm = {0.0};
     validate_lens(lens, origin);
-    const System sys = realize(lens);
-    lens.surfaces.back().thickness_mm = {sys.sensor_z_mm - sys.interfaces.back().z_mm};
+    double bfl = 0.0;
+    try {
+        const System sys = realize(lens);
+        bfl = sys.sensor_z_mm - sys.interfaces.back().z_mm;
+    } catch (const std::invalid_argument& e) {
+        throw LensFileError(fmt::format("{}: {}", origin, e.what()));
+    }
+    if (!(bfl > 0.0))
+        fail(origin, lens.surfaces.back().source_line,
+             fmt::format("the paraxial focus lies {:.4g} mm before the last surface: no real image to put the sensor at", bfl));
+    lens.surfaces.back().thickness_mm = {bfl};
     return lens;
 }
 
@@ -195,7 +204,11 @@ Lens parse_lentil_fx(std::string_view text, std::string_view origin) {
             const double nd = number(cols[3], origin, line_no, "index");
             const double vd = number(cols[4], origin, line_no, "vno");
             if (nd < 1.0) fail(origin, line_no, fmt::format("index: {} is not a refractive index", nd));
-            s.medium = vd == 0.0 ? constant_glass(nd) : glass_from_abbe(nd, vd, lower == "abbe" ? "" : material);
+            try {
+                s.medium = vd == 0.0 ? constant_glass(nd) : glass_from_abbe(nd, vd, lower == "abbe" ? "" : material);
+            } catch (const std::invalid_argument& e) {
+                fail(origin, line_no, fmt::format("vno: {}", e.what()));
+            }
             next = 5;
         }
         if (cols.size() <= next) fail(origin, line_no, "sa: missing (clear semi-aperture)");

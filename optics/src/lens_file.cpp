@@ -143,7 +143,11 @@ std::optional<Glass> read_medium(Fields& f) {
         if (*nd < 1.0 || *nd > 3.0) f.error("nd", fmt::format("{} is not a refractive index of glass (1 to 3)", *nd));
         if (vd) {
             if (*vd <= 0.0 || *vd > 150.0) f.error("vd", fmt::format("Abbe number {} outside (0, 150]", *vd));
-            return glass_from_abbe(*nd, *vd, label.value_or(""));
+            try {
+                return glass_from_abbe(*nd, *vd, label.value_or(""));
+            } catch (const std::invalid_argument& e) {
+                f.error("vd", e.what());
+            }
         }
         Glass g;
         g.name = label.value_or(fmt::format("n={}", *nd));

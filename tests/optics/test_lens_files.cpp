@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -363,6 +364,49 @@ TEST(LensFile, NegativeAirGapNextToTheStopIsAllowed) {
     EXPECT_EQ(parse_error("name = \"ok\"\nsurfaces = [\n  { r = 50, t = 5, sd = 10, nd = 1.5 },\n"
                           "  { r = -50, t = -1, sd = 10 },\n  { stop = true, t = 40, sd = 5 },\n]\n"),
               "");
+}
+
+// Damaged files (characters deleted, replaced or duplicated) either still parse into a valid lens or fail
+// with a LensFileError that names the file; never another exception, a crash or a hang.
+TEST(LensFile, DamagedFilesFailCleanly) {
+    const std::string original(*preset_text("canon-70-200"));
+    const std::string fx = "# t\n#!scale 0.5\n60 8 LAK9 1.691 54.7 20\n-200 2/12 air 20\n10000 5 iris 10\n"
+                           "-50 3 abbe 1.6 40 12 #!aspheric=0,1e-6,2e-9\n80 40 air 12\n";
+    const std::string dat = "# x\n50 5 1.5 20\n-50 10 1 20\n0 5 0 8\n30 4 1.6 16\n200 0 1 16\n";
+    std::uint64_t state = 12345;
+    const auto next = [&state] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return static_cast<std::size_t>(state >> 33);
+    };
+    const std::string alphabet = "0123456789.-+e,[]{}=\"#/ \nabcinfnax";
+    int parsed = 0, rejected = 0;
+    for (int trial = 0; trial < 600; ++trial) {
+        const std::string& base = trial % 3 == 0 ? original : (trial % 3 == 1 ? fx : dat);
+        std::string text = base;
+        for (int edits = 1 + static_cast<int>(next() % 3); edits > 0; --edits) {
+            const std::size_t at = next() % text.size();
+            switch (next() % 3) {
+                case 0: text.erase(at, 1 + next() % 4); break;
+                case 1: text[at] = alphabet[next() % alphabet.size()]; break;
+                default: text.insert(at, text.substr(at, 1 + next() % 6)); break;
+            }
+        }
+        try {
+            Lens lens;
+            if (trial % 3 == 0) lens = parse_lens_toml(text, "damaged.toml");
+            else if (trial % 3 == 1) lens = parse_lentil_fx(text, "damaged.fx");
+            else lens = parse_pbrt_dat(text, "damaged.dat");
+            validate_lens(lens, "again");
+            ++parsed;
+        } catch (const LensFileError& e) {
+            EXPECT_NE(std::string(e.what()).find("damaged."), std::string::npos) << e.what();
+            ++rejected;
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << "not a LensFileError: " << e.what() << "\n" << text;
+        }
+    }
+    EXPECT_GT(rejected, 100);
+    EXPECT_GT(parsed, 10);
 }
 
 // ---------------------------------------------------------------- importers
