@@ -104,7 +104,8 @@ struct TraceResult {
     std::array<Vec2, 3> stop_crossings{};
     int stop_count = 0;
     double transmission = 0.0;   // product of the R/T factors along the path (0 when failed)
-    double optical_path_mm = 0.0;  // sum of n * geometric length, origin to the final position
+    double optical_path_mm = 0.0;  // sum of n * ray parameter, origin to the final position (signed: a
+                                   // negative ray parameter, see virtual_path, subtracts)
     bool virtual_path = false;   // some step needed a negative ray parameter (the paper's extension)
 
     bool ok() const { return status == TraceStatus::Ok; }
