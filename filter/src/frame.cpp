@@ -2,6 +2,7 @@
 #include <filter/frame.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -103,6 +104,15 @@ void store_rgb(Frame& frame) {
     if (frame.rgb.size() != frame.pixel_count() * 3) {
         throw std::runtime_error(fmt::format("the RGB working buffer holds {} values, the data window needs {}",
                                              frame.rgb.size(), frame.pixel_count() * 3));
+    }
+    // A finite value beyond half's range would become Inf: an effect's bright result is kept at the largest
+    // finite half instead (what it would saturate to on any display), never turned into a non-number.
+    bool any_half = false;
+    for (int c : frame.rgb_channels) any_half = any_half || frame.spec.channelformat(c) == OIIO::TypeDesc::HALF;
+    if (any_half) {
+        constexpr float kHalfMax = 65504.0f;
+        for (float& v : frame.rgb)
+            if (std::isfinite(v)) v = std::clamp(v, -kHalfMax, kHalfMax);
     }
     for (std::size_t k = 0; k < 3; ++k) channel_from_float(frame, frame.rgb_channels[k], frame.rgb.data() + k, 3);
 }
