@@ -9,6 +9,7 @@
 #include <thread>
 
 #include <fmt/core.h>
+#include <optics/paraxial.h>
 
 namespace lensfx::gpu {
 
@@ -181,13 +182,24 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
     std::vector<GhostPower> powers;
     for (const auto& [wavelength, mask] : view.passes()) {
         const TraceSystem traced(system, wavelength);
-        const PupilRect square = entrance_square(traced, view);
-        const double dx = (square.x1 - square.x0) / n;
-        const double dy = (square.y1 - square.y0) / n;
+        const PupilRect whole = entrance_square(traced, view);
         const Ray axis_ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
-        const double cell_power = dx * dy * std::abs(axis_ray.direction.z);
+        const double epd = options.ghost_bounds ? optics::paraxial(system, wavelength).entrance_pupil_diameter_mm : 0.0;
         for (std::size_t g = 0; g < ghosts.size(); ++g) {
             const Ghost& ghost = ghosts[g];
+            if (powers.size() <= g) powers.push_back({ghost.first, ghost.second, {}});
+            PupilRect square = whole;
+            if (options.ghost_bounds) {
+                const PupilRect b = ghost_pupil_bounds(traced, ghost, system.aperture, view, epd);
+                if (b.empty()) continue;
+                const double gx = 0.1 * (b.x1 - b.x0);
+                const double gy = 0.1 * (b.y1 - b.y0);
+                square = {std::max(whole.x0, b.x0 - gx), std::max(whole.y0, b.y0 - gy), std::min(whole.x1, b.x1 + gx),
+                          std::min(whole.y1, b.y1 + gy)};
+            }
+            const double dx = (square.x1 - square.x0) / n;
+            const double dy = (square.y1 - square.y0) / n;
+            const double cell_power = dx * dy * std::abs(axis_ray.direction.z);
             // Contiguous bands of ray rows per thread, summed in thread order: deterministic for a thread count.
             std::vector<std::vector<double>> partial(static_cast<std::size_t>(threads), std::vector<double>(pixels, 0.0));
             std::vector<std::jthread> workers;
@@ -214,7 +226,6 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
                 });
             }
             workers.clear();
-            if (powers.size() <= g) powers.push_back({ghost.first, ghost.second, {}});
             for (std::size_t i = 0; i < pixels; ++i) {
                 double sum = 0.0;
                 for (const auto& p : partial) sum += p[i];
@@ -267,7 +278,11 @@ FlareError compare_flare(const FlareImage& image, const FlareImage& reference, c
                 return g.first == ref.first && g.second == ref.second;
             });
             const double p = it == image.ghosts.end() ? 0.0 : it->power[c];
-            error.worst_ghost = std::max(error.worst_ghost, std::abs(p - ref.power[c]) / ref.power[c]);
+            const double e = std::abs(p - ref.power[c]) / ref.power[c];
+            if (e > error.worst_ghost) {
+                error.worst_ghost = e;
+                error.worst = {ref.first, ref.second};
+            }
             if (c == 0) ++error.compared_ghosts;
         }
     }

@@ -99,6 +99,10 @@ struct ReferenceOptions {
     int rays = 512;               // N: N x N rays per ghost and wavelength over the entrance square
     int threads = 2;              // bands of ray rows; the same thread count repeats the image exactly
     bool per_ghost_power = true;  // fill FlareImage::ghosts
+    // false: the rays cover the whole entrance square. true: each ghost's rays cover its
+    // ghost_pupil_bounds (exact CPU coarse trace) grown by 10% on every side, so that the same N samples
+    // a small iris densely; ghosts whose coarse trace found nothing are left out.
+    bool ghost_bounds = false;
 };
 
 // The dense reference: for each ghost and wavelength, N x N collimated rays over the entrance square,
@@ -114,6 +118,7 @@ struct FlareError {
                                // (both images need FlareImage::ghosts; 0 when either lacks them)
     double block_l1 = 0.0;     // sum over block x block pixel tiles of |sum - reference sum| / reference total
     int compared_ghosts = 0;
+    std::pair<int, int> worst{-1, -1};  // (first, second) of the ghost behind worst_ghost
 };
 FlareError compare_flare(const FlareImage& image, const FlareImage& reference, const FlareView& view, int block = 8);
 
