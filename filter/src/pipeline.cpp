@@ -334,7 +334,9 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
             rec.process_ms = ms_since(t0);
         }
         if (!item->frame && (item->fatal || !o.skip_bad_frames)) {
-            fail(fmt::format("{}: frame {}: {}", rec.input == "-" ? "stdin" : rec.input, rec.number, rec.error));
+            // The frames before this one are complete: let the writer finish them, read nothing more.
+            failure.set(fmt::format("{}: frame {}: {}", rec.input == "-" ? "stdin" : rec.input, rec.number, rec.error));
+            read_queue.cancel();
             break;
         }
         if (!write_queue.push(std::move(*item))) break;

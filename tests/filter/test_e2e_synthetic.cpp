@@ -1,0 +1,202 @@
+// End-to-end runs of `lensfx -i IN -o OUT` on images made here (no shared data needed): pass-through of
+// per-channel types, windows and metadata; sequences and frame lists; streams through ffmpeg; failures.
+#include <filesystem>
+#include <fstream>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "filter_test_util.h"
+
+namespace fs = std::filesystem;
+using namespace lensfx::test;
+
+namespace {
+
+// An EXR with per-channel types (half RGBA, float Z, uint id), a data window inside a larger display
+// window, and metadata a pipeline must keep. `seed` varies the pixels; `width` the display width.
+// `finite`: no half Inf/NaN bit patterns (ffmpeg need not keep NaN payloads).
+void make_exr(const fs::path& path, int seed, int display_width = 64, bool finite = false) {
+    OIIO::ImageSpec spec(40, 30, 6, OIIO::TypeHalf);
+    spec.x = 5 + seed;
+    spec.y = 3;
+    spec.full_width = display_width;
+    spec.full_height = 48;
+    spec.channelnames = {"R", "G", "B", "A", "Z", "id"};
+    spec.channelformats = {OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeFloat, OIIO::TypeUInt32};
+    spec.alpha_channel = 3;
+    spec.z_channel = 4;
+    spec.attribute("compression", "zip");
+    spec.attribute("FramesPerSecond", OIIO::TypeRational, std::array<int, 2>{24, 1}.data());
+    const float chroma[8] = {0.64f, 0.33f, 0.3f, 0.6f, 0.15f, 0.06f, 0.3127f, 0.329f};
+    spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), chroma);
+    const float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 2, 3, 4, 1};
+    spec.attribute("worldToCamera", OIIO::TypeMatrix, m);
+    spec.attribute("PixelAspectRatio", 1.5f);
+    std::vector<unsigned char> data(spec.image_bytes(true));
+    for (std::size_t i = 0; i < data.size(); ++i) data[i] = static_cast<unsigned char>((i * 131 + static_cast<std::size_t>(seed) * 7) % 251);
+    // Half bit patterns 0x7c00-0x7fff are Inf/NaN: kept unless `finite`; they must pass through too.
+    // A pixel is 4 halfs, a float and a uint32 (16 bytes); a half's high byte is the odd one.
+    for (std::size_t i = 0; finite && i < data.size(); ++i) {
+        if (i % 16 < 8 && i % 2 == 1) data[i] &= 0xbf;
+    }
+    auto out = OIIO::ImageOutput::create(path.string());
+    ASSERT_TRUE(out && out->open(path.string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeUnknown, data.data()));
+    ASSERT_TRUE(out->close());
+}
+
+}  // namespace
+
+TEST(FilterEndToEnd, NoArgumentsPrintsHelp) {
+    const auto r = run(lensfx_cmd() + " > /dev/null");
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_EQ(run(lensfx_cmd() + " -i x.exr").exit_code, 1);
+}
+
+TEST(FilterEndToEnd, PassThroughKeepsTypesWindowsAndMetadata) {
+    const auto dir = scratch_dir("synthetic");
+    make_exr(dir / "in.exr", 0);
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.exr", dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(compare_images((dir / "in.exr").string(), (dir / "out.exr").string()), "");
+    EXPECT_EQ(file_count(dir), 2u);  // no temporary left
+    // --compression changes the compression only.
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/piz.exr --compression piz", dir.string())).exit_code, 0);
+    auto in = OIIO::ImageInput::open((dir / "piz.exr").string());
+    ASSERT_TRUE(in);
+    EXPECT_EQ(in->spec().get_string_attribute("compression"), "piz");
+    EXPECT_EQ(compare_images((dir / "in.exr").string(), (dir / "piz.exr").string(), false), "");
+    fs::remove_all(dir);
+}
+
+TEST(FilterEndToEnd, SequencesFrameListsAndReport) {
+    const auto dir = scratch_dir("sequence");
+    fs::create_directories(dir / "in");
+    for (int f : {1, 2, 3, 4, 5, 6, 8}) make_exr(dir / "in" / fmt::format("s.{:04}.exr", f), f);
+    const std::string in = (dir / "in" / "s.####.exr").string();
+    auto outputs = [&](const std::string& sub) {
+        std::vector<std::string> names;
+        for (const auto& e : fs::directory_iterator(dir / sub)) names.push_back(e.path().filename().string());
+        std::sort(names.begin(), names.end());
+        return names;
+    };
+    fs::create_directories(dir / "a");
+    auto r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/a/o.%04d.exr --report {}/a.json", in, dir.string(), dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(outputs("a"), (std::vector<std::string>{"o.0001.exr", "o.0002.exr", "o.0003.exr", "o.0004.exr", "o.0005.exr", "o.0006.exr", "o.0008.exr"}));
+    EXPECT_EQ(compare_images((dir / "in/s.0008.exr").string(), (dir / "a/o.0008.exr").string()), "");
+    std::ifstream report_file(dir / "a.json");
+    const auto report = nlohmann::json::parse(report_file);
+    EXPECT_EQ(report["frames_written"], 7);
+    ASSERT_EQ(report["frames"].size(), 7u);
+    EXPECT_EQ(report["frames"][6]["number"], 8);
+    EXPECT_GT(report["frames"][0]["read_ms"].get<double>(), 0.0);
+    EXPECT_GT(report["frames"][0]["write_ms"].get<double>(), 0.0);
+
+    fs::create_directories(dir / "b");
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/b/o.@.exr --frames 1-6x2,8 -q", in, dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(outputs("b"), (std::vector<std::string>{"o.1.exr", "o.3.exr", "o.5.exr", "o.8.exr"}));
+
+    // Frame 7 is missing: a one-line error naming it, nothing written for it; with --skip-bad-frames the rest.
+    fs::create_directories(dir / "c");
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/c/o.#.exr --frames 6-8", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("s.0007.exr: frame 7:"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1);
+    EXPECT_EQ(outputs("c"), (std::vector<std::string>{"o.0006.exr"}));
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/c/o.#.exr --frames 6-8 --skip-bad-frames", in, dir.string()));
+    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find("skipped (frames 7)"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(outputs("c"), (std::vector<std::string>{"o.0006.exr", "o.0008.exr"}));
+
+    // A frame whose size differs from the first.
+    make_exr(dir / "in" / "s.0004.exr", 4, 80);
+    fs::create_directories(dir / "d");
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/d/o.#.exr --frames 1-5", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("s.0004.exr: frame 4: frame size 80x48 differs"), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(fs::exists(dir / "d/o.0004.exr"));
+    EXPECT_FALSE(fs::exists(dir / "d/o.0005.exr"));
+    fs::remove_all(dir);
+}
+
+TEST(FilterEndToEnd, RefusesBadOutputsAndNeverOverwritesInputs) {
+    const auto dir = scratch_dir("outputs");
+    make_exr(dir / "in.exr", 1);
+    fs::create_hard_link(dir / "in.exr", dir / "link.exr");
+    const std::string in = (dir / "in.exr").string();
+    auto r = run(lensfx_cmd() + fmt::format(" -i {} -o {}", in, in));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("refusing to overwrite"), std::string::npos) << r.stderr_text;
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/link.exr", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("refusing to overwrite"), std::string::npos) << r.stderr_text;
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/missing/out.exr", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("does not exist"), std::string::npos) << r.stderr_text;
+    r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/out.xyz", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("unknown output format"), std::string::npos) << r.stderr_text;
+    // An unknown input format.
+    std::ofstream(dir / "notes.exr") << "not an image";
+    r = run(lensfx_cmd() + fmt::format(" -i {0}/notes.exr -o {0}/out.exr", dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("notes.exr: frame 1:"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(file_count(dir), 3u);  // in, link, notes: nothing written
+    // The output path is a directory: the write fails, leaving no temporary.
+    fs::create_directories(dir / "taken.exr");
+    r = run(lensfx_cmd() + fmt::format(" -i {0} -o {1}/taken.exr", in, dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_EQ(file_count(dir), 3u);
+    fs::remove_all(dir);
+}
+
+TEST(FilterEndToEnd, FormatsHdrTiffPfm) {
+    const auto dir = scratch_dir("formats");
+    make_exr(dir / "in.exr", 2);
+    for (const char* ext : {"tif", "hdr", "pfm"}) {
+        const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.{1}", dir.string(), ext));
+        ASSERT_EQ(r.exit_code, 0) << ext << ": " << r.stderr_text;
+        // Back to EXR: R, G, B must survive (exactly for TIFF and PFM, within RGBE's 8-bit mantissa for HDR).
+        const auto back = run(lensfx_cmd() + fmt::format(" -i {0}/out.{1} -o {0}/back.{1}.exr", dir.string(), ext));
+        ASSERT_EQ(back.exit_code, 0) << ext << ": " << back.stderr_text;
+    }
+    EXPECT_EQ(compare_images((dir / "in.exr").string(), (dir / "back.tif.exr").string(), false), "channel names differ");
+    fs::remove_all(dir);
+}
+
+TEST(FilterEndToEnd, FfmpegPfmAndRawRoundTrips) {
+    if (run("command -v ffmpeg > /dev/null").exit_code != 0) GTEST_SKIP() << "ffmpeg is not installed";
+    const auto dir = scratch_dir("ffmpeg");
+    const std::string d = dir.string();
+    make_exr(dir / "in.exr", 3, 64, true);
+    // Reference RGB as float over the display window, written by lensfx to a PFM in ffmpeg's row order.
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/ref.pfm --pfm-order top", d)).exit_code, 0);
+    // ffmpeg -> lensfx -> ffmpeg through pipes, two frames.
+    auto r = run(fmt::format("cat {0}/ref.pfm {0}/ref.pfm | ffmpeg -v error -f pfm_pipe -i - -f image2pipe -c:v pfm - | "
+                             "{1} -i - -o - | ffmpeg -v error -y -f pfm_pipe -i - -c:v pfm -f image2 {0}/back.%d.pfm", d, lensfx_cmd()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    for (int i : {1, 2}) {
+        const auto back = run(lensfx_cmd() + fmt::format(" -i {0}/back.{1}.pfm --pfm-order top -o {0}/back.{1}.exr", d, i));
+        ASSERT_EQ(back.exit_code, 0) << back.stderr_text;
+    }
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/ref.pfm --pfm-order top -o {0}/ref.exr", d)).exit_code, 0);
+    EXPECT_EQ(compare_images(d + "/ref.exr", d + "/back.1.exr", false), "");
+    EXPECT_EQ(compare_images(d + "/ref.exr", d + "/back.2.exr", false), "");
+
+    // rawvideo gbrpf32le: lensfx -> ffmpeg (decode, re-encode) -> lensfx.
+    r = run(fmt::format("{1} -i {0}/in.exr -o - --pix-fmt gbrpf32le | ffmpeg -v error -f rawvideo -pix_fmt gbrpf32le -s 64x48 -i - "
+                        "-f rawvideo -pix_fmt gbrpf32le - | {1} -i - --pix-fmt gbrpf32le --size 64x48 -o {0}/raw.exr", d, lensfx_cmd()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(compare_images(d + "/ref.exr", d + "/raw.exr", false), "");
+    // A truncated raw stream is an error naming stdin and the frame.
+    r = run(fmt::format("head -c 20000 {0}/ref.pfm | {1} -i - --pix-fmt gbrpf32le --size 64x48 -o {0}/t.exr", d, lensfx_cmd()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("stdin: frame 1:"), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(fs::exists(dir / "t.exr"));
+    fs::remove_all(dir);
+}

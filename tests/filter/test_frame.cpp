@@ -1,0 +1,79 @@
+// The Frame's RGB working buffer: loading and storing touches R, G, B only, in their native types.
+#include <filter/frame.h>
+
+#include <cstring>
+
+#include <OpenImageIO/half.h>
+#include <gtest/gtest.h>
+
+using namespace lensfx::filter;
+
+namespace {
+
+// 3x2 pixels: Z (float), R, G, B (half), id (uint32): per-channel types, RGB not first.
+Frame mixed_frame() {
+    Frame f;
+    f.spec = OIIO::ImageSpec(3, 2, 5, OIIO::TypeHalf);
+    f.spec.channelnames = {"Z", "R", "G", "B", "id"};
+    f.spec.channelformats = {OIIO::TypeFloat, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeUInt32};
+    f.pixels = PixelBuffer(f.spec.image_bytes(true));
+    EXPECT_EQ(f.spec.pixel_bytes(true), 4u + 6u + 4u);
+    for (std::size_t i = 0; i < 6; ++i) {
+        std::byte* p = f.pixels.data() + i * 14;
+        const float z = 100.0f + static_cast<float>(i);
+        const half rgb[3] = {half(0.5f * static_cast<float>(i)), half(1000.0f), half(-2.0f)};
+        const std::uint32_t id = 0xdeadbe00u + static_cast<std::uint32_t>(i);
+        std::memcpy(p, &z, 4);
+        std::memcpy(p + 4, rgb, 6);
+        std::memcpy(p + 10, &id, 4);
+    }
+    find_rgb_channels(f);
+    return f;
+}
+
+}  // namespace
+
+TEST(Frame, FindsRgbByNameOrLayer) {
+    Frame f = mixed_frame();
+    EXPECT_EQ(f.rgb_channels, (std::array<int, 3>{1, 2, 3}));
+    f.spec.channelnames = {"depth.Z", "beauty.R", "beauty.G", "beauty.B", "id"};
+    find_rgb_channels(f);
+    EXPECT_EQ(f.rgb_channels, (std::array<int, 3>{1, 2, 3}));
+    f.spec.channelnames = {"Z", "Y", "G", "B", "id"};
+    find_rgb_channels(f);
+    EXPECT_FALSE(f.has_rgb());
+    EXPECT_THROW(load_rgb(f), std::runtime_error);
+}
+
+TEST(Frame, LoadStoreChangesOnlyRgb) {
+    Frame f = mixed_frame();
+    const PixelBuffer before = f.pixels;
+    load_rgb(f);
+    ASSERT_EQ(f.rgb.size(), 18u);
+    EXPECT_EQ(f.rgb[3 * 4 + 0], 2.0f);
+    EXPECT_EQ(f.rgb[3 * 4 + 1], 1000.0f);
+    EXPECT_EQ(f.rgb[3 * 4 + 2], -2.0f);
+    store_rgb(f);  // unchanged values: bit-identical
+    EXPECT_EQ(std::memcmp(before.data(), f.pixels.data(), before.size()), 0);
+    for (std::size_t i = 0; i < 6; ++i) f.rgb[i * 3 + 1] += 1.0f;
+    store_rgb(f);
+    for (std::size_t i = 0; i < 6; ++i) {
+        const std::byte* p = f.pixels.data() + i * 14;
+        const std::byte* q = before.data() + i * 14;
+        EXPECT_EQ(std::memcmp(p, q, 6), 0);             // Z and R untouched
+        EXPECT_EQ(std::memcmp(p + 8, q + 8, 6), 0);     // B and id untouched
+        half g;
+        std::memcpy(&g, p + 6, 2);
+        EXPECT_EQ(static_cast<float>(g), 1001.0f);
+    }
+    f.rgb.pop_back();
+    EXPECT_THROW(store_rgb(f), std::runtime_error);
+}
+
+TEST(Frame, ChannelsAsFloatInAnyOrder) {
+    const Frame f = mixed_frame();
+    const auto v = channels_as_float(f, {4, 0});
+    ASSERT_EQ(v.size(), 12u);
+    EXPECT_EQ(v[1], 100.0f);
+    EXPECT_EQ(v[3], 101.0f);
+}

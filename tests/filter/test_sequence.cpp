@@ -1,0 +1,69 @@
+// Frame-number patterns, frame lists and directory scans.
+#include <filter/sequence.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using lensfx::filter::FramePattern;
+using lensfx::filter::parse_frame_list;
+using lensfx::filter::parse_pattern;
+using lensfx::filter::scan_frames;
+
+TEST(Pattern, TokensAndPadding) {
+    EXPECT_EQ(parse_pattern("a/shot.#.exr").path(7), "a/shot.0007.exr");
+    EXPECT_EQ(parse_pattern("a/shot.####.exr").path(7), "a/shot.0007.exr");
+    EXPECT_EQ(parse_pattern("a/shot.######.exr").path(7), "a/shot.000007.exr");
+    EXPECT_EQ(parse_pattern("shot.@.exr").path(7), "shot.7.exr");
+    EXPECT_EQ(parse_pattern("shot.@@@.exr").path(7), "shot.007.exr");
+    EXPECT_EQ(parse_pattern("shot.%04d.exr").path(12345), "shot.12345.exr");
+    EXPECT_EQ(parse_pattern("shot.%d.exr").path(12), "shot.12.exr");
+    EXPECT_EQ(parse_pattern("shot.#.exr").path(-3), "shot.-0003.exr");
+    const FramePattern single = parse_pattern("take#2/plate.exr");
+    EXPECT_FALSE(single.is_sequence);  // a '#' in a directory is not a token
+    EXPECT_EQ(single.path(5), "take#2/plate.exr");
+    EXPECT_THROW(parse_pattern("a.#.#.exr"), std::invalid_argument);
+    EXPECT_THROW(parse_pattern("a.%4d.exr"), std::invalid_argument);
+}
+
+TEST(Pattern, MatchesOnlyItsOwnPadding) {
+    const FramePattern p = parse_pattern("d/s.####.exr");
+    EXPECT_EQ(p.match("d/s.0012.exr"), 12);
+    EXPECT_EQ(p.match("d/s.12345.exr"), 12345);
+    EXPECT_EQ(p.match("d/s.-0002.exr"), -2);
+    EXPECT_FALSE(p.match("d/s.012.exr"));
+    EXPECT_FALSE(p.match("d/s.00012.exr"));
+    EXPECT_FALSE(p.match("d/s.0012.tif"));
+    EXPECT_FALSE(p.match("d/s.00a2.exr"));
+    const FramePattern u = parse_pattern("s.@.exr");
+    EXPECT_EQ(u.match("s.0.exr"), 0);
+    EXPECT_EQ(u.match("s.120.exr"), 120);
+    EXPECT_FALSE(u.match("s.07.exr"));
+}
+
+TEST(FrameList, RangesStepsAndLists) {
+    EXPECT_EQ(parse_frame_list("1-5"), (std::vector<std::int64_t>{1, 2, 3, 4, 5}));
+    EXPECT_EQ(parse_frame_list("1-10x3"), (std::vector<std::int64_t>{1, 4, 7, 10}));
+    EXPECT_EQ(parse_frame_list("3,7,10-12"), (std::vector<std::int64_t>{3, 7, 10, 11, 12}));
+    EXPECT_EQ(parse_frame_list("-2-1"), (std::vector<std::int64_t>{-2, -1, 0, 1}));
+    EXPECT_EQ(parse_frame_list("42"), (std::vector<std::int64_t>{42}));
+    EXPECT_THROW(parse_frame_list("5-1"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list("1-5x0"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list("1,,2"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list("1-3,2"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list("a-3"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list(""), std::invalid_argument);
+}
+
+TEST(FrameList, ScanFindsExistingFramesInOrder) {
+    const fs::path dir = fs::temp_directory_path() / ("lensfx-scan-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    for (const char* name : {"s.0010.exr", "s.0002.exr", "s.0003.exr", "s.003.exr", "t.0001.exr", "s.0004.exr.tmp"})
+        std::ofstream(dir / name) << "x";
+    EXPECT_EQ(scan_frames(parse_pattern((dir / "s.####.exr").string())), (std::vector<std::int64_t>{2, 3, 10}));
+    EXPECT_TRUE(scan_frames(parse_pattern((dir / "u.####.exr").string())).empty());
+    fs::remove_all(dir);
+}
