@@ -175,8 +175,12 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
     if (format == "openexr") {
         if (!options.compression.empty()) {
             spec.attribute("compression", options.compression);
-        } else if (frame.format != "openexr" || spec.get_string_attribute("compression").empty()) {
-            spec.attribute("compression", "piz");
+        } else {
+            // Keep the input's compression when it is lossless; re-encoding DWA or B44 would change the
+            // pixels of a pass-through, so those become PIZ unless --compression asks for them.
+            const std::string kept = spec.get_string_attribute("compression");
+            const bool lossy = kept.rfind("dwa", 0) == 0 || kept.rfind("b44", 0) == 0;
+            if (frame.format != "openexr" || kept.empty() || lossy) spec.attribute("compression", "piz");
         }
     } else if (format == "tiff") {
         spec.erase_attribute("compression");

@@ -17,7 +17,8 @@ namespace lensfx::filter {
 Frame read_image(const std::string& path, PfmOrder pfm_order = PfmOrder::automatic);
 
 struct WriteOptions {
-    // EXR compression ("piz", "zip", "dwaa:45", ...). Empty: the input's own when it was an EXR, else piz.
+    // EXR compression ("piz", "zip", "dwaa:45", ...). Empty: the input's own when it was a losslessly
+    // compressed EXR, else piz (re-encoding a DWA or B44 input would change its pixels).
     std::string compression;
     PfmOrder pfm_order = PfmOrder::automatic;
     // Display-referred formats (PNG, JPEG...): 8 or 16 bits (where the format has 16: PNG, PNM, DPX),
