@@ -1,5 +1,5 @@
-// Every preset, lights from the axis to beyond the field limit, f-numbers from wide open to f/32: the
-// ghost image is finite and non-negative everywhere, and far outside the field the ghosts fade out.
+// Every preset, lights on the axis, at the field corner and at three times it, wide open and f/32: the
+// ghost image (one wavelength, grid 32) is finite and non-negative everywhere.
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -21,13 +21,13 @@ namespace {
 
 class GhostStress : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(GhostStress, FiniteAndFadingOutsideTheField) {
+TEST_P(GhostStress, FiniteAndNonNegative) {
     const optics::Lens lens = optics::load_lens(GetParam());
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
     GpuFlareOptions options;
     options.grid = 32;
-    for (const double fstop : {0.0, 4.0, 11.0, 32.0}) {
+    for (const double fstop : {0.0, 32.0}) {
         std::optional<optics::System> realized;
         try {
             realized = optics::realize(lens, 0.0, fstop > 0 ? std::optional<double>(fstop) : std::nullopt);
@@ -37,10 +37,11 @@ TEST_P(GhostStress, FiniteAndFadingOutsideTheField) {
         const optics::System& system = *realized;
         const double efl = optics::paraxial(system).efl_mm;
         const double half_diagonal = std::atan(std::hypot(18.0, 12.0) / efl) * 180.0 / std::numbers::pi;
-        for (const double scale : {0.0, 0.7, 1.0, 1.5, 3.0}) {
+        for (const double scale : {0.0, 1.0, 3.0}) {
             FlareView view;
             view.width = 48;
             view.height = 32;
+            view.wavelength_nm = 550.0;
             const double angle = std::min(scale * half_diagonal, 85.0);
             view.angle_x_deg = angle * 0.8;
             view.angle_y_deg = angle * 0.6;
