@@ -6,8 +6,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
 mkdir -p out
-build/lensfx -i samples/pan/pan.####.exr -o out/pan.####.exr --report out/pan.report.json --progress
+# The main job: every light of the shot flared through the Brendel Tessar at f/5.6. --gain and
+# --starburst-scale are artistic (1 = physical; at physical strength these ghosts are too faint to see).
+build/lensfx -i samples/pan/pan.####.exr -o out/pan.####.exr --lens brendel-tessar --fstop 5.6 --grid 64 \
+  --gain 20 --starburst-scale 20 --report out/pan.report.json --progress
 for f in 0001 0012; do
-  oiiotool out/pan.$f.exr --colorconvert linear sRGB -d uint8 -o out/pan.$f.png
+  build/lensfx -i samples/pan/pan.$f.exr -o out/before.$f.png -q   # ACES SDR video, sRGB
+  build/lensfx -i out/pan.$f.exr -o out/pan.$f.png -q
 done
-echo "demo: wrote out/pan.0001-0024.exr, previews out/pan.0001.png and out/pan.0012.png, timings out/pan.report.json"
+echo "demo: wrote out/pan.0001-0024.exr, previews out/{before,pan}.{0001,0012}.png, timings out/pan.report.json"

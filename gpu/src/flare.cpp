@@ -36,33 +36,6 @@ std::array<double, 3> FlareImage::total_power(const FlareView& view) const {
     return sum;
 }
 
-double aperture_sdf(const Aperture& aperture, double u, double v) {
-    const double radius = std::hypot(u, v);
-    if (aperture.blades < 3) return radius - 1.0;
-    const int n = aperture.blades;
-    const double half = std::numbers::pi / n;
-    const double apothem = std::cos(half);
-    const double half_chord = std::sin(half);
-    const double curvature = std::clamp(aperture.blade_curvature, 0.0, 1.0);
-    const double first = (aperture.rotation_deg - 90.0) * std::numbers::pi / 180.0;
-    double sdf = -1e300;
-    for (int k = 0; k < n; ++k) {
-        const double phi = first + 2.0 * half * k;
-        const double nx = std::cos(phi);
-        const double ny = std::sin(phi);
-        double edge;
-        if (curvature < 1e-9) {
-            edge = u * nx + v * ny - apothem;
-        } else {
-            const double arc_radius = 1.0 / curvature;
-            const double centre = apothem - std::sqrt(arc_radius * arc_radius - half_chord * half_chord);
-            edge = std::hypot(u - centre * nx, v - centre * ny) - arc_radius;
-        }
-        sdf = std::max(sdf, edge);
-    }
-    return sdf;
-}
-
 System without_coatings(System system) {
     for (System::Interface& surface : system.interfaces) surface.coating = Coating{};
     return system;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include <optics/aperture.h>
 #include <optics/ghosts.h>
 #include <optics/lens.h>
 #include <optics/tracer.h>
@@ -63,12 +64,8 @@ struct FlareImage {
     std::array<double, 3> total_power(const FlareView& view) const;
 };
 
-// Signed distance to the iris edge in units of the stop radius at stop coordinates (u, v) (lens x/y over
-// the stop radius, the upright frame): negative inside. Round (blades = 0): |uv| - 1. With n >= 3 blades
-// the polygon's corners lie on the unit circle; its first edge is horizontal at the bottom when
-// rotation_deg = 0, then turned counter-clockwise; each edge is an arc of radius 1 / blade_curvature
-// through its two corners (curvature 0: straight, 1: the circle itself).
-double aperture_sdf(const Aperture& aperture, double u, double v);
+// The iris shape (optics/aperture.h): negative inside, in stop radii, the upright frame.
+using optics::aperture_sdf;
 
 // Drops every anti-reflection coating (`--coating none`): bare Fresnel interfaces.
 System without_coatings(System system);
