@@ -49,14 +49,7 @@ public:
             throw std::runtime_error(fmt::format("{}: frame {}: {}x{} frames after {}x{} ones", where, frame.number, frame.spec.full_width,
                                                  frame.spec.full_height, file_.width, file_.height));
         }
-        detect::ImageView view;
-        view.data = frame.rgb.data();
-        view.width = frame.spec.width;
-        view.height = frame.spec.height;
-        view.channels = 3;
-        view.x_offset = frame.spec.x - frame.spec.full_x;
-        view.y_offset = frame.spec.y - frame.spec.full_y;
-        const auto lights = tracker_.update(detector_.detect(view));
+        const auto lights = tracker_.update(detector_.detect(rgb_view(frame)));
         cuts_ += tracker_.last_was_cut() ? 1 : 0;
         ++frames_;
         file_.append(static_cast<int>(frame.number), lights);

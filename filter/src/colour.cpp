@@ -108,17 +108,6 @@ Mat3 bradford(double src_wx, double src_wy, double dst_wx, double dst_wy) {
     return multiply(inverse(m), multiply(scale, m));
 }
 
-std::array<double, 3> cie1931_xyz(double nm) {
-    // A Gaussian with different widths below and above its mean.
-    auto g = [nm](double mean, double below, double above) {
-        const double t = (nm - mean) / (nm < mean ? below : above);
-        return std::exp(-0.5 * t * t);
-    };
-    return {1.056 * g(599.8, 37.9, 31.0) + 0.362 * g(442.0, 16.0, 26.7) - 0.065 * g(501.1, 20.4, 26.2),
-            0.821 * g(568.8, 46.9, 40.5) + 0.286 * g(530.9, 16.3, 31.1),
-            1.217 * g(437.0, 11.8, 36.0) + 0.681 * g(459.0, 26.0, 13.8)};
-}
-
 std::array<double, 3> wavelength_to_rgb(double wavelength_nm, const Mat3& rgb_to_xyz_matrix) {
     return apply3(inverse(rgb_to_xyz_matrix), cie1931_xyz(wavelength_nm));
 }

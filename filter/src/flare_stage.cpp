@@ -177,14 +177,7 @@ struct FlareStage::State {
                                                      tracks->width, tracks->height, frame.spec.full_width, frame.spec.full_height));
             return found;
         }
-        detect::ImageView view;
-        view.data = frame.rgb.data();
-        view.width = frame.spec.width;
-        view.height = frame.spec.height;
-        view.channels = 3;
-        view.x_offset = frame.spec.x - frame.spec.full_x;
-        view.y_offset = frame.spec.y - frame.spec.full_y;
-        return tracker.update(detector.detect(view));
+        return tracker.update(detector.detect(rgb_view(frame)));
     }
 };
 

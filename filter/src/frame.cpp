@@ -94,6 +94,17 @@ void channel_from_float(Frame& frame, int channel, const float* src, std::size_t
 
 }  // namespace
 
+detect::ImageView rgb_view(const Frame& frame) {
+    detect::ImageView view;
+    view.data = frame.rgb.data();
+    view.width = frame.spec.width;
+    view.height = frame.spec.height;
+    view.channels = 3;
+    view.x_offset = frame.spec.x - frame.spec.full_x;
+    view.y_offset = frame.spec.y - frame.spec.full_y;
+    return view;
+}
+
 void load_rgb(Frame& frame) {
     if (!frame.has_rgb()) throw std::runtime_error("the image has no R, G, B channels");
     frame.rgb.resize(frame.pixel_count() * 3);

@@ -17,6 +17,7 @@
 #include <OpenColorIO/OpenColorIO.h>
 
 #include <filter/frame.h>
+#include <optics/starburst.h>
 
 namespace lensfx::colour {
 
@@ -50,9 +51,8 @@ Mat3 rgb_to_xyz(const Chromaticities& c);
 // Bradford chromatic adaptation of XYZ from one white point (xy) to another.
 Mat3 bradford(double src_wx, double src_wy, double dst_wx, double dst_wy);
 
-// CIE 1931 2-degree colour matching functions (x-bar, y-bar, z-bar) at a wavelength in nm, by the multi-lobe
-// analytic fit of Wyman, Sloan and Shirley (JCGT 2(2), 2013): within 0.015 of the CIE table.
-std::array<double, 3> cie1931_xyz(double wavelength_nm);
+// CIE 1931 2-degree colour matching functions (the optics core's Wyman-Sloan-Shirley fit).
+using optics::cie1931_xyz;
 // Working-space RGB of monochromatic light of unit spectral power at a wavelength: inverse(rgb_to_xyz) times
 // the colour matching functions. A renderer that samples wavelengths sums these (times the sample spacing)
 // to put a spectrum into the same RGB as the frame. Spectral colours lie outside most gamuts: expect

@@ -14,6 +14,8 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <detect/image_view.h>
+
 namespace lensfx::filter {
 
 // An uninitialised byte buffer (no zero fill: frames are large and are always overwritten by a read).
@@ -69,6 +71,8 @@ struct Frame {
 void find_rgb_channels(Frame& frame);
 // Byte offset of each channel inside one pixel of `pixels`.
 std::vector<std::size_t> channel_offsets(const OIIO::ImageSpec& spec);
+// The RGB working buffer as the detector's input; positions come out in display-window pixels.
+detect::ImageView rgb_view(const Frame& frame);
 // Copies the R, G, B channels of `pixels` into `rgb` as float. Throws if the frame has no R, G, B.
 void load_rgb(Frame& frame);
 // Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types.
