@@ -1,5 +1,5 @@
 // Prints how long a starburst texture takes to compute (it is cached per iris) for several iris shapes
-// and sizes, and writes a tone-mapped PNG preview of each: bench_starburst [OUT_DIR].
+// and sizes, clean and with dust or scratches, and writes a tone-mapped PNG preview of each: bench_starburst [OUT_DIR].
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -14,16 +14,27 @@ using namespace lensfx::optics;
 
 int main(int argc, char** argv) {
     const std::string dir = argc > 1 ? argv[1] : ".";
-    struct Case { const char* name; Aperture aperture; int size; int samples; };
+    struct Case { const char* name; Aperture aperture; int size; int samples; PupilImperfections dirt; };
+    PupilImperfections dusty;
+    dusty.dust_density = 150.0;
+    dusty.dust_radius = 0.015;
+    PupilImperfections scratched;
+    scratched.scratches = 12;
+    scratched.scratch_length = 0.6;
+    scratched.scratch_width = 0.01;
+    scratched.scratch_angle_deg = 30.0;
+    scratched.scratch_spread_deg = 40.0;
     const std::vector<Case> cases = {
-        {"round", {0, 0.0, 0.0}, 512, 96}, {"blades6", {6, 0.0, 0.0}, 512, 96},
-        {"blades7", {7, 10.0, 0.0}, 512, 96}, {"blades9_curved", {9, 0.0, 0.5}, 512, 96},
-        {"blades6_1024", {6, 0.0, 0.0}, 1024, 192}};
+        {"round", {0, 0.0, 0.0}, 512, 96, {}}, {"blades6", {6, 0.0, 0.0}, 512, 96, {}},
+        {"blades7", {7, 10.0, 0.0}, 512, 96, {}}, {"blades9_curved", {9, 0.0, 0.5}, 512, 96, {}},
+        {"blades6_1024", {6, 0.0, 0.0}, 1024, 192, {}}, {"blades6_dust", {6, 0.0, 0.0}, 512, 96, dusty},
+        {"blades6_scratches", {6, 0.0, 0.0}, 512, 96, scratched}};
     fmt::print("starburst texture: size, pupil samples, ms to compute (380-780 nm, 5 nm steps)\n");
     for (const Case& c : cases) {
         StarburstOptions o;
         o.size = c.size;
         o.pupil_samples = c.samples;
+        o.dirt = c.dirt;
         const auto t0 = std::chrono::steady_clock::now();
         const Starburst s = make_starburst(c.aperture, o);
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -58,6 +58,21 @@ void rasterise_iris(const Aperture& aperture, int m, int r, double* out) {
     }
 }
 
+// The same grid from a transmission image spanning [-1, 1]^2 stop radii, 2 x 2 supersampled.
+void rasterise_image(const ApertureImage& image, int m, int r, double* out) {
+    const double inv = 1.0 / r;
+    for (int y = 0; y < m; ++y) {
+        for (int x = 0; x < m; ++x) {
+            const double u = (x - m / 2) * inv;
+            const double v = (m / 2 - y) * inv;
+            double t = 0.0;
+            for (int sy = 0; sy < 2; ++sy)
+                for (int sx = 0; sx < 2; ++sx) t += image.at(u + (sx - 0.5) * 0.5 * inv, v - (sy - 0.5) * 0.5 * inv);
+            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = 0.25 * t;
+        }
+    }
+}
+
 // Separable Gaussian blur of one float plane in place (edges clamped).
 void blur(std::vector<double>& plane, int n, double sigma) {
     if (sigma <= 0.0) return;
@@ -120,7 +135,12 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
     auto out = fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * half);
     fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.get(), out.get(), FFTW_ESTIMATE);
     if (!plan) throw std::runtime_error("FFTW could not plan the starburst transform");
-    rasterise_iris(aperture, m, o.pupil_samples, in.get());
+    if (o.image.empty()) {
+        rasterise_iris(aperture, m, o.pupil_samples, in.get());
+    } else {
+        rasterise_image(o.image, m, o.pupil_samples, in.get());
+    }
+    apply_imperfections(o.dirt, m, o.pupil_samples, in.get());
     fftw_execute(plan);
     fftw_destroy_plan(plan);
 

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <vector>
 
+#include <optics/imperfections.h>
 #include <optics/lens.h>
 
 namespace lensfx::optics {
@@ -33,6 +34,8 @@ struct StarburstOptions {
     double step_nm = 5.0;
     Mat3 xyz_to_rgb = kXyzToRec709;  // the working space's primaries
     double smoothing = 0.6;          // Gaussian sigma in texels applied before summing, against aliasing
+    PupilImperfections dirt;         // dust and scratches on the pupil (clean by default)
+    ApertureImage image;             // when given, this transmission image replaces the iris shape
 };
 
 // A square RGB texture centred on the light; texel (size/2, size/2) holds the centre. Each channel sums to
