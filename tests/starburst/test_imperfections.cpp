@@ -59,6 +59,8 @@ TEST(Imperfections, DustBlocksTheExpectedShareOfThePupil) {
     const double expected = std::exp(-dust.dust_density * mean_area);
     EXPECT_NEAR(clear / count, expected, 0.25 * (1.0 - expected));
     EXPECT_LT(clear / count, 0.995);
+    RecordProperty("blocked", std::to_string(1.0 - clear / count));
+    RecordProperty("predicted", std::to_string(1.0 - expected));
 }
 
 TEST(Imperfections, HorizontalScratchesStreakTheStarburstVertically) {
