@@ -8,6 +8,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 
+#include <optics/ringing.h>
 #include <optics/starburst.h>
 
 using namespace lensfx::optics;
@@ -50,6 +51,26 @@ int main(int argc, char** argv) {
         const std::string path = fmt::format("{}/starburst_{}.png", dir, c.name);
         auto out = OIIO::ImageOutput::create(path);
         if (!out || !out->open(path, OIIO::ImageSpec(s.size, s.size, 3, OIIO::TypeDesc::UINT8)) ||
+            !out->write_image(OIIO::TypeDesc::UINT8, png.data())) {
+            fmt::print(stderr, "bench_starburst: cannot write {}\n", path);
+            return 1;
+        }
+        out->close();
+    }
+    // Ghost ringing textures (eq. 5 orders for 650 nm at f/4, f/11 and f/22), linear preview, 1 = grey 170.
+    fmt::print("ringing texture (512^2 over +-1.25 stop radii): order, ms to compute\n");
+    for (double f_number : {4.0, 11.0, 22.0}) {
+        const double alpha = ringing_order(650.0, f_number);
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::vector<float> ring = ringing_aperture(Aperture{6, 0.0, 0.0}, 512, 1.25, alpha);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        fmt::print("f/{:<5g} alpha {:.4f} {:9.1f} ms\n", f_number, alpha, ms);
+        std::vector<unsigned char> png(ring.size());
+        for (std::size_t i = 0; i < ring.size(); ++i)
+            png[i] = static_cast<unsigned char>(std::clamp(static_cast<double>(ring[i]) / 1.5, 0.0, 1.0) * 255.0 + 0.5);
+        const std::string path = fmt::format("{}/ringing_f{:g}.png", dir, f_number);
+        auto out = OIIO::ImageOutput::create(path);
+        if (!out || !out->open(path, OIIO::ImageSpec(512, 512, 1, OIIO::TypeDesc::UINT8)) ||
             !out->write_image(OIIO::TypeDesc::UINT8, png.data())) {
             fmt::print(stderr, "bench_starburst: cannot write {}\n", path);
             return 1;

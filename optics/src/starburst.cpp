@@ -31,33 +31,6 @@ std::unique_ptr<T[], FftwFree> fftw_buffer(std::size_t n) {
     return std::unique_ptr<T[], FftwFree>(p);
 }
 
-// Transmission of the iris on an m x m grid, the iris radius spanning r samples, with 4 x 4 supersampling
-// at the edge; row 0 at the top (v up), centred on sample (m/2, m/2).
-void rasterise_iris(const Aperture& aperture, int m, int r, double* out) {
-    const double inv = 1.0 / r;
-    const double pixel = inv;  // one sample in stop units
-    for (int y = 0; y < m; ++y) {
-        for (int x = 0; x < m; ++x) {
-            const double u = (x - m / 2) * inv;
-            const double v = (m / 2 - y) * inv;
-            const double d = aperture_sdf(aperture, u, v);
-            double t;
-            if (d < -pixel) {
-                t = 1.0;
-            } else if (d > pixel) {
-                t = 0.0;
-            } else {
-                int inside = 0;
-                for (int sy = 0; sy < 4; ++sy)
-                    for (int sx = 0; sx < 4; ++sx)
-                        inside += aperture_sdf(aperture, u + (sx - 1.5) * 0.25 * inv, v - (sy - 1.5) * 0.25 * inv) <= 0.0;
-                t = inside / 16.0;
-            }
-            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = t;
-        }
-    }
-}
-
 // The same grid from a transmission image spanning [-1, 1]^2 stop radii, 2 x 2 supersampled.
 void rasterise_image(const ApertureImage& image, int m, int r, double* out) {
     const double inv = 1.0 / r;
@@ -136,7 +109,7 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
     fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.get(), out.get(), FFTW_ESTIMATE);
     if (!plan) throw std::runtime_error("FFTW could not plan the starburst transform");
     if (o.image.empty()) {
-        rasterise_iris(aperture, m, o.pupil_samples, in.get());
+        rasterise_aperture(aperture, m, o.pupil_samples, in.get());
     } else {
         rasterise_image(o.image, m, o.pupil_samples, in.get());
     }
