@@ -34,29 +34,23 @@ double aperture_sdf(const Aperture& aperture, double u, double v) {
     return sdf;
 }
 
+double aperture_coverage(const Aperture& aperture, double u, double v, double texel) {
+    const double d = aperture_sdf(aperture, u, v);
+    if (d < -texel) return 1.0;
+    if (d > texel) return 0.0;
+    int inside = 0;
+    for (int sy = 0; sy < 4; ++sy)
+        for (int sx = 0; sx < 4; ++sx)
+            inside += aperture_sdf(aperture, u + (sx - 1.5) * 0.25 * texel, v - (sy - 1.5) * 0.25 * texel) <= 0.0;
+    return inside / 16.0;
+}
+
 void rasterise_aperture(const Aperture& aperture, int m, int r, double* out) {
     const double inv = 1.0 / r;
-    const double pixel = inv;  // one sample in stop units
-    for (int y = 0; y < m; ++y) {
-        for (int x = 0; x < m; ++x) {
-            const double u = (x - m / 2) * inv;
-            const double v = (m / 2 - y) * inv;
-            const double d = aperture_sdf(aperture, u, v);
-            double t;
-            if (d < -pixel) {
-                t = 1.0;
-            } else if (d > pixel) {
-                t = 0.0;
-            } else {
-                int inside = 0;
-                for (int sy = 0; sy < 4; ++sy)
-                    for (int sx = 0; sx < 4; ++sx)
-                        inside += aperture_sdf(aperture, u + (sx - 1.5) * 0.25 * inv, v - (sy - 1.5) * 0.25 * inv) <= 0.0;
-                t = inside / 16.0;
-            }
-            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = t;
-        }
-    }
+    for (int y = 0; y < m; ++y)
+        for (int x = 0; x < m; ++x)
+            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] =
+                aperture_coverage(aperture, (x - m / 2) * inv, (m / 2 - y) * inv, inv);
 }
 
 }  // namespace lensfx::optics

@@ -95,24 +95,13 @@ std::vector<float> fractional_ringing(const std::vector<double>& t, int n, doubl
 
 std::vector<float> ringing_aperture(const Aperture& aperture, int n, double extent, double alpha) {
     if (n < 8 || n > 8192) throw std::invalid_argument(fmt::format("ringing texture size {} outside 8..8192", n));
-    // The iris at texel centres, 4 x 4 supersampled within a texel of its edge.
+    // The iris at texel centres.
     const double h = 2.0 * extent / n;
     std::vector<double> t(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
-    for (int j = 0; j < n; ++j) {
-        for (int i = 0; i < n; ++i) {
-            const double u = (i - n / 2 + 0.5) * h, v = (n / 2 - j - 0.5) * h;
-            const double d = aperture_sdf(aperture, u, v);
-            double value = d < -h ? 1.0 : 0.0;
-            if (std::abs(d) <= h) {
-                int inside = 0;
-                for (int sy = 0; sy < 4; ++sy)
-                    for (int sx = 0; sx < 4; ++sx)
-                        inside += aperture_sdf(aperture, u + (sx - 1.5) * 0.25 * h, v - (sy - 1.5) * 0.25 * h) <= 0.0;
-                value = inside / 16.0;
-            }
-            t[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] = value;
-        }
-    }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+            t[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] =
+                aperture_coverage(aperture, (i - n / 2 + 0.5) * h, (n / 2 - j - 0.5) * h, h);
     return fractional_ringing(t, n, extent, alpha);
 }
 

@@ -13,6 +13,9 @@ namespace lensfx::optics {
 // through its two corners (curvature 0: straight, 1: the circle itself).
 double aperture_sdf(const Aperture& aperture, double u, double v);
 
+// Share of a texel of side `texel` centred at (u, v) inside the iris, 4 x 4 supersampled near the edge.
+double aperture_coverage(const Aperture& aperture, double u, double v, double texel);
+
 // The iris's transmission on an m x m grid, r samples per stop radius, centred on sample (m/2, m/2), row 0
 // at the top (v up); edge samples 4 x 4 supersampled. The starburst's and the ringing's input.
 void rasterise_aperture(const Aperture& aperture, int m, int r, double* out);
