@@ -69,6 +69,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
+    add_pupil_options(app, s.pupil);
 }
 
 FlareParts parse_parts(std::string_view text) {
@@ -136,6 +137,7 @@ struct FlareStage::State {
     std::unique_ptr<gpu::FlareRenderer> renderer;
     FlareParts parts;
     double f_number = 0.0;
+    optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
     std::optional<optics::Starburst> starburst;  // computed at the first light
 
     explicit State(FlareSettings s)
@@ -156,6 +158,7 @@ struct FlareStage::State {
         parts = parse_parts(settings.parts);
         sensor = parse_sensor(settings.sensor);
         if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
+        starburst_options = filter::starburst_options(settings.pupil);
     }
 
     FlareGeometry geometry(const Frame& frame) const {
@@ -217,7 +220,7 @@ void FlareStage::process(Frame& frame) {
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
 
         if (parts.starburst && s.settings.starburst_gain > 0.0) {
-            if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture);
+            if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture, s.starburst_options);
             // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
             // already in the recorded pixels, so only the spikes and rings are added.
             std::array<double, 3> energy{};

@@ -1,6 +1,7 @@
 // The flare stage: pixel -> direction mapping, the light's strength from its recorded energy, and the
 // filter end to end on a synthetic frame with one light (ghost energy in a physical range, determinism,
 // frames without a light left untouched).
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <filter/flare_stage.h>
+#include <filter/pupil_options.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/system.h>
@@ -140,4 +142,74 @@ TEST(FlareStage, FrameWithoutALightPassesThroughUnchanged) {
     ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "out.exr").string() +
                   " --lens brendel-tessar --threshold 20 -q"), 0);
     EXPECT_EQ(read_rgb(dir / "in.exr"), read_rgb(dir / "out.exr"));
+}
+
+TEST(FlareStage, ApertureImageIsGreyAndPaddedToASquare) {
+    const fs::path dir = temp_dir("aperture_image");
+    OIIO::ImageSpec spec(6, 3, 4, OIIO::TypeDesc::FLOAT);
+    spec.alpha_channel = 3;
+    OIIO::ImageBuf buf(spec);
+    for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 6; ++i) {
+            const float v[4] = {0.1f * static_cast<float>(i), 0.2f, 2.0f, 0.0f};  // alpha must not count
+            buf.setpixel(i, j, v);
+        }
+    ASSERT_TRUE(buf.write((dir / "iris.exr").string()));
+    const optics::ApertureImage image = filter::read_aperture_image((dir / "iris.exr").string());
+    ASSERT_EQ(image.width, 6);
+    ASSERT_EQ(image.height, 6);
+    for (int i = 0; i < 6; ++i) {
+        EXPECT_EQ(image.value[static_cast<std::size_t>(i)], 0.0f) << "the rows added above the image are opaque";
+        EXPECT_EQ(image.value[static_cast<std::size_t>(5 * 6 + i)], 0.0f);
+        EXPECT_NEAR(image.value[static_cast<std::size_t>(2 * 6 + i)], std::min(1.0, (0.1 * i + 0.2 + 2.0) / 3.0), 1e-6);
+    }
+    try {
+        filter::read_aperture_image((dir / "missing.png").string());
+        FAIL() << "a missing aperture image must throw";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("missing.png"), std::string::npos) << e.what();
+    }
+}
+
+TEST(FlareStage, DirtOnThePupilScattersTheStarburst) {
+    const fs::path dir = temp_dir("dirt");
+    write_frame(dir / "in.exr", 160.0, 100.0, 20000.0f);
+    // Enlarged 30x so that the pattern spans many pixels of this small frame.
+    const std::string common = " --lens brendel-tessar --fstop 8 --threshold 100 --flare-only --parts starburst"
+                               " --starburst-scale 30 -q";
+    ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "clean.exr").string() + common), 0);
+    ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "scratched.exr").string() + common +
+                  " --scratches 60 --scratch-angle 0 --scratch-spread 0"), 0);
+    ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "dusty.exr").string() + common +
+                  " --dust 300 --dirt-seed 7"), 0);
+    const std::vector<float> clean = read_rgb(dir / "clean.exr");
+    // Energy in a vertical and a horizontal band through the light, outside its core.
+    const auto bands = [](const std::vector<float>& img) {
+        std::array<double, 3> b{};  // vertical, horizontal, all
+        for (int y = 0; y < 200; ++y)
+            for (int x = 0; x < 320; ++x) {
+                const double v = static_cast<double>(img[static_cast<std::size_t>((y * 320 + x) * 3 + 1)]);
+                EXPECT_TRUE(std::isfinite(v));
+                const bool core = std::hypot(x - 160, y - 100) < 6.0;
+                if (!core && std::abs(x - 160) < 4) b[0] += v;
+                if (!core && std::abs(y - 100) < 4) b[1] += v;
+                b[2] += v;
+            }
+        return b;
+    };
+    const auto c = bands(clean);
+    const auto s = bands(read_rgb(dir / "scratched.exr"));
+    const auto d = bands(read_rgb(dir / "dusty.exr"));
+    ASSERT_GT(c[0], 0.0);
+    ASSERT_GT(c[1], 0.0);
+    // Horizontal scratches diffract across themselves: vertical streaks.
+    EXPECT_GT(s[0] - c[0], 2.0 * std::abs(s[1] - c[1])) << s[0] << " " << c[0] << " " << s[1] << " " << c[1];
+    EXPECT_GT(s[0], 1.05 * c[0]);
+    // Dirt scatters light out of the core the light's own pixels hold, so more is added around it, never less.
+    EXPECT_GT(d[2], c[2]);
+    EXPECT_GT(s[2], 0.99 * c[2]);
+
+    EXPECT_NE(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "bad.exr").string() + common +
+                  " --aperture-image " + (dir / "no-such-iris.png").string()), 0);
+    EXPECT_FALSE(fs::exists(dir / "bad.exr"));
 }

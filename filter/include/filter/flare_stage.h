@@ -14,6 +14,7 @@
 
 #include <detect/source.h>
 #include <filter/frame.h>
+#include <filter/pupil_options.h>
 #include <optics/lens.h>
 
 namespace lensfx::filter {
@@ -36,10 +37,12 @@ struct FlareSettings {
     std::string parts = "ghosts,starburst";  // what to render: ghosts, starburst, or both
     double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
     double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale
+    PupilSettings pupil;              // dust, scratches, aperture image (the starburst's pupil)
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
-// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale.
+// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale and
+// the pupil's dirt (add_pupil_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.

@@ -1,0 +1,75 @@
+#include <filter/pupil_options.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/core.h>
+
+namespace lensfx::filter {
+
+void add_pupil_options(CLI::App& app, PupilSettings& s) {
+    const std::string group = "Iris dirt (starburst)";
+    app.add_option("--dust", s.dust, "Dust specks on the pupil (section 5 of the flare paper): rainbow speckle")->group(group)->check(CLI::Range(0.0, 1e6));
+    app.add_option("--dust-size", s.dust_size, "Mean dust radius, as a fraction of the stop radius")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5));
+    app.add_option("--dust-opacity", s.dust_opacity, "Dust opacity (1 = opaque)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0));
+    app.add_option("--scratches", s.scratches, "Scratches on the pupil: streaks across their direction")->group(group)->check(CLI::Range(0, 100000));
+    app.add_option("--scratch-length", s.scratch_length, "Mean scratch length, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-3, 4.0));
+    app.add_option("--scratch-width", s.scratch_width, "Scratch width, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5));
+    app.add_option("--scratch-angle", s.scratch_angle_deg, "Mean scratch direction, degrees counter-clockwise from horizontal")->capture_default_str()->group(group);
+    app.add_option("--scratch-spread", s.scratch_spread_deg, "Spread of scratch directions in degrees (180 = any)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 180.0));
+    app.add_option("--dirt-seed", s.seed, "Seed of the dust and scratches (the same seed, the same dirt)")->capture_default_str()->group(group);
+    app.add_option("--aperture-image", s.aperture_image, "Greyscale image (white = clear) replacing the iris shape")->group(group);
+}
+
+optics::StarburstOptions starburst_options(const PupilSettings& s) {
+    optics::StarburstOptions o;
+    o.dirt.dust_density = s.dust / std::numbers::pi;
+    o.dirt.dust_radius = s.dust_size;
+    o.dirt.dust_opacity = s.dust_opacity;
+    o.dirt.scratches = s.scratches;
+    o.dirt.scratch_length = s.scratch_length;
+    o.dirt.scratch_width = s.scratch_width;
+    o.dirt.scratch_angle_deg = s.scratch_angle_deg;
+    o.dirt.scratch_spread_deg = s.scratch_spread_deg;
+    o.dirt.seed = s.seed;
+    if (!s.aperture_image.empty()) o.image = read_aperture_image(s.aperture_image);
+    return o;
+}
+
+optics::ApertureImage read_aperture_image(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw std::runtime_error(fmt::format("--aperture-image {}: {}", path, OIIO::geterror()));
+    const OIIO::ImageSpec spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+        throw std::runtime_error(fmt::format("--aperture-image {}: the image is empty", path));
+    std::vector<float> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
+                              static_cast<std::size_t>(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
+        throw std::runtime_error(fmt::format("--aperture-image {}: {}", path, in->geterror()));
+    const int colours = std::clamp(spec.nchannels - (spec.alpha_channel >= 0 ? 1 : 0), 1, 3);
+
+    optics::ApertureImage image;
+    const int side = std::max(spec.width, spec.height);
+    image.width = image.height = side;
+    image.value.assign(static_cast<std::size_t>(side) * static_cast<std::size_t>(side), 0.0f);
+    const int ox = (side - spec.width) / 2;
+    const int oy = (side - spec.height) / 2;
+    for (int y = 0; y < spec.height; ++y) {
+        for (int x = 0; x < spec.width; ++x) {
+            const float* p = &pixels[(static_cast<std::size_t>(y) * static_cast<std::size_t>(spec.width) +
+                                      static_cast<std::size_t>(x)) * static_cast<std::size_t>(spec.nchannels)];
+            float sum = 0.0f;
+            for (int c = 0; c < colours; ++c) sum += p[c];
+            const float v = sum / static_cast<float>(colours);
+            image.value[static_cast<std::size_t>(y + oy) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x + ox)] =
+                std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+        }
+    }
+    return image;
+}
+
+}  // namespace lensfx::filter
