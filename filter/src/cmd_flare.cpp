@@ -17,6 +17,7 @@
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
+#include <optics/flare_look.h>
 #include <optics/paraxial.h>
 #include <optics/system.h>
 
@@ -45,6 +46,8 @@ struct FlareArgs {
     int grid = 128;
     int threads = 2;
     std::string gpu = "auto";
+    bool ringing = false;
+    std::string flare_look;
 };
 
 std::pair<double, double> parse_pair(const std::string& text, char sep, const char* option) {
@@ -164,6 +167,9 @@ void run_flare(const FlareArgs& args) {
         gpu::GpuFlareOptions options;
         options.grid = args.grid;
         options.per_ghost_power = args.list;
+        options.ringing = args.ringing;
+        if (!args.flare_look.empty())
+            options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
         image = renderer.render(system, view, options);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -209,6 +215,8 @@ void register_flare_command(CLI::App& app) {
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
     cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
     cmd->add_option("--grid", args->grid, "GPU: ray grid cells per side per ghost")->capture_default_str();
+    cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
+    cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();

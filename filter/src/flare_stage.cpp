@@ -15,6 +15,8 @@
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
+#include <optics/flare_look.h>
+#include <optics/ghosts.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/starburst.h>
@@ -69,6 +71,8 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
+    app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
+    app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
     add_pupil_options(app, s.pupil);
 }
 
@@ -138,6 +142,7 @@ struct FlareStage::State {
     FlareParts parts;
     double f_number = 0.0;
     optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
+    std::vector<optics::GhostStyle> ghost_styles;  // from --flare-look
     std::optional<optics::Starburst> starburst;  // computed at the first light
 
     explicit State(FlareSettings s)
@@ -159,6 +164,8 @@ struct FlareStage::State {
         sensor = parse_sensor(settings.sensor);
         if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
         starburst_options = filter::starburst_options(settings.pupil);
+        if (!settings.flare_look.empty())
+            ghost_styles = optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
     }
 
     FlareGeometry geometry(const Frame& frame) const {
@@ -201,6 +208,8 @@ void FlareStage::process(Frame& frame) {
     }
     gpu::GpuFlareOptions render_options;
     render_options.grid = s.settings.grid;
+    render_options.ringing = s.settings.ringing;
+    render_options.styles = s.ghost_styles;
 
     const int dx0 = frame.spec.x - frame.spec.full_x;
     const int dy0 = frame.spec.y - frame.spec.full_y;

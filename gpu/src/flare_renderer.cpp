@@ -11,6 +11,7 @@
 #include <fmt/core.h>
 #include <optics/coating.h>
 #include <optics/paraxial.h>
+#include <optics/ringing.h>
 
 #include <gpu/gl.h>
 
@@ -42,11 +43,41 @@ struct FlareRenderer::State {
     GlObject iris = GlObject::texture();
     std::optional<Aperture> iris_for;  // the aperture the texture currently holds
 
+    // Ringing textures by (aperture, FrFT order): a few wavelengths' worth, computed once each.
+    struct Ringing {
+        Aperture aperture;
+        double alpha = 0.0;
+        GlObject texture = GlObject::texture();
+    };
+    std::vector<Ringing> ringing;
+
+    static bool same_iris(const Aperture& a, const Aperture& b) {
+        return a.blades == b.blades && a.rotation_deg == b.rotation_deg && a.blade_curvature == b.blade_curvature;
+    }
+
+    GLuint ringing_texture(const Aperture& aperture, double alpha) {
+        for (const Ringing& r : ringing)
+            if (r.alpha == alpha && same_iris(r.aperture, aperture)) return r.texture.get();
+        if (ringing.size() >= 16) ringing.erase(ringing.begin());
+        const std::vector<float> top_down = optics::ringing_aperture(aperture, kIrisSize, kIrisExtent, alpha);
+        std::vector<float> bottom_up(top_down.size());  // GL textures start at the bottom row (v = -extent)
+        for (int j = 0; j < kIrisSize; ++j)
+            std::copy_n(top_down.begin() + static_cast<std::ptrdiff_t>(kIrisSize - 1 - j) * kIrisSize, kIrisSize,
+                        bottom_up.begin() + static_cast<std::ptrdiff_t>(j) * kIrisSize);
+        Ringing r{aperture, alpha};
+        glTextureStorage2D(r.texture.get(), 1, GL_R32F, kIrisSize, kIrisSize);
+        glTextureSubImage2D(r.texture.get(), 0, 0, 0, kIrisSize, kIrisSize, GL_RED, GL_FLOAT, bottom_up.data());
+        glTextureParameteri(r.texture.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(r.texture.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(r.texture.get(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_BORDER);
+        glTextureParameteri(r.texture.get(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_BORDER);
+        check_gl("uploading the iris ringing texture");
+        ringing.push_back(std::move(r));
+        return ringing.back().texture.get();
+    }
+
     void upload_iris(const Aperture& aperture) {
-        if (iris_for && iris_for->blades == aperture.blades && iris_for->rotation_deg == aperture.rotation_deg &&
-            iris_for->blade_curvature == aperture.blade_curvature) {
-            return;
-        }
+        if (iris_for && same_iris(*iris_for, aperture)) return;
         std::vector<float> sdf(static_cast<std::size_t>(kIrisSize) * kIrisSize);
         for (int j = 0; j < kIrisSize; ++j) {
             for (int i = 0; i < kIrisSize; ++i) {
@@ -209,8 +240,20 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         glDispatchCompute(groups, groups, 1);
     };
 
+    std::vector<const GhostStyle*> style(ghosts.size(), nullptr);
+    for (const GhostStyle& st : options.styles)
+        for (std::size_t g = 0; g < ghosts.size(); ++g)
+            if (ghosts[g].first == std::max(st.first, st.second) && ghosts[g].second == std::min(st.first, st.second))
+                style[g] = &st;
+    const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
+
     for (const auto& [wavelength, mask] : view.passes()) {
         const TraceSystem traced(system, wavelength);
+        glUseProgram(s.raster.get());
+        glUniform1i(s.raster.uniform("ringing"), options.ringing ? 1 : 0);
+        glUniform1i(s.raster.uniform("iris_ringing"), 1);
+        if (options.ringing)
+            glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(wavelength, f_number)));
         for (std::size_t k = 0; k < traced.interfaces().size(); ++k) {
             if (traced.interfaces()[k].has_aspheric) {
                 throw std::runtime_error(fmt::format(
@@ -267,6 +310,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             const Ghost& ghost = ghosts[g];
             const PupilRect& rect = coarse[g].rect;
             if (rect.empty()) continue;
+            if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
             // Intensity LOD: ghosts holding 1% of the estimated total or more get the full grid; dimmer
             // ones a grid whose ray count scales with their power (at least 16 x 16 cells).
             const double share = total_estimate > 0.0 ? coarse[g].power / total_estimate : 1.0;
@@ -285,8 +329,11 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             glUniform1i(s.raster.uniform("iris_sdf"), 0);
             glUniform1f(s.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
             glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
-            glUniform4f(s.raster.uniform("channels"), mask[0] ? 1.0f : 0.0f, mask[1] ? 1.0f : 0.0f,
-                        mask[2] ? 1.0f : 0.0f, 0.0f);
+            const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+            const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+            glUniform4f(s.raster.uniform("channels"), mask[0] ? static_cast<float>(gain[0]) : 0.0f,
+                        mask[1] ? static_cast<float>(gain[1]) : 0.0f, mask[2] ? static_cast<float>(gain[2]) : 0.0f, 0.0f);
+            glUniform2f(s.raster.uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
 

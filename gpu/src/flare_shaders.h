@@ -111,6 +111,7 @@ layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
 uniform int grid;
 uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
+uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
 out float v_r_rel;
 out float v_transmission;
 out vec2 v_uv0;
@@ -146,7 +147,7 @@ void main() {
         v_irradiance = 0.0;
     } else {
         // Upright photograph: the sensor image turned 180 degrees.
-        gl_Position = vec4(-q.x / half_sensor.x, -q.y / half_sensor.y, 0.0, 1.0);
+        gl_Position = vec4((offset_mm.x - q.x) / half_sensor.x, (offset_mm.y - q.y) / half_sensor.y, 0.0, 1.0);
         v_irradiance = triangle_flux / area;
     }
     v_r_rel = q.z;
@@ -169,18 +170,31 @@ uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, ex
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform vec4 channels;
+uniform bool ringing;          // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
+uniform sampler2D iris_ringing;
 out vec4 colour;
 
 bool inside(vec2 uv) {
     return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r <= 0.0;
 }
 
+float ringing_at(vec2 uv) {
+    return texture(iris_ringing, uv / (2.0 * iris_extent) + 0.5).r;
+}
+
 void main() {
     if (v_r_rel > 1.0) discard;
-    if (stop_crossings > 0 && !inside(v_uv0)) discard;
-    if (stop_crossings > 1 && !inside(v_uv1)) discard;
-    if (stop_crossings > 2 && !inside(v_uv2)) discard;
-    colour = channels * (v_irradiance * v_transmission);
+    float iris = 1.0;
+    if (ringing) {
+        if (stop_crossings > 0) iris *= ringing_at(v_uv0);
+        if (stop_crossings > 1) iris *= ringing_at(v_uv1);
+        if (stop_crossings > 2) iris *= ringing_at(v_uv2);
+    } else {
+        if (stop_crossings > 0 && !inside(v_uv0)) discard;
+        if (stop_crossings > 1 && !inside(v_uv1)) discard;
+        if (stop_crossings > 2 && !inside(v_uv2)) discard;
+    }
+    colour = channels * (v_irradiance * v_transmission * iris);
 }
 )GLSL";
 

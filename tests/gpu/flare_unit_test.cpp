@@ -98,5 +98,89 @@ TEST(FlareRenderer, OneGhostMatchesTheReference) {
     for (float v : image.rgb) ASSERT_TRUE(std::isfinite(v) && v >= 0.0f);
 }
 
+struct Moments {
+    double power = 0.0, x = 0.0, y = 0.0;
+};
+Moments moments(const FlareImage& image, int c) {
+    Moments m;
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) {
+            const double v = image.at(x, y, c);
+            m.power += v;
+            m.x += v * (x + 0.5);
+            m.y += v * (y + 0.5);
+        }
+    if (m.power > 0.0) {
+        m.x /= m.power;
+        m.y /= m.power;
+    }
+    return m;
+}
+
+// A ghost's style: gains per channel scale its power exactly; an offset moves it rigidly on the sensor.
+TEST(FlareRenderer, GhostStyleScalesAndMovesOneGhost) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.angle_x_deg = 3.0;
+    view.angle_y_deg = 2.0;
+    view.width = 72;
+    view.height = 48;
+    view.wavelength_nm = 550.0;
+    // Surfaces 1 and 7: a small, concentrated ghost well inside the frame. Surfaces 1 and 3: a wash.
+    view.only_ghosts = {{0, 6}};
+
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    GpuFlareOptions options;
+    options.grid = 64;
+    const FlareImage plain = renderer.render(system, view, options);
+    options.styles = {{0, 6, {2.0, 0.5, 0.0}, {1.5, 1.0}}, {0, 2, {0.0, 0.0, 0.0}, {}}};  // the wash is not drawn
+    const FlareImage styled = renderer.render(system, view, options);
+    view.only_ghosts.push_back({0, 2});
+    const FlareImage with_hidden = renderer.render(system, view, options);
+    EXPECT_EQ(styled.rgb, with_hidden.rgb) << "a ghost with zero gain adds nothing";
+
+    const Moments m0 = moments(plain, 0);
+    ASSERT_GT(m0.power, 0.0);
+    const Moments r = moments(styled, 0);
+    EXPECT_NEAR(r.power / m0.power, 2.0, 0.02);
+    EXPECT_NEAR(moments(styled, 1).power / m0.power, 0.5, 0.005);
+    EXPECT_EQ(moments(styled, 2).power, 0.0);
+    // 1.5 mm right and 1 mm up at 0.5 mm per pixel.
+    EXPECT_NEAR(r.x - m0.x, 3.0, 0.1);
+    EXPECT_NEAR(r.y - m0.y, -2.0, 0.1);
+}
+
+// The high quality mode shades ghosts by the iris with its ringing: the same energy (the FrFT keeps it),
+// with fringes that change the picture.
+TEST(FlareRenderer, RingingKeepsTheEnergyAndAddsFringes) {
+    optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, 11.0);
+    FlareView view;
+    view.angle_x_deg = 2.0;
+    view.angle_y_deg = 1.0;
+    view.width = 180;
+    view.height = 120;
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    GpuFlareOptions options;
+    options.grid = 96;
+    const FlareImage sharp = renderer.render(system, view, options);
+    options.ringing = true;
+    const FlareImage ringing = renderer.render(system, view, options);
+    for (int c = 0; c < 3; ++c) {
+        const double p0 = moments(sharp, c).power;
+        const double p1 = moments(ringing, c).power;
+        ASSERT_GT(p0, 0.0);
+        EXPECT_NEAR(p1 / p0, 1.0, 0.03) << "channel " << c;
+    }
+    double changed = 0.0, total = 0.0;
+    for (std::size_t i = 0; i < sharp.rgb.size(); ++i) {
+        ASSERT_TRUE(std::isfinite(ringing.rgb[i]) && ringing.rgb[i] >= 0.0f);
+        changed += std::abs(static_cast<double>(ringing.rgb[i]) - static_cast<double>(sharp.rgb[i]));
+        total += static_cast<double>(sharp.rgb[i]);
+    }
+    EXPECT_GT(changed / total, 0.01);
+}
+
 }  // namespace
 }  // namespace lensfx::gpu

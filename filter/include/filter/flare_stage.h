@@ -38,11 +38,13 @@ struct FlareSettings {
     double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
     double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale
     PupilSettings pupil;              // dust, scratches, aperture image (the starburst's pupil)
+    bool ringing = false;             // ghosts shaded by the iris with its diffraction ringing
+    std::string flare_look;           // per-ghost colour/gain/offset and imperfect symmetry (TOML)
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
-// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale and
-// the pupil's dirt (add_pupil_options).
+// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale,
+// --ringing, --flare-look and the pupil's dirt (add_pupil_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.

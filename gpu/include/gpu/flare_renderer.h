@@ -6,15 +6,23 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include <gpu/context.h>
 #include <gpu/flare.h>
+#include <optics/flare_look.h>
 
 namespace lensfx::gpu {
+
+using optics::GhostStyle;  // per-ghost colour, gain and offset (optics/flare_look.h)
 
 struct GpuFlareOptions {
     int grid = 128;                // cells per side of each ghost's ray grid
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
+    // High quality: ghosts are shaded by the iris with its ringing (the fractional Fourier transform of
+    // order eq. 5 at each pass's wavelength and the lens's f-number) instead of the sharp iris.
+    bool ringing = false;
+    std::vector<GhostStyle> styles;  // ghosts not listed keep their physical look
 };
 
 class FlareRenderer {
