@@ -209,7 +209,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         glDispatchCompute(groups, groups, 1);
     };
 
-    for (const auto& [wavelength, mask] : view.passes()) {
+    for (const SpectralPass& pass : view.passes()) {
+        const double wavelength = pass.wavelength_nm;
         const TraceSystem traced(system, wavelength);
         for (std::size_t k = 0; k < traced.interfaces().size(); ++k) {
             if (traced.interfaces()[k].has_aspheric) {
@@ -285,8 +286,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             glUniform1i(s.raster.uniform("iris_sdf"), 0);
             glUniform1f(s.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
             glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
-            glUniform4f(s.raster.uniform("channels"), mask[0] ? 1.0f : 0.0f, mask[1] ? 1.0f : 0.0f,
-                        mask[2] ? 1.0f : 0.0f, 0.0f);
+            glUniform4f(s.raster.uniform("channels"), static_cast<float>(pass.weight[0]),
+                        static_cast<float>(pass.weight[1]), static_cast<float>(pass.weight[2]), 0.0f);
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
 
