@@ -186,8 +186,8 @@ TEST_F(ColourEndToEnd, UnknownNamesFailWithTheValidOnes) {
 }
 
 // The same frame through the filter with the output transform on the GPU and on the CPU: every display
-// of the built-in config, with and without a flare (whose stage makes the context the transform then
-// shares), agrees within 1e-4, and NaN/Inf in the input never reach either output.
+// of the built-in config, with --gpu and with a flare (whose stage makes the context the transform then
+// shares), agrees within 1e-4, and NaN/Inf in the input never reach either output. About 10 s.
 TEST_F(ColourEndToEnd, GpuAndCpuOutputTransformsAgree) {
     try {
         lensfx::gpu::Context probe(lensfx::gpu::Platform::Surfaceless);
@@ -214,8 +214,10 @@ TEST_F(ColourEndToEnd, GpuAndCpuOutputTransformsAgree) {
     ASSERT_TRUE(out && out->open(path("in.exr"), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
 
     const std::string flare = " --lens cooke-triplet --threshold 1000 --grid 32 --parts ghosts,starburst";
+    // Every display with --gpu; the flare's shared context with the display whose GPU/CPU gap is largest.
     for (const std::string display : {"srgb", "rec709", "rec2100-pq"}) {
         for (const std::string& extra : {std::string(" --gpu surfaceless"), flare}) {
+            if (extra == flare && display != "rec709") continue;
             const std::string common = lensfx() + " -q -i " + path("in.exr") + " --display " + display + extra;
             ASSERT_EQ(run(common + " --colour-on cpu -o " + path("cpu.exr")).status, 0) << display << extra;
             const Result r = run(common + " -o " + path("gpu.exr"));  // auto: the run's context is there
