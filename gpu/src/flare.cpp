@@ -25,7 +25,7 @@ using optics::trace;
 std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_rgb) {
     if (bands < kMinBands || bands > kMaxBands) {
         throw std::invalid_argument(
-            fmt::format("--bands {}: {}..{} spectral bands (or RGB mode)", bands, kMinBands, kMaxBands));
+            fmt::format("--bands {}: give 0 (RGB, three wavelengths) or {}..{} spectral bands", bands, kMinBands, kMaxBands));
     }
     const double width = (kSpectrumLast_nm - kSpectrumFirst_nm) / bands;
     std::vector<SpectralPass> passes(static_cast<std::size_t>(bands));

@@ -1,7 +1,7 @@
 // Spectral quality (issue 5) on the GPU against the dense CPU reference, and the convergence of the band
 // count: 16 bands on the GPU against the reference, 16 against 40 bands, and RGB against 40 bands
-// (printed: three wavelengths sample the coatings' reflectance where it happens to be, which for coatings
-// tuned near 550 nm is far from the band average).
+// (printed: three wavelengths sample the coatings' reflectance at one point per channel, the bands weigh
+// it over each colour-matching function, so RGB's power per channel is off while the shapes agree).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -132,8 +132,8 @@ TEST_F(Spectral, BandCountConvergesAndRgbIsACoarseSample) {
 
 // The band filter (paper section 4.2) smears the separate coloured copies of each ghost that 7 bands leave
 // into one: the image's edge content moves towards the 40-band image's, and the power stays. It does not
-// bring 7 bands closer to 40 pixel by pixel (measured and printed): the ghosts mostly grow or shrink with
-// wavelength, which a 1D smear along the centroid's path only approximates.
+// bring 7 bands closer to 40 pixel by pixel (measured and printed), likely because a ghost also changes
+// size and shape between bands, which a 1D smear along its centroid's path does not model.
 TEST_F(Spectral, BandFilterSmearsTheBandCopiesAndKeepsThePower) {
     const System system = optics::realize(optics::load_lens("cooke-triplet"));
     const FlareImage b40 = gpu(system, test_view(40));
