@@ -25,6 +25,7 @@ struct FilterArgs {
     bool progress = false;
     colour::ColourArgs colour;
     FlareSettings flare;
+    bool gpu_given = false;  // --gpu on the command line: the GPU path is active from the first frame
 };
 
 void parse_size(const std::string& text, int& width, int& height) {
@@ -42,12 +43,23 @@ void parse_size(const std::string& text, int& width, int& height) {
 
 // The effects to run on each frame, in order: colour-in (to the working space) first, colour-out (to the
 // display or back to the input's space) last; the other effects go between them.
+// One GL context serves the flare renderer and the GPU colour transform; the flare is rendered in the
+// working space's primaries, which the colour session knows from the first frame.
 std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
     std::vector<std::unique_ptr<Stage>> stages;
     auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
+    auto gpu = std::make_shared<GpuSession>();
+    gpu->platform = args.flare.gpu;
+    gpu->requested = args.gpu_given;
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
-    if (!args.flare.lens.empty()) stages.push_back(std::make_unique<FlareStage>(args.flare));
-    stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session));
+    if (!args.flare.lens.empty()) {
+        auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
+            if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
+            return std::nullopt;
+        };
+        stages.push_back(std::make_unique<FlareStage>(args.flare, gpu, primaries));
+    }
+    stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session, gpu, args.colour.device));
     return stages;
 }
 
@@ -107,6 +119,7 @@ void register_filter(CLI::App& app) {
         if (args->pipeline.input.empty() || args->pipeline.output.empty()) {
             throw std::runtime_error("the filter needs both -i IN and -o OUT");
         }
+        args->gpu_given = app.get_option("--gpu")->count() > 0;
         run_filter(*args);
     });
 }

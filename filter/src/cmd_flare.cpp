@@ -13,6 +13,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <filter/colour.h>
+#include <gpu/band_filter.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
@@ -35,6 +36,8 @@ struct FlareArgs {
     std::string size;
     std::optional<int> blades;
     std::optional<double> wavelength;
+    int bands = 0;
+    bool band_filter = false;
     std::string coating = "lens";
     std::vector<std::string> ghosts;
     bool list = false;
@@ -143,6 +146,8 @@ void run_flare(const FlareArgs& args) {
         view.height = static_cast<int>(h);
     }
     view.wavelength_nm = args.wavelength;
+    view.bands = args.bands;
+    view.passes();  // checks --bands before any work
     for (const std::string& g : args.ghosts) {
         const auto [a, b] = parse_pair(g, ',', "--ghost");
         const int count = static_cast<int>(system.interfaces.size());
@@ -160,7 +165,9 @@ void run_flare(const FlareArgs& args) {
         options.rays = args.rays;
         options.threads = args.threads;
         options.per_ghost_power = args.list;
-        image = gpu::render_reference(system, view, options);
+        image = args.band_filter
+                    ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return gpu::render_reference(system, one, options); })
+                    : gpu::render_reference(system, view, options);
     } else {
         const gpu::Context context(gpu::parse_platform(args.gpu));
         gpu::FlareRenderer renderer(context);
@@ -170,7 +177,9 @@ void run_flare(const FlareArgs& args) {
         options.ringing = args.ringing;
         if (!args.flare_look.empty())
             options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
-        image = renderer.render(system, view, options);
+        image = args.band_filter
+                    ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return renderer.render(system, one, options); })
+                    : renderer.render(system, view, options);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
@@ -205,6 +214,10 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
     cmd->add_option("--blades", args->blades, "Iris blades (0 = round), replacing the lens's");
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)");
+    cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (default: RGB, 3 wavelengths)")
+        ->excludes("--wavelength");
+    cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
+        ->needs("--bands");
     cmd->add_option("--coating", args->coating, "Anti-reflection coatings: lens (as prescribed) or none")
         ->check(CLI::IsMember({"lens", "none"}))->capture_default_str();
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");

@@ -1011,6 +1011,12 @@ void add_colour_options(CLI::App& app, ColourArgs& args) {
     app.add_option("--dither", args.dither, "Dither when quantising display outputs: none, ordered, blue-noise")
         ->check(CLI::IsMember({"none", "ordered", "blue-noise"}))
         ->group(group);
+    app.add_option("--colour-on", args.device,
+                   "Where the output colour transform runs: auto (the GPU when the flare stage or --gpu made a GL "
+                   "context), cpu, gpu")
+        ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
+        ->capture_default_str()
+        ->group(group);
 }
 
 ColourSession::ColourSession(const ColourArgs& args, const std::string& output)
@@ -1060,12 +1066,44 @@ bool ColourOutputStage::wants_rgb() const {
     return session_->display_output() || o.exposure_ev != 0.0 || !o.colorspace.empty();
 }
 
+ColourOutputStage::ColourOutputStage(std::shared_ptr<ColourSession> session, std::shared_ptr<filter::GpuSession> gpu,
+                                     std::string device)
+    : session_(std::move(session)), gpu_(std::move(gpu)), device_(std::move(device)) {
+    if (device_ != "auto" && device_ != "cpu" && device_ != "gpu")
+        throw std::invalid_argument(fmt::format("--colour-on must be auto, cpu or gpu, not \"{}\"", device_));
+    if (device_ == "gpu" && !gpu_) gpu_ = std::make_shared<filter::GpuSession>();
+}
+
+ColourOutputStage::~ColourOutputStage() {
+    // The compiled shaders belong to the shared context: release them while it is current.
+    if ((gpu_display_ || gpu_scene_) && gpu_ && gpu_->context) gpu_->context->make_current();
+}
+
+void ColourOutputStage::apply(const ColourTransform& transform, std::unique_ptr<GpuColourTransform>& compiled,
+                              PixelSpan pixels) {
+    const bool gpu = !transform.is_identity() && gpu_ && (device_ == "gpu" || (device_ == "auto" && gpu_->active()));
+    ran_on_gpu_ = gpu;
+    if (!gpu) {
+        transform.apply(pixels);
+        return;
+    }
+    gpu_->get().make_current();
+    if (!compiled) compiled = std::make_unique<GpuColourTransform>(transform);
+    compiled->apply(pixels);
+}
+
+namespace {
+// Where the output transform ran, in the frame's metadata (EXR outputs keep it).
+void record_device(filter::Frame& frame, bool gpu) { frame.spec.attribute("lensfx:colourTransformOn", gpu ? "gpu" : "cpu"); }
+}  // namespace
+
 void ColourOutputStage::process(filter::Frame& frame) {
     if (frame.rgb.empty()) return;
     const auto& p = session_->pipeline_for(frame);
     auto px = rgb_span(frame);
     if (session_->display_output()) {
-        p.to_display().apply(px);
+        apply(p.to_display(), gpu_display_, px);
+        record_device(frame, ran_on_gpu_);
         // The pixels are display code values now: the input's primaries no longer describe them.
         frame.spec.erase_attribute("chromaticities");
         const std::string& display = p.display();
@@ -1082,7 +1120,8 @@ void ColourOutputStage::process(filter::Frame& frame) {
         const float s = static_cast<float>(std::exp2(ev));
         for (float& v : frame.rgb) v *= s;
     }
-    p.to_scene_output().apply(px);
+    apply(p.to_scene_output(), gpu_scene_, px);
+    if (!p.to_scene_output().is_identity()) record_device(frame, ran_on_gpu_);
 }
 
 }  // namespace lensfx::colour

@@ -12,6 +12,7 @@
 #include <detect/threshold.h>
 #include <detect/track_file.h>
 #include <detect/tracker.h>
+#include <gpu/band_filter.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
@@ -70,6 +71,9 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
+        ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
+    app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
     app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
     app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
@@ -104,14 +108,25 @@ double FlareGeometry::pixel_area_mm2() const {
     return (sensor_width_mm / width) * (sensor_height_mm / height);
 }
 
-std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays) {
+optics::Mat3 xyz_to_rgb_of(const std::array<double, 9>& m) {
+    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                       m[2] * (m[3] * m[7] - m[4] * m[6]);
+    if (!(std::abs(det) > 1e-12)) throw std::invalid_argument("the working space's RGB -> XYZ matrix is singular");
+    const double k = 1.0 / det;
+    return {{{(m[4] * m[8] - m[5] * m[7]) * k, (m[2] * m[7] - m[1] * m[8]) * k, (m[1] * m[5] - m[2] * m[4]) * k},
+             {(m[5] * m[6] - m[3] * m[8]) * k, (m[0] * m[8] - m[2] * m[6]) * k, (m[2] * m[3] - m[0] * m[5]) * k},
+             {(m[3] * m[7] - m[4] * m[6]) * k, (m[1] * m[6] - m[0] * m[7]) * k, (m[0] * m[4] - m[1] * m[3]) * k}}};
+}
+
+std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays,
+                                   const std::vector<gpu::SpectralPass>& passes) {
     std::array<double, 3> power{};
     gpu::FlareView view;
     view.angle_x_deg = ax_deg;
     view.angle_y_deg = ay_deg;
     const std::vector<optics::Step> path = optics::direct_path(system);
-    for (std::size_t c = 0; c < 3; ++c) {
-        const optics::TraceSystem traced(system, gpu::kRgbWavelengths_nm[c]);
+    for (const gpu::SpectralPass& pass : passes.empty() ? view.passes() : passes) {
+        const optics::TraceSystem traced(system, pass.wavelength_nm);
         const gpu::PupilRect square = gpu::entrance_square(traced, view);
         const double dx = (square.x1 - square.x0) / rays;
         const double dy = (square.y1 - square.y0) / rays;
@@ -124,7 +139,7 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
                 if (gpu::ray_passes(r, system.aperture)) sum += r.transmission * std::abs(ray.direction.z);
             }
         }
-        power[c] = sum * dx * dy;
+        for (std::size_t c = 0; c < 3; ++c) power[c] += pass.weight[c] * sum * dx * dy;
     }
     return power;
 }
@@ -137,15 +152,18 @@ struct FlareStage::State {
     std::optional<detect::TrackFile> tracks;
     detect::Detector detector;
     detect::Tracker tracker;
-    std::unique_ptr<gpu::Context> context;  // created at the first frame that has a light
+    std::shared_ptr<GpuSession> gpu_session;  // its context is created at the first frame that has a light
     std::unique_ptr<gpu::FlareRenderer> renderer;
     FlareParts parts;
     double f_number = 0.0;
     optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
     std::vector<optics::GhostStyle> ghost_styles;  // from --flare-look
+    PrimariesSource primaries_source;
+    std::optional<optics::Mat3> xyz_to_rgb;       // the working space's, fixed at the first light
+    std::vector<gpu::SpectralPass> passes;        // with those primaries
     std::optional<optics::Starburst> starburst;  // computed at the first light
 
-    explicit State(FlareSettings s)
+    State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(std::move(s)),
           detector([&] {
               detect::DetectorOptions o;
@@ -153,6 +171,8 @@ struct FlareStage::State {
               o.max_lights = settings.max_lights;
               return o;
           }()) {
+        gpu_session = g ? std::move(g) : std::make_shared<GpuSession>();
+        primaries_source = std::move(primaries);
         const optics::Lens lens = optics::load_lens(settings.lens);
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
@@ -166,6 +186,20 @@ struct FlareStage::State {
         starburst_options = filter::starburst_options(settings.pupil);
         if (!settings.flare_look.empty())
             ghost_styles = optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
+        if (settings.bands != 0) gpu::spectral_passes(settings.bands);  // checks the band count
+        if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
+        if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
+    }
+
+    // The working space's primaries and the passes in them; asked once, at the first light.
+    void resolve_primaries() {
+        if (xyz_to_rgb) return;
+        const auto rgb_to_xyz = primaries_source ? primaries_source() : std::nullopt;
+        xyz_to_rgb = rgb_to_xyz ? xyz_to_rgb_of(*rgb_to_xyz) : optics::kXyzToRec709;
+        gpu::FlareView view;
+        view.bands = settings.bands;
+        view.xyz_to_rgb = *xyz_to_rgb;
+        passes = view.passes();
     }
 
     FlareGeometry geometry(const Frame& frame) const {
@@ -191,7 +225,8 @@ struct FlareStage::State {
     }
 };
 
-FlareStage::FlareStage(FlareSettings settings) : state_(std::make_unique<State>(std::move(settings))) {}
+FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, PrimariesSource working_rgb_to_xyz)
+    : state_(std::make_unique<State>(std::move(settings), std::move(gpu), std::move(working_rgb_to_xyz))) {}
 FlareStage::~FlareStage() = default;
 
 void FlareStage::process(Frame& frame) {
@@ -202,10 +237,8 @@ void FlareStage::process(Frame& frame) {
     if (lights.empty() || s.settings.gain == 0.0) return;  // no light: the GPU is never touched
 
     const FlareGeometry geo = s.geometry(frame);
-    if (!s.context && parts.ghosts) {
-        s.context = std::make_unique<gpu::Context>(gpu::parse_platform(s.settings.gpu));
-        s.renderer = std::make_unique<gpu::FlareRenderer>(*s.context);
-    }
+    s.resolve_primaries();
+    if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
     gpu::GpuFlareOptions render_options;
     render_options.grid = s.settings.grid;
     render_options.ringing = s.settings.ringing;
@@ -215,7 +248,7 @@ void FlareStage::process(Frame& frame) {
     const int dy0 = frame.spec.y - frame.spec.full_y;
     for (const detect::Light& light : lights) {
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
-        const std::array<double, 3> direct = direct_power(s.system, ax, ay);
+        const std::array<double, 3> direct = direct_power(s.system, ax, ay, 64, s.passes);
         const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
         std::array<float, 3> scale{};
         bool any = false;
@@ -229,7 +262,11 @@ void FlareStage::process(Frame& frame) {
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
 
         if (parts.starburst && s.settings.starburst_gain > 0.0) {
-            if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture, s.starburst_options);
+            if (!s.starburst) {
+                optics::StarburstOptions starburst_options = s.starburst_options;
+                starburst_options.xyz_to_rgb = *s.xyz_to_rgb;
+                s.starburst = optics::make_starburst(s.system.aperture, starburst_options);
+            }
             // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
             // already in the recorded pixels, so only the spikes and rings are added.
             std::array<double, 3> energy{};
@@ -254,7 +291,12 @@ void FlareStage::process(Frame& frame) {
         view.sensor_height_mm = geo.sensor_height_mm;
         view.width = geo.width;
         view.height = geo.height;
-        const gpu::FlareImage flare = s.renderer->render(s.system, view, render_options);
+        view.bands = s.settings.bands;
+        view.xyz_to_rgb = *s.xyz_to_rgb;
+        const gpu::FlareImage flare =
+            s.settings.band_filter
+                ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
+                : s.renderer->render(s.system, view, render_options);
 
         for (int y = 0; y < frame.spec.height; ++y) {
             const int fy = y + dy0;

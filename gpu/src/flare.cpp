@@ -22,11 +22,42 @@ using optics::enumerate_ghosts;
 using optics::surface_sag;
 using optics::trace;
 
-std::vector<std::pair<double, std::array<bool, 3>>> FlareView::passes() const {
-    if (wavelength_nm) return {{*wavelength_nm, {true, true, true}}};
-    return {{kRgbWavelengths_nm[0], {true, false, false}},
-            {kRgbWavelengths_nm[1], {false, true, false}},
-            {kRgbWavelengths_nm[2], {false, false, true}}};
+std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_rgb) {
+    if (bands < kMinBands || bands > kMaxBands) {
+        throw std::invalid_argument(
+            fmt::format("--bands {}: give 0 (RGB, three wavelengths) or {}..{} spectral bands", bands, kMinBands, kMaxBands));
+    }
+    const double width = (kSpectrumLast_nm - kSpectrumFirst_nm) / bands;
+    std::vector<SpectralPass> passes(static_cast<std::size_t>(bands));
+    std::array<double, 3> sum{};
+    for (int i = 0; i < bands; ++i) {
+        SpectralPass& p = passes[static_cast<std::size_t>(i)];
+        p.wavelength_nm = kSpectrumFirst_nm + (i + 0.5) * width;
+        const std::array<double, 3> xyz = optics::cie1931_xyz(p.wavelength_nm);
+        for (std::size_t c = 0; c < 3; ++c) {
+            p.weight[c] = xyz_to_rgb[c][0] * xyz[0] + xyz_to_rgb[c][1] * xyz[1] + xyz_to_rgb[c][2] * xyz[2];
+            sum[c] += p.weight[c];
+        }
+    }
+    for (std::size_t c = 0; c < 3; ++c) {
+        if (!(sum[c] > 0.0)) {
+            throw std::invalid_argument(fmt::format(
+                "spectral weights: a flat spectrum has no positive {} in this working space", "RGB"[c]));
+        }
+        for (SpectralPass& p : passes) p.weight[c] /= sum[c];
+    }
+    return passes;
+}
+
+std::vector<SpectralPass> FlareView::passes() const {
+    if (wavelength_nm && bands != 0) {
+        throw std::invalid_argument("--wavelength and --bands exclude each other");
+    }
+    if (wavelength_nm) return {{*wavelength_nm, {1.0, 1.0, 1.0}}};
+    if (bands != 0) return spectral_passes(bands, xyz_to_rgb);
+    return {{kRgbWavelengths_nm[0], {1.0, 0.0, 0.0}},
+            {kRgbWavelengths_nm[1], {0.0, 1.0, 0.0}},
+            {kRgbWavelengths_nm[2], {0.0, 0.0, 1.0}}};
 }
 
 std::array<double, 3> FlareImage::total_power(const FlareView& view) const {
@@ -153,7 +184,8 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
 
     std::vector<double> image(pixels * 3, 0.0);
     std::vector<GhostPower> powers;
-    for (const auto& [wavelength, mask] : view.passes()) {
+    for (const SpectralPass& pass : view.passes()) {
+        const double wavelength = pass.wavelength_nm;
         const TraceSystem traced(system, wavelength);
         const PupilRect whole = entrance_square(traced, view);
         const Ray axis_ray = collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
@@ -203,10 +235,10 @@ FlareImage render_reference(const System& system, const FlareView& view, const R
                 double sum = 0.0;
                 for (const auto& p : partial) sum += p[i];
                 if (sum == 0.0) continue;
-                for (int c = 0; c < 3; ++c) {
-                    if (!mask[static_cast<std::size_t>(c)]) continue;
-                    image[i * 3 + static_cast<std::size_t>(c)] += sum * inv_area;
-                    powers[g].power[static_cast<std::size_t>(c)] += sum;
+                for (std::size_t c = 0; c < 3; ++c) {
+                    if (pass.weight[c] == 0.0) continue;
+                    image[i * 3 + c] += pass.weight[c] * sum * inv_area;
+                    powers[g].power[c] += pass.weight[c] * sum;
                 }
             }
         }

@@ -247,7 +247,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                 style[g] = &st;
     const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
 
-    for (const auto& [wavelength, mask] : view.passes()) {
+    for (const SpectralPass& pass : view.passes()) {
+        const double wavelength = pass.wavelength_nm;
         const TraceSystem traced(system, wavelength);
         glUseProgram(s.raster.get());
         glUniform1i(s.raster.uniform("ringing"), options.ringing ? 1 : 0);
@@ -331,8 +332,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
             const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
             const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-            glUniform4f(s.raster.uniform("channels"), mask[0] ? static_cast<float>(gain[0]) : 0.0f,
-                        mask[1] ? static_cast<float>(gain[1]) : 0.0f, mask[2] ? static_cast<float>(gain[2]) : 0.0f, 0.0f);
+            glUniform4f(s.raster.uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
+                        static_cast<float>(pass.weight[1] * gain[1]), static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
             glUniform2f(s.raster.uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));

@@ -1,16 +1,19 @@
 // End to end: the lensfx program tone maps files and ffmpeg pipes as the README says, and its outputs
 // agree with the colour module (itself checked against OCIO in test_colour.cpp).
 #include <filter/colour.h>
+#include <gpu/context.h>
 
 #include <gtest/gtest.h>
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -180,6 +183,60 @@ TEST_F(ColourEndToEnd, UnknownNamesFailWithTheValidOnes) {
     r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --ocio " + path("missing.ocio"));
     EXPECT_NE(r.status, 0);
     EXPECT_NE(r.err.find(path("missing.ocio")), std::string::npos) << r.err;
+}
+
+// The same frame through the filter with the output transform on the GPU and on the CPU: every display
+// of the built-in config, with --gpu and with a flare (whose stage makes the context the transform then
+// shares), agrees within 1e-4, and NaN/Inf in the input never reach either output. About 10 s.
+TEST_F(ColourEndToEnd, GpuAndCpuOutputTransformsAgree) {
+    try {
+        lensfx::gpu::Context probe(lensfx::gpu::Platform::Surfaceless);
+    } catch (const std::exception& e) {
+        GTEST_SKIP() << "no EGL/OpenGL 4.3 context: " << e.what();
+    }
+    // A ramp over 20 stops, a bright light for the flare stage, and NaN/Inf pixels.
+    std::vector<float> px(W * H * 3);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            for (int c = 0; c < 3; ++c)
+                px[static_cast<std::size_t>((y * W + x) * 3 + c)] =
+                    0.18f * std::exp2(-10.0f + 20.0f * static_cast<float>(x) / W) * (1.0f - 0.3f * static_cast<float>(c) * y / H);
+    const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+    for (int c = 0; c < 3; ++c) {
+        px[static_cast<std::size_t>((3 * W + 3) * 3 + c)] = nan;
+        px[static_cast<std::size_t>((4 * W + 5) * 3 + c)] = inf;
+        px[static_cast<std::size_t>((5 * W + 7) * 3 + c)] = -inf;
+        for (int y = 20; y < 23; ++y)
+            for (int x = 44; x < 47; ++x) px[static_cast<std::size_t>((y * W + x) * 3 + c)] = 5000.0f;
+    }
+    OIIO::ImageSpec spec(W, H, 3, OIIO::TypeFloat);
+    auto out = OIIO::ImageOutput::create(path("in.exr"));
+    ASSERT_TRUE(out && out->open(path("in.exr"), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+
+    const std::string flare = " --lens cooke-triplet --threshold 1000 --grid 32 --parts ghosts,starburst";
+    // Every display with --gpu; the flare's shared context with the display whose GPU/CPU gap is largest.
+    for (const std::string display : {"srgb", "rec709", "rec2100-pq"}) {
+        for (const std::string& extra : {std::string(" --gpu surfaceless"), flare}) {
+            if (extra == flare && display != "rec709") continue;
+            const std::string common = lensfx() + " -q -i " + path("in.exr") + " --display " + display + extra;
+            ASSERT_EQ(run(common + " --colour-on cpu -o " + path("cpu.exr")).status, 0) << display << extra;
+            const Result r = run(common + " -o " + path("gpu.exr"));  // auto: the run's context is there
+            ASSERT_EQ(r.status, 0) << display << extra << ": " << r.err;
+            OIIO::ImageSpec cpu_spec, gpu_spec;
+            const auto cpu = read_pixels(path("cpu.exr"), &cpu_spec), gpu = read_pixels(path("gpu.exr"), &gpu_spec);
+            EXPECT_EQ(cpu_spec.get_string_attribute("lensfx:colourTransformOn"), "cpu");
+            EXPECT_EQ(gpu_spec.get_string_attribute("lensfx:colourTransformOn"), "gpu") << display << extra;
+            ASSERT_EQ(cpu.size(), px.size());
+            ASSERT_EQ(gpu.size(), px.size());
+            float worst = 0.0f;
+            for (std::size_t i = 0; i < cpu.size(); ++i) {
+                ASSERT_TRUE(std::isfinite(cpu[i]) && std::isfinite(gpu[i])) << display << extra << " value " << i;
+                worst = std::max(worst, std::abs(cpu[i] - gpu[i]));
+            }
+            std::printf("%s%s: GPU - CPU max %.3g\n", display.c_str(), extra.c_str(), static_cast<double>(worst));
+            EXPECT_LT(worst, 1e-4f) << display << extra;
+        }
+    }
 }
 
 // The README's video examples, verbatim apart from paths and sizes, decoded back by ffmpeg.

@@ -17,6 +17,7 @@
 #include <OpenColorIO/OpenColorIO.h>
 
 #include <filter/frame.h>
+#include <filter/gpu_session.h>
 #include <optics/starburst.h>
 
 namespace lensfx::colour {
@@ -175,6 +176,23 @@ struct GpuShader {
 // Throws when the transform needs uniforms (dynamic properties), which this path does not feed.
 GpuShader gpu_shader(const ColourTransform& transform, const std::string& function = "lensfx_colour");
 
+// A transform compiled for the GPU: gpu_shader() in a compute shader on the current GL context (a
+// gpu::Context made current on this thread, which must outlive this). apply() gives what
+// ColourTransform::apply gives within 1e-4, NaN/Inf sanitised the same way; the identity does nothing.
+class GpuColourTransform {
+public:
+    explicit GpuColourTransform(const ColourTransform& transform);
+    ~GpuColourTransform();
+    GpuColourTransform(GpuColourTransform&&) noexcept;
+    GpuColourTransform& operator=(GpuColourTransform&&) noexcept;
+    void apply(PixelSpan pixels);
+    void apply_rgb(float* rgb, std::size_t count);  // packed RGB triples
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
 // Colour space to colour space (names or roles of the config).
 ColourTransform make_transform(const ColourConfig& config, const std::string& src, const std::string& dst);
 
@@ -240,12 +258,13 @@ struct ColourArgs {
     ColourOptions options;
     int bits = 8;                       // --bits: 8 or 16 for display-referred files (PNG, TIFF; JPEG is 8)
     std::string dither = "blue-noise";  // --dither: none, ordered, blue-noise
+    std::string device = "auto";        // --colour-on: auto (GPU when the run has a GL context), cpu, gpu
     Dither dither_mode() const;
     // A display transform was asked for (--display, --view or --look): scene-linear outputs get it too.
     bool display_asked() const;
 };
 
-// Adds --colorspace, --ocio, --display, --view, --look, --exposure, --bits, --dither to the filter.
+// Adds --colorspace, --ocio, --display, --view, --look, --exposure, --bits, --dither, --colour-on to the filter.
 void add_colour_options(CLI::App& app, ColourArgs& args);
 
 // What the colour stages of one run share: the config (loaded and checked when the run starts) and the
@@ -287,15 +306,26 @@ private:
 
 // Working space -> output: last in the chain. Display outputs: exposure, look, view, clamp (and the
 // frame's colour metadata says display); scene-linear outputs: exposure, back to the input's space.
+// The transform runs on the GPU (OCIO's shader) when `device` is "gpu" (the context is made if needed), or
+// "auto" and the run's GPU session is active (the flare stage made a context, or --gpu was given); else on
+// the CPU. Both agree within 1e-4.
 class ColourOutputStage final : public filter::Stage {
 public:
-    explicit ColourOutputStage(std::shared_ptr<ColourSession> session) : session_(std::move(session)) {}
+    explicit ColourOutputStage(std::shared_ptr<ColourSession> session,
+                               std::shared_ptr<filter::GpuSession> gpu = nullptr, std::string device = "auto");
+    ~ColourOutputStage() override;
     std::string_view name() const override { return "colour-out"; }
     bool wants_rgb() const override;
     void process(filter::Frame& frame) override;
+    bool ran_on_gpu() const { return ran_on_gpu_; }  // the last frame's transform did
 
 private:
+    void apply(const ColourTransform& transform, std::unique_ptr<GpuColourTransform>& compiled, PixelSpan pixels);
     std::shared_ptr<ColourSession> session_;
+    std::shared_ptr<filter::GpuSession> gpu_;
+    std::string device_;
+    std::unique_ptr<GpuColourTransform> gpu_display_, gpu_scene_;
+    bool ran_on_gpu_ = false;
 };
 
 }  // namespace lensfx::colour

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -14,8 +15,11 @@
 
 #include <detect/source.h>
 #include <filter/frame.h>
+#include <filter/gpu_session.h>
 #include <filter/pupil_options.h>
+#include <gpu/flare.h>
 #include <optics/lens.h>
+#include <optics/starburst.h>
 
 namespace lensfx::filter {
 
@@ -37,14 +41,16 @@ struct FlareSettings {
     std::string parts = "ghosts,starburst";  // what to render: ghosts, starburst, or both
     double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
     double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale
+    int bands = 0;                    // 0: RGB (3 wavelengths); kMinBands..kMaxBands: spectral bands
+    bool band_filter = false;         // blur between bands (paper section 4.2); one render per ghost and band
     PupilSettings pupil;              // dust, scratches, aperture image (the starburst's pupil)
     bool ringing = false;             // ghosts shaded by the iris with its diffraction ringing
     std::string flare_look;           // per-ghost colour/gain/offset and imperfect symmetry (TOML)
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
-// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale,
-// --ringing, --flare-look and the pupil's dirt (add_pupil_options).
+// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
+// --band-filter, --ringing, --flare-look and the pupil's dirt (add_pupil_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
@@ -69,14 +75,23 @@ struct FlareParts {
 FlareParts parse_parts(std::string_view text);
 
 // Power (mm^2 per unit irradiance) that a collimated light at angles (ax, ay) delivers through the lens's
-// direct path to the sensor, per RGB wavelength: pupil area seen along the beam x transmission, with
-// vignetting by every clear aperture and the iris. The light's irradiance is its image's recorded energy
-// (flux x pixel area) over this.
-std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays = 64);
+// direct path to the sensor, per channel: pupil area seen along the beam x transmission, with vignetting
+// by every clear aperture and the iris, summed over the passes with their weights (empty: RGB mode's
+// three wavelengths). The light's irradiance is its image's recorded energy (flux x pixel area) over this.
+std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays = 64,
+                                   const std::vector<gpu::SpectralPass>& passes = {});
+
+// The working space's primaries as the renderers take them: XYZ -> RGB (inverse of RGB -> XYZ, row-major).
+optics::Mat3 xyz_to_rgb_of(const std::array<double, 9>& rgb_to_xyz);
 
 class FlareStage final : public Stage {
 public:
-    explicit FlareStage(FlareSettings settings);
+    // `gpu`: the run's shared GL context (a private one when null). `working_rgb_to_xyz`: the working
+    // space's RGB -> XYZ (row-major), asked at each frame (the colour stages know it from the first frame);
+    // when null or empty, linear Rec.709. The starburst and the spectral weights use its primaries.
+    using PrimariesSource = std::function<std::optional<std::array<double, 9>>()>;
+    explicit FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu = nullptr,
+                        PrimariesSource working_rgb_to_xyz = nullptr);
     ~FlareStage() override;
 
     std::string_view name() const override { return "flare"; }

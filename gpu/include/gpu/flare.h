@@ -12,6 +12,7 @@
 #include <optics/aperture.h>
 #include <optics/ghosts.h>
 #include <optics/lens.h>
+#include <optics/starburst.h>
 #include <optics/tracer.h>
 
 namespace lensfx::gpu {
@@ -25,6 +26,24 @@ using optics::TraceSystem;
 // RGB mode renders one wavelength per channel: R 650 nm, G 550 nm, B 450 nm.
 inline constexpr std::array<double, 3> kRgbWavelengths_nm = {650.0, 550.0, 450.0};
 
+// Spectral mode: N equal bands over 380..780 nm (issue 5's quality levels).
+inline constexpr int kMinBands = 7;
+inline constexpr int kMaxBands = 81;
+inline constexpr double kSpectrumFirst_nm = 380.0;
+inline constexpr double kSpectrumLast_nm = 780.0;
+
+// One rendered wavelength and what its image adds to each output channel (image x weight).
+struct SpectralPass {
+    double wavelength_nm = 550.0;
+    std::array<double, 3> weight{};
+};
+
+// The passes of `bands` bands (kMinBands..kMaxBands) at the band centres, weighted by the CIE 1931 colour
+// matching functions converted by xyz_to_rgb (the working space's primaries), each channel's weights
+// normalised to sum to 1: a flat spectrum of irradiance 1 gives 1 in every channel. Weights may be
+// negative (spectral colours lie outside most gamuts). Throws std::invalid_argument on a bad band count.
+std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_rgb = optics::kXyzToRec709);
+
 struct FlareView {
     double angle_x_deg = 0.0;  // light ax degrees right of the view axis (DESIGN.md)
     double angle_y_deg = 0.0;  // ay degrees above it
@@ -32,14 +51,19 @@ struct FlareView {
     double sensor_height_mm = 24.0;
     int width = 360;   // pixels
     int height = 240;
-    // Empty: RGB mode (kRgbWavelengths_nm). One value: that wavelength into every channel.
+    // Empty: RGB mode (kRgbWavelengths_nm), or `bands` spectral bands. One value: that wavelength into
+    // every channel.
     std::optional<double> wavelength_nm;
+    int bands = 0;                                   // 0: RGB mode; kMinBands..kMaxBands: spectral
+    optics::Mat3 xyz_to_rgb = optics::kXyzToRec709;  // the working space, for the spectral weights
     // Only these ghosts (Ghost::first, Ghost::second as System interface indices); empty = all.
     std::vector<std::pair<int, int>> only_ghosts;
 
     double pixel_area_mm2() const { return (sensor_width_mm / width) * (sensor_height_mm / height); }
-    // (wavelength, channel mask) passes: three in RGB mode, one otherwise.
-    std::vector<std::pair<double, std::array<bool, 3>>> passes() const;
+    // What to render: three one-channel passes in RGB mode, spectral_passes(bands, xyz_to_rgb) in
+    // spectral mode, one pass into every channel for a single wavelength. Throws on a bad band count or
+    // on both a wavelength and bands.
+    std::vector<SpectralPass> passes() const;
 };
 
 struct GhostPower {

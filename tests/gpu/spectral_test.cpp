@@ -1,0 +1,156 @@
+// Spectral quality (issue 5) on the GPU against the dense CPU reference, and the convergence of the band
+// count: 16 bands on the GPU against the reference, 16 against 40 bands, and RGB against 40 bands
+// (printed: three wavelengths sample the coatings' reflectance at one point per channel, the bands weigh
+// it over each colour-matching function, so RGB's power per channel is off while the shapes agree).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+
+#include <gpu/band_filter.h>
+#include <gpu/context.h>
+#include <gpu/flare.h>
+#include <gpu/flare_renderer.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+namespace lensfx::gpu {
+namespace {
+
+FlareView test_view(int bands) {
+    FlareView view;
+    view.angle_x_deg = 8.0;
+    view.angle_y_deg = 5.0;
+    view.width = 180;
+    view.height = 120;
+    view.bands = bands;
+    // The three brightest ghosts of the Cooke triplet at this angle (surfaces 1-7, 2-3, 4-7): a third of the
+    // flare at a fifth of the cost.
+    view.only_ghosts = {{0, 6}, {1, 2}, {3, 6}};
+    return view;
+}
+
+// Largest over channels of sum |a - b| / sum |b| (b the finer or reference image).
+double relative_l1(const FlareImage& a, const FlareImage& b) {
+    double worst = 0.0;
+    for (std::size_t c = 0; c < 3; ++c) {
+        double diff = 0.0, total = 0.0;
+        for (std::size_t i = c; i < a.rgb.size(); i += 3) {
+            diff += std::abs(static_cast<double>(a.rgb[i]) - static_cast<double>(b.rgb[i]));
+            total += std::abs(static_cast<double>(b.rgb[i]));
+        }
+        worst = std::max(worst, diff / total);
+    }
+    return worst;
+}
+
+// relative_l1 of the images each scaled to the other's channel totals: where the light lands, not how much.
+double shape_l1(const FlareImage& a, const FlareImage& b, const FlareView& view) {
+    FlareImage scaled = a;
+    const auto pa = a.total_power(view), pb = b.total_power(view);
+    for (std::size_t i = 0; i < scaled.rgb.size(); ++i)
+        scaled.rgb[i] = static_cast<float>(static_cast<double>(scaled.rgb[i]) * (pb[i % 3] / pa[i % 3]));
+    return relative_l1(scaled, b);
+}
+
+// Total variation (sum of |horizontal| + |vertical| pixel differences, all channels) over the total: the
+// edges an image has; separate copies of a ghost per band add edges that a continuous spectrum has not.
+double edges(const FlareImage& image) {
+    double tv = 0.0, total = 0.0;
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const double v = image.at(x, y, c);
+                total += std::abs(v);
+                if (x + 1 < image.width) tv += std::abs(static_cast<double>(image.at(x + 1, y, c)) - v);
+                if (y + 1 < image.height) tv += std::abs(static_cast<double>(image.at(x, y + 1, c)) - v);
+            }
+    return tv / total;
+}
+
+// Largest over channels of |total power - reference's| / reference's.
+double power_error(const FlareImage& a, const FlareImage& b, const FlareView& view) {
+    const auto pa = a.total_power(view), pb = b.total_power(view);
+    double worst = 0.0;
+    for (std::size_t c = 0; c < 3; ++c) worst = std::max(worst, std::abs(pa[c] - pb[c]) / std::abs(pb[c]));
+    return worst;
+}
+
+class Spectral : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        context_ = new Context(Platform::Surfaceless);
+        renderer_ = new FlareRenderer(*context_);
+    }
+    static void TearDownTestSuite() {
+        delete renderer_;
+        delete context_;
+    }
+    static FlareImage gpu(const System& system, const FlareView& view) {
+        GpuFlareOptions options;
+        options.grid = 96;
+        return renderer_->render(system, view, options);
+    }
+    static Context* context_;
+    static FlareRenderer* renderer_;
+};
+Context* Spectral::context_ = nullptr;
+FlareRenderer* Spectral::renderer_ = nullptr;
+
+TEST_F(Spectral, BandsOnTheGpuMatchTheReference) {
+    const System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const FlareView view = test_view(16);
+    const FlareImage image = gpu(system, view);
+    ReferenceOptions options;
+    options.rays = 192;
+    options.per_ghost_power = false;
+    const FlareImage reference = render_reference(system, view, options);
+    const FlareError e = compare_flare(image, reference, view);
+    fmt::print("16 bands, GPU vs reference: total power {:.4f}, 8x8 block L1 {:.4f}\n", e.total, e.block_l1);
+    EXPECT_LT(e.total, 0.02);
+    EXPECT_LT(e.block_l1, 0.10);
+    for (float v : image.rgb) ASSERT_TRUE(std::isfinite(v));
+}
+
+TEST_F(Spectral, BandCountConvergesAndRgbIsACoarseSample) {
+    const System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const FlareImage rgb = gpu(system, test_view(0));
+    const FlareImage b16 = gpu(system, test_view(16));
+    const FlareImage b40 = gpu(system, test_view(40));
+    const FlareView view = test_view(40);
+    const double l1_16 = relative_l1(b16, b40), l1_rgb = relative_l1(rgb, b40);
+    const double p16 = power_error(b16, b40, view), prgb = power_error(rgb, b40, view);
+    fmt::print("against 40 bands: 16 bands L1 {:.4f} power {:.4f} shape L1 {:.4f}; RGB L1 {:.4f} power {:.4f} shape L1 {:.4f}\n",
+               l1_16, p16, shape_l1(b16, b40, view), l1_rgb, prgb, shape_l1(rgb, b40, view));
+    EXPECT_LT(p16, 0.02);
+    EXPECT_LT(l1_16, 0.10);
+    EXPECT_LT(l1_16, l1_rgb);
+}
+
+// The band filter (paper section 4.2) smears the separate coloured copies of each ghost that 7 bands leave
+// into one: the image's edge content moves towards the 40-band image's, and the power stays. It does not
+// bring 7 bands closer to 40 pixel by pixel (measured and printed), likely because a ghost also changes
+// size and shape between bands, which a 1D smear along its centroid's path does not model.
+TEST_F(Spectral, BandFilterSmearsTheBandCopiesAndKeepsThePower) {
+    const System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const FlareImage b40 = gpu(system, test_view(40));
+    const FlareView view = test_view(7);
+    const FlareImage plain = gpu(system, view);
+    const FlareImage filtered = render_band_filtered(system, view, [&](const FlareView& one) { return gpu(system, one); });
+    const double l1_plain = shape_l1(plain, b40, view), l1_filtered = shape_l1(filtered, b40, view);
+    fmt::print("7 bands against 40: L1 {:.4f} plain, {:.4f} band-filtered; shape L1 {:.4f} plain, {:.4f} band-filtered; "
+               "power {:.4f} vs {:.4f}\n", relative_l1(plain, b40), relative_l1(filtered, b40), l1_plain, l1_filtered,
+               power_error(plain, b40, view), power_error(filtered, b40, view));
+    const double e_plain = edges(plain), e_filtered = edges(filtered), e_40 = edges(b40);
+    fmt::print("edge content (total variation / total): 7 bands {:.4f}, band-filtered {:.4f}, 40 bands {:.4f}\n", e_plain,
+               e_filtered, e_40);
+    EXPECT_LT(std::abs(e_filtered - e_40), std::abs(e_plain - e_40));
+    EXPECT_LT(l1_filtered, 2.0 * l1_plain);
+    EXPECT_LT(power_error(filtered, plain, view), 0.01);  // the filter moves energy, it does not make or lose it
+}
+
+}  // namespace
+}  // namespace lensfx::gpu
