@@ -14,12 +14,7 @@
 namespace lensfx::optics {
 
 FlareLook parse_flare_look(std::string_view text, std::string_view origin) {
-    toml::table doc;
-    try {
-        doc = toml::parse(text, origin);
-    } catch (const toml::parse_error& e) {
-        fail(origin, static_cast<int>(e.source().begin.line), std::string(e.description()));
-    }
+    const toml::table doc = parse_toml(text, origin);
     Fields top(doc, origin, "");
     FlareLook look;
     if (const toml::node* sym = top.get("symmetry")) {

@@ -255,12 +255,7 @@ void validate_lens(const Lens& lens, std::string_view origin) {
 }
 
 Lens parse_lens_toml(std::string_view text, std::string_view origin) {
-    toml::table doc;
-    try {
-        doc = toml::parse(text, origin);
-    } catch (const toml::parse_error& e) {
-        fail(origin, static_cast<int>(e.source().begin.line), std::string(e.description()));
-    }
+    const toml::table doc = parse_toml(text, origin);
     Fields top(doc, origin, "");
     Lens lens;
     const auto name = top.opt_string("name");

@@ -24,6 +24,15 @@ inline namespace toml_fields {
 
 inline int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
 
+// The document, or LensFileError naming the file and line of the syntax error.
+inline toml::table parse_toml(std::string_view text, std::string_view origin) {
+    try {
+        return toml::parse(text, origin);
+    } catch (const toml::parse_error& e) {
+        fail(origin, static_cast<int>(e.source().begin.line), std::string(e.description()));
+    }
+}
+
 // One TOML table being read: every access names the field; unread fields are reported as unknown.
 class Fields {
 public:
