@@ -2,11 +2,19 @@
 #include <filter/flare_stage.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
 #include <fmt/core.h>
+#include <opencv2/imgproc.hpp>
+#include <unistd.h>
 
 #include <detect/detector.h>
 #include <detect/threshold.h>
@@ -68,6 +76,9 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
+        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0));
+    app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
 }
 
@@ -124,6 +135,114 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
     return power;
 }
 
+double min_light_fade(double relative, double min_light) {
+    if (!(min_light > 0.0)) return 1.0;
+    const double t = std::clamp((relative - min_light) / min_light, 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+std::string cache_directory() {
+    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir != nullptr && *dir != '\0')
+        return std::string(dir) == "none" ? std::string() : std::string(dir);
+    const char* home = std::getenv("HOME");
+    if (home == nullptr || *home == '\0') return {};
+    return (std::filesystem::path(home) / ".cache" / "lensfx").string();
+}
+
+namespace {
+
+constexpr char kStarburstMagic[] = "lensfx-starburst-1";
+
+// One file per iris and texture setting; the values are in the name, so a changed iris never reads a
+// stale texture.
+std::filesystem::path starburst_file(const optics::Aperture& a, const std::string& dir) {
+    const optics::StarburstOptions o;
+    return std::filesystem::path(dir) /
+           fmt::format("starburst-b{}-r{:.17g}-c{:.17g}-s{}-p{}-{:g}-{:g}-{:g}-{:g}.bin", a.blades, a.rotation_deg,
+                       a.blade_curvature, o.size, o.pupil_samples, o.first_nm, o.last_nm, o.step_nm, o.smoothing);
+}
+
+std::optional<optics::Starburst> read_starburst(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;
+    char magic[sizeof(kStarburstMagic)] = {};
+    optics::Starburst sb;
+    std::int32_t size = 0;
+    in.read(magic, sizeof(magic));
+    in.read(reinterpret_cast<char*>(&size), sizeof(size));
+    in.read(reinterpret_cast<char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
+    if (!in || std::string(magic, sizeof(magic) - 1) != kStarburstMagic || size < 16 || size > 8192 ||
+        !(sb.texel_per_fnumber_mm > 0.0))
+        return std::nullopt;
+    sb.size = size;
+    sb.rgb.resize(static_cast<std::size_t>(size) * static_cast<std::size_t>(size) * 3);
+    in.read(reinterpret_cast<char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
+    if (!in || in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+    return sb;
+}
+
+void write_starburst(const std::filesystem::path& path, const optics::Starburst& sb) {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return;
+    // Written aside and renamed, so a reader in another process never sees half a file.
+    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        const std::int32_t size = sb.size;
+        out.write(kStarburstMagic, sizeof(kStarburstMagic));
+        out.write(reinterpret_cast<const char*>(&size), sizeof(size));
+        out.write(reinterpret_cast<const char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
+        out.write(reinterpret_cast<const char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
+        if (!out) {
+            out.close();
+            std::filesystem::remove(tmp, ec);
+            return;
+        }
+    }
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
+}
+
+// Convolves an RGB image (width x height) with a light's footprint: the flare of an extended source is
+// the point light's flare spread over the source's image. One DFT-based filter of the whole image, so the
+// cost follows the frame and kernel size, not the source's pixel count. Every ghost is treated as having
+// magnification 1 (the footprint is not scaled or flipped per ghost).
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape) {
+    const int cell = std::max(1, static_cast<int>(std::lround(shape.cell)));
+    const int ox = static_cast<int>(std::lround(shape.origin_x));
+    const int oy = static_cast<int>(std::lround(shape.origin_y));
+    const int kw = shape.width * cell, kh = shape.height * cell;
+    const int rx = std::max(std::abs(ox), std::abs(ox + kw - 1)), ry = std::max(std::abs(oy), std::abs(oy + kh - 1));
+    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
+    const float per_pixel = 1.0f / static_cast<float>(cell * cell);
+    for (int j = 0; j < kh; ++j)
+        for (int i = 0; i < kw; ++i)
+            kernel.at<float>(ry + oy + j, rx + ox + i) =
+                shape.weights[static_cast<std::size_t>(j / cell) * static_cast<std::size_t>(shape.width) +
+                              static_cast<std::size_t>(i / cell)] * per_pixel;
+    cv::Mat flipped;
+    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
+    cv::Mat image(height, width, CV_32FC3, rgb.data());
+    cv::Mat out;
+    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
+    out.copyTo(image);
+}
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+optics::Starburst cached_starburst(const optics::Aperture& aperture, const std::string& cache_dir) {
+    if (cache_dir.empty()) return optics::make_starburst(aperture);
+    const std::filesystem::path path = starburst_file(aperture, cache_dir);
+    if (auto cached = read_starburst(path)) return std::move(*cached);
+    optics::Starburst sb = optics::make_starburst(aperture);
+    write_starburst(path, sb);
+    return sb;
+}
+
 struct FlareStage::State {
     FlareSettings settings;
     optics::System system;
@@ -136,7 +255,8 @@ struct FlareStage::State {
     std::unique_ptr<gpu::FlareRenderer> renderer;
     FlareParts parts;
     double f_number = 0.0;
-    std::optional<optics::Starburst> starburst;  // computed at the first light
+    std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
+    std::vector<std::pair<std::string, double>> times;  // of the last frame
 
     explicit State(FlareSettings s)
         : settings(std::move(s)),
@@ -184,12 +304,33 @@ struct FlareStage::State {
 FlareStage::FlareStage(FlareSettings settings) : state_(std::make_unique<State>(std::move(settings))) {}
 FlareStage::~FlareStage() = default;
 
+std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->times; }
+
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
-    const std::vector<detect::Light> lights = s.lights(frame);
-    FlareParts& parts = s.parts;
+    s.times.clear();
+    auto t = Clock::now();
+    std::vector<detect::Light> lights = s.lights(frame);
+    s.times.emplace_back("detect", ms_since(t));
+    const FlareParts& parts = s.parts;
     if (s.settings.flare_only) std::fill(frame.rgb.begin(), frame.rgb.end(), 0.0f);
-    if (lights.empty() || s.settings.gain == 0.0) return;  // no light: the GPU is never touched
+
+    // Lights too dim against the brightest to show are left out, fading as they approach the limit.
+    auto luminous = [](const detect::Light& l) {
+        return detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2];
+    };
+    double brightest = 0.0;
+    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight);
+    std::erase_if(lights, [&](detect::Light& l) {
+        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight / brightest, s.settings.min_light) : 0.0;
+        return !(l.weight > 0.0);
+    });
+
+    const bool layer = !s.settings.layer.empty();
+    if (lights.empty() || s.settings.gain == 0.0) {  // no light: the GPU is never touched
+        if (layer) add_rgb_layer(frame, s.settings.layer, std::vector<float>(frame.pixel_count() * 3, 0.0f));
+        return;
+    }
 
     const FlareGeometry geo = s.geometry(frame);
     if (!s.context && parts.ghosts) {
@@ -199,9 +340,12 @@ void FlareStage::process(Frame& frame) {
     gpu::GpuFlareOptions render_options;
     render_options.grid = s.settings.grid;
 
-    const int dx0 = frame.spec.x - frame.spec.full_x;
-    const int dy0 = frame.spec.y - frame.spec.full_y;
+    // The flare over the display window, composited into the frame once every light is in.
+    const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
+    std::vector<float> flare_rgb(display_px * 3, 0.0f);
+    double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     for (const detect::Light& light : lights) {
+        t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
         const std::array<double, 3> direct = direct_power(s.system, ax, ay);
         const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
@@ -214,10 +358,12 @@ void FlareStage::process(Frame& frame) {
             scale[c] = static_cast<float>(irradiance * boost);
             any = any || scale[c] > 0.0f;
         }
+        direct_ms += ms_since(t);
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
 
         if (parts.starburst && s.settings.starburst_gain > 0.0) {
-            if (!s.starburst) s.starburst = optics::make_starburst(s.system.aperture);
+            t = Clock::now();
+            if (!s.starburst) s.starburst = cached_starburst(s.system.aperture, cache_directory());
             // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
             // already in the recorded pixels, so only the spikes and rings are added.
             std::array<double, 3> energy{};
@@ -228,13 +374,14 @@ void FlareStage::process(Frame& frame) {
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
                                     (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
-            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x - dx0,
-                                    light.y - dy0, energy, geo.sensor_width_mm / geo.width,
-                                    geo.sensor_height_mm / geo.height, frame.rgb.data(), frame.spec.width,
-                                    frame.spec.height, core_texels);
+            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x, light.y, energy,
+                                    geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height,
+                                    flare_rgb.data(), geo.width, geo.height, core_texels);
+            starburst_ms += ms_since(t);
         }
         if (!parts.ghosts) continue;
 
+        t = Clock::now();
         gpu::FlareView view;
         view.angle_x_deg = ax;
         view.angle_y_deg = ay;
@@ -242,20 +389,65 @@ void FlareStage::process(Frame& frame) {
         view.sensor_height_mm = geo.sensor_height_mm;
         view.width = geo.width;
         view.height = geo.height;
-        const gpu::FlareImage flare = s.renderer->render(s.system, view, render_options);
+        gpu::FlareImage flare = s.renderer->render(s.system, view, render_options);
+        ghosts_ms += ms_since(t);
+        if (flare.width != geo.width || flare.height != geo.height)
+            throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
+                                                 geo.width, geo.height));
+        if (light.shape && !light.shape->weights.empty()) {
+            t = Clock::now();
+            convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape);
+            extended_ms += ms_since(t);
+        }
+        for (std::size_t i = 0; i < display_px; ++i)
+            for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+    }
+    s.times.emplace_back("direct", direct_ms);
+    s.times.emplace_back("starburst", starburst_ms);
+    s.times.emplace_back("ghosts", ghosts_ms);
+    s.times.emplace_back("extended", extended_ms);
 
-        for (int y = 0; y < frame.spec.height; ++y) {
-            const int fy = y + dy0;
-            if (fy < 0 || fy >= flare.height) continue;
-            for (int x = 0; x < frame.spec.width; ++x) {
-                const int fx = x + dx0;
-                if (fx < 0 || fx >= flare.width) continue;
-                float* px = &frame.rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) +
-                                        static_cast<std::size_t>(x)) * 3];
-                for (int c = 0; c < 3; ++c) px[c] += scale[static_cast<std::size_t>(c)] * flare.at(fx, fy, c);
+    // The data window grows to hold the flare where it lands in the display window.
+    t = Clock::now();
+    int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
+    for (int y = 0; y < geo.height; ++y) {
+        const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
+        int first = -1, last = -1;
+        for (int x = 0; x < geo.width; ++x) {
+            if (row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f) {
+                if (first < 0) first = x;
+                last = x;
             }
         }
+        if (first < 0) continue;
+        bx0 = std::min(bx0, first);
+        bx1 = std::max(bx1, last + 1);
+        by0 = std::min(by0, y);
+        by1 = y + 1;
     }
+    if (bx1 > bx0)
+        grow_data_window(frame, frame.spec.full_x + bx0, frame.spec.full_y + by0, frame.spec.full_x + bx1,
+                         frame.spec.full_y + by1);
+    const int dx0 = frame.spec.x - frame.spec.full_x;
+    const int dy0 = frame.spec.y - frame.spec.full_y;
+    std::vector<float> layer_rgb;
+    if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
+    float* target = layer ? layer_rgb.data() : frame.rgb.data();
+    for (int y = 0; y < frame.spec.height; ++y) {
+        const int fy = y + dy0;
+        if (fy < 0 || fy >= geo.height) continue;
+        for (int x = 0; x < frame.spec.width; ++x) {
+            const int fx = x + dx0;
+            if (fx < 0 || fx >= geo.width) continue;
+            float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) +
+                                  static_cast<std::size_t>(x)) * 3;
+            const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
+                                                 static_cast<std::size_t>(fx)) * 3;
+            for (int c = 0; c < 3; ++c) px[c] += f[c];
+        }
+    }
+    if (layer) add_rgb_layer(frame, s.settings.layer, layer_rgb);
+    s.times.emplace_back("composite", ms_since(t));
 }
 
 }  // namespace lensfx::filter

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -15,6 +16,7 @@
 #include <detect/source.h>
 #include <filter/frame.h>
 #include <optics/lens.h>
+#include <optics/starburst.h>
 
 namespace lensfx::filter {
 
@@ -36,10 +38,13 @@ struct FlareSettings {
     std::string parts = "ghosts,starburst";  // what to render: ghosts, starburst, or both
     double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
     double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale
+    double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
+    std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
-// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale.
+// --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale,
+// --min-light, --layer.
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
@@ -69,6 +74,19 @@ FlareParts parse_parts(std::string_view text);
 // (flux x pixel area) over this.
 std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays = 64);
 
+// The fade of a light whose luminous flux is `relative` times the brightest light's: 0 below min_light,
+// 1 from 2 x min_light, smooth in between, so a light crossing the limit fades instead of popping.
+double min_light_fade(double relative, double min_light);
+
+// Where computed textures are kept: $LENSFX_CACHE_DIR, else ~/.cache/lensfx; empty when the variable
+// is "none" (or there is no home directory).
+std::string cache_directory();
+
+// The starburst of an iris at the default options, read from `cache_dir` when a file for this iris is
+// there, else computed and stored there (best effort: a cache that cannot be written is skipped; a
+// damaged file is recomputed). Empty cache_dir: always computed.
+optics::Starburst cached_starburst(const optics::Aperture& aperture, const std::string& cache_dir);
+
 class FlareStage final : public Stage {
 public:
     explicit FlareStage(FlareSettings settings);
@@ -76,6 +94,8 @@ public:
 
     std::string_view name() const override { return "flare"; }
     void process(Frame& frame) override;
+    // detect, direct (light strengths), starburst, ghosts, extended (footprint convolution), composite.
+    std::vector<std::pair<std::string, double>> part_times() const override;
 
 private:
     struct State;
