@@ -135,6 +135,32 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
     return power;
 }
 
+DirectPowerTable::DirectPowerTable(const optics::System& system, double max_field_deg, int samples, int rays)
+    : max_field_deg_(max_field_deg) {
+    if (samples < 2 || !(max_field_deg > 0.0))
+        throw std::invalid_argument(fmt::format("direct power table: {} samples up to {} degrees", samples, max_field_deg));
+    power_.reserve(static_cast<std::size_t>(samples));
+    for (int i = 0; i < samples; ++i) power_.push_back(direct_power(system, max_field_deg * i / (samples - 1), 0.0, rays));
+}
+
+std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
+    const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
+    const int n = static_cast<int>(power_.size());
+    const double u = std::clamp(field / max_field_deg_, 0.0, 1.0) * (n - 1);
+    const int i = std::min(static_cast<int>(u), n - 2);
+    const double t = u - i;
+    // Catmull-Rom through the samples around u (ends repeated); a power is never negative.
+    auto sample = [&](int k) { return power_[static_cast<std::size_t>(std::clamp(k, 0, n - 1))]; };
+    const auto p0 = sample(i - 1), p1 = sample(i), p2 = sample(i + 1), p3 = sample(i + 2);
+    std::array<double, 3> out{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        const double v = 0.5 * (2.0 * p1[c] + (-p0[c] + p2[c]) * t + (2.0 * p0[c] - 5.0 * p1[c] + 4.0 * p2[c] - p3[c]) * t * t +
+                                (-p0[c] + 3.0 * p1[c] - 3.0 * p2[c] + p3[c]) * t * t * t);
+        out[c] = std::max(0.0, v);
+    }
+    return out;
+}
+
 double min_light_fade(double relative, double min_light) {
     if (!(min_light > 0.0)) return 1.0;
     const double t = std::clamp((relative - min_light) / min_light, 0.0, 1.0);
@@ -256,6 +282,7 @@ struct FlareStage::State {
     FlareParts parts;
     double f_number = 0.0;
     std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
+    DirectPowerTable direct;                     // built at the first light, over the frame's corners
     std::vector<std::pair<std::string, double>> times;  // of the last frame
 
     explicit State(FlareSettings s)
@@ -347,7 +374,12 @@ void FlareStage::process(Frame& frame) {
     for (const detect::Light& light : lights) {
         t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
-        const std::array<double, 3> direct = direct_power(s.system, ax, ay);
+        if (s.direct.empty()) {
+            const auto [cx, cy] = geo.angles_at(0.0, 0.0);
+            const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
+            s.direct = DirectPowerTable(s.system, std::min(89.0, 1.02 * corner));
+        }
+        const std::array<double, 3> direct = s.direct.at(ax, ay);
         const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
         std::array<float, 3> scale{};
         bool any = false;

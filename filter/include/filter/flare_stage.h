@@ -74,6 +74,22 @@ FlareParts parse_parts(std::string_view text);
 // (flux x pixel area) over this.
 std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays = 64);
 
+// direct_power over the field: sampled at `samples` field angles from 0 to max_field_deg along +x and
+// interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)). The lens is rotationally
+// symmetric, so only a bladed iris clipped by another aperture makes the power depend on the azimuth.
+class DirectPowerTable {
+public:
+    DirectPowerTable() = default;
+    DirectPowerTable(const optics::System& system, double max_field_deg, int samples = 12, int rays = 96);
+    [[nodiscard]] std::array<double, 3> at(double ax_deg, double ay_deg) const;
+    [[nodiscard]] double max_field_deg() const { return max_field_deg_; }
+    [[nodiscard]] bool empty() const { return power_.empty(); }
+
+private:
+    double max_field_deg_ = 0.0;
+    std::vector<std::array<double, 3>> power_;
+};
+
 // The fade of a light whose luminous flux is `relative` times the brightest light's: 0 below min_light,
 // 1 from 2 x min_light, smooth in between, so a light crossing the limit fades instead of popping.
 double min_light_fade(double relative, double min_light);
