@@ -2,11 +2,12 @@
 // (stage set-up, GL context and shaders, starburst, read, detect, render, composite, write), split by
 // stage from the pipeline's report; then frames per second on a synthetic 1080p sequence of a light
 // moving in sub-pixel steps over a dim gradient.
-//   bench_frame [--lens NAME] [--grid N] [--frames N] [--gpu auto|device|surfaceless] [IMAGE...]
+//   bench_frame [--lens NAME] [--grid N] [--frames N (0: no sequence)] [--cold-only] [--gpu auto|device|surfaceless] [IMAGE...]
 // The starburst cache ($LENSFX_CACHE_DIR) is pointed at a fresh directory: each still runs cold (empty
 // cache) then warm (the texture on disk), so both start-up costs are printed.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
@@ -93,9 +94,11 @@ void write_sequence(const fs::path& dir, int frames, int width, int height) {
 }  // namespace
 
 int main(int argc, char** argv) try {
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each line as soon as it is measured
     FlareSettings settings;
     settings.lens = "mld-double-gauss";
     int frames = 24;
+    bool cold_only = false;
     std::vector<std::string> images;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -107,6 +110,7 @@ int main(int argc, char** argv) try {
         else if (a == "--grid") settings.grid = std::stoi(next());
         else if (a == "--frames") frames = std::stoi(next());
         else if (a == "--gpu") settings.gpu = next();
+        else if (a == "--cold-only") cold_only = true;
         else images.push_back(a);
     }
     if (images.empty()) {
@@ -123,11 +127,16 @@ int main(int argc, char** argv) try {
     for (const std::string& image : images) {
         fs::remove_all(tmp / "cache");
         for (const char* cache : {"cold", "warm"}) {
+            if (cold_only && std::string(cache) == "warm") break;
             const Run r = run(image, (tmp / "out.exr").string(), settings);
             print_frame(fs::path(image).stem().string(), cache, r.wall_s, r.report.frames.at(0));
         }
     }
 
+    if (frames < 2) {
+        fs::remove_all(tmp);
+        return 0;
+    }
     fs::create_directories(tmp / "seq");
     write_sequence(tmp / "seq", frames, 1920, 1080);
     const Run r = run((tmp / "seq" / "seq.####.exr").string(), (tmp / "seq" / "out.####.exr").string(), settings);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <numbers>
 #include <stdexcept>
 
@@ -136,12 +137,23 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
 }
 
 DirectPowerTable::DirectPowerTable(const optics::System& system, double max_field_deg, int samples, int rays)
-    : max_field_deg_(max_field_deg) {
-    if (samples < 2 || !(max_field_deg > 0.0))
-        throw std::invalid_argument(fmt::format("direct power table: {} samples up to {} degrees", samples, max_field_deg));
-    power_.reserve(static_cast<std::size_t>(samples));
-    for (int i = 0; i < samples; ++i) power_.push_back(direct_power(system, max_field_deg * i / (samples - 1), 0.0, rays));
+    : system_(system), rays_(rays), max_field_deg_(max_field_deg),
+      power_(static_cast<std::size_t>(std::max(samples, 0))), known_(static_cast<std::size_t>(std::max(samples, 0)), 0) {
+    if (samples < 2 || rays < 1 || !(max_field_deg > 0.0))
+        throw std::invalid_argument(fmt::format("direct power table: {} samples of {} rays up to {} degrees", samples,
+                                                rays, max_field_deg));
 }
+
+const std::array<double, 3>& DirectPowerTable::sample(int i) const {
+    const auto k = static_cast<std::size_t>(std::clamp(i, 0, static_cast<int>(power_.size()) - 1));
+    if (!known_[k]) {
+        power_[k] = direct_power(system_, max_field_deg_ * static_cast<double>(k) / static_cast<double>(power_.size() - 1), 0.0, rays_);
+        known_[k] = 1;
+    }
+    return power_[k];
+}
+
+int DirectPowerTable::traced() const { return static_cast<int>(std::count(known_.begin(), known_.end(), 1)); }
 
 std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
     const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
@@ -150,7 +162,6 @@ std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
     const int i = std::min(static_cast<int>(u), n - 2);
     const double t = u - i;
     // Catmull-Rom through the samples around u (ends repeated); a power is never negative.
-    auto sample = [&](int k) { return power_[static_cast<std::size_t>(std::clamp(k, 0, n - 1))]; };
     const auto p0 = sample(i - 1), p1 = sample(i), p2 = sample(i + 1), p3 = sample(i + 2);
     std::array<double, 3> out{};
     for (std::size_t c = 0; c < 3; ++c) {
@@ -159,6 +170,51 @@ std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
         out[c] = std::max(0.0, v);
     }
     return out;
+}
+
+void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return;
+    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        const auto key_size = static_cast<std::uint64_t>(key.size());
+        const auto n = static_cast<std::uint64_t>(power_.size());
+        out.write(reinterpret_cast<const char*>(&key_size), sizeof(key_size));
+        out.write(key.data(), static_cast<std::streamsize>(key.size()));
+        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
+        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
+        if (!out) {
+            out.close();
+            std::filesystem::remove(tmp, ec);
+            return;
+        }
+    }
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
+}
+
+bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
+    std::ifstream in(path, std::ios::binary);
+    std::uint64_t key_size = 0, n = 0;
+    if (!in.read(reinterpret_cast<char*>(&key_size), sizeof(key_size)) || key_size != key.size()) return false;
+    std::string stored(key.size(), '\0');
+    if (!in.read(stored.data(), static_cast<std::streamsize>(stored.size())) || stored != key) return false;
+    if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n != power_.size()) return false;
+    std::vector<char> known(power_.size());
+    std::vector<std::array<double, 3>> power(power_.size());
+    if (!in.read(known.data(), static_cast<std::streamsize>(known.size())) ||
+        !in.read(reinterpret_cast<char*>(power.data()), static_cast<std::streamsize>(power.size() * sizeof(power[0]))) ||
+        in.peek() != std::char_traits<char>::eof())
+        return false;
+    for (std::size_t k = 0; k < known.size(); ++k)
+        if (known[k] && !known_[k] && std::isfinite(power[k][0]) && std::isfinite(power[k][1]) && std::isfinite(power[k][2])) {
+            power_[k] = power[k];
+            known_[k] = 1;
+        }
+    return true;
 }
 
 double min_light_fade(double relative, double min_light) {
@@ -282,7 +338,10 @@ struct FlareStage::State {
     FlareParts parts;
     double f_number = 0.0;
     std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
-    DirectPowerTable direct;                     // built at the first light, over the frame's corners
+    DirectPowerTable direct;                     // made at the first light, over the frame's corners
+    std::string direct_key;                      // what the table depends on (its cache file's name)
+    std::filesystem::path direct_file;
+    std::string lens_text;                       // the lens as TOML: part of the table's key
     std::vector<std::pair<std::string, double>> times;  // of the last frame
 
     explicit State(FlareSettings s)
@@ -296,6 +355,8 @@ struct FlareStage::State {
         const optics::Lens lens = optics::load_lens(settings.lens);
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
+        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {}", optics::write_lens_toml(lens), zoom,
+                                settings.fstop.value_or(0.0), settings.blades.value_or(-1));
         if (settings.blades) system.aperture.blades = *settings.blades;
         const optics::Paraxial first_order = optics::paraxial(system);
         efl_mm = first_order.efl_mm;
@@ -378,8 +439,16 @@ void FlareStage::process(Frame& frame) {
             const auto [cx, cy] = geo.angles_at(0.0, 0.0);
             const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
             s.direct = DirectPowerTable(s.system, std::min(89.0, 1.02 * corner));
+            s.direct_key = fmt::format("lensfx-direct-1\n{}\nfield {:.17g}", s.lens_text, s.direct.max_field_deg());
+            if (const std::string dir = cache_directory(); !dir.empty()) {
+                s.direct_file = std::filesystem::path(dir) /
+                                fmt::format("direct-{:016x}.bin", std::hash<std::string>{}(s.direct_key));
+                s.direct.load(s.direct_file, s.direct_key);
+            }
         }
+        const int traced_before = s.direct.traced();
         const std::array<double, 3> direct = s.direct.at(ax, ay);
+        if (s.direct.traced() != traced_before && !s.direct_file.empty()) s.direct.save(s.direct_file, s.direct_key);
         const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
         std::array<float, 3> scale{};
         bool any = false;

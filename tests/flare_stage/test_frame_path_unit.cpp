@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,8 @@
 
 #include <filter/flare_stage.h>
 #include <filter/frame.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
 
 namespace fs = std::filesystem;
 using namespace lensfx;
@@ -146,4 +149,28 @@ TEST(FramePath, AddRgbLayerAppendsChannelsBesideTheOriginals) {
     EXPECT_EQ(filter::channels_as_float(frame, {4, 5, 6}), flare);
     EXPECT_THROW(filter::add_rgb_layer(frame, "flare", flare), std::invalid_argument);
     EXPECT_THROW(filter::add_rgb_layer(frame, "more", std::vector<float>(5)), std::invalid_argument);
+}
+
+TEST(FramePath, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
+    const fs::path dir = temp_dir("direct");
+    const optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, std::nullopt);
+    filter::DirectPowerTable table(system, 20.0, 12, 8);
+    EXPECT_EQ(table.traced(), 0);
+    const auto near_axis = table.at(0.5, 0.2);
+    EXPECT_EQ(table.traced(), 3) << "samples 0, 1 and 2 (the first is repeated below 0)";
+    EXPECT_GT(near_axis[1], 0.0);
+    table.save(dir / "t.bin", "key");
+
+    filter::DirectPowerTable again(system, 20.0, 12, 8);
+    EXPECT_FALSE(again.load(dir / "t.bin", "another key"));
+    EXPECT_EQ(again.traced(), 0);
+    EXPECT_TRUE(again.load(dir / "t.bin", "key"));
+    EXPECT_EQ(again.traced(), 3);
+    EXPECT_EQ(again.at(0.5, 0.2), near_axis);
+    EXPECT_EQ(again.traced(), 3) << "nothing traced for a lookup the file covers";
+    filter::DirectPowerTable other_size(system, 20.0, 10, 8);
+    EXPECT_FALSE(other_size.load(dir / "t.bin", "key"));
+    fs::resize_file(dir / "t.bin", fs::file_size(dir / "t.bin") - 1);
+    filter::DirectPowerTable damaged(system, 20.0, 12, 8);
+    EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -77,6 +78,8 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
 // direct_power over the field: sampled at `samples` field angles from 0 to max_field_deg along +x and
 // interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)). The lens is rotationally
 // symmetric, so only a bladed iris clipped by another aperture makes the power depend on the azimuth.
+// Samples are traced when a lookup first needs them, so a run pays only for the field its lights cross;
+// save/load keep them on disk between runs.
 class DirectPowerTable {
 public:
     DirectPowerTable() = default;
@@ -84,10 +87,20 @@ public:
     [[nodiscard]] std::array<double, 3> at(double ax_deg, double ay_deg) const;
     [[nodiscard]] double max_field_deg() const { return max_field_deg_; }
     [[nodiscard]] bool empty() const { return power_.empty(); }
+    [[nodiscard]] int traced() const;  // samples traced (or loaded) so far
+
+    // A file holding `key` (what the table was made from) and the samples known; load() takes the known
+    // samples of a file with the same key and sample count and returns whether it did.
+    void save(const std::filesystem::path& path, const std::string& key) const;
+    bool load(const std::filesystem::path& path, const std::string& key);
 
 private:
+    optics::System system_;
+    int rays_ = 0;
     double max_field_deg_ = 0.0;
-    std::vector<std::array<double, 3>> power_;
+    mutable std::vector<std::array<double, 3>> power_;
+    mutable std::vector<char> known_;
+    const std::array<double, 3>& sample(int i) const;
 };
 
 // The fade of a light whose luminous flux is `relative` times the brightest light's: 0 below min_light,
