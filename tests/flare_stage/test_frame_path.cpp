@@ -89,8 +89,10 @@ Image read(const fs::path& path) {
     return im;
 }
 
+// Runs lensfx with its caches in a scratch directory, never the user's.
 int run(const std::string& args) {
-    return std::system((std::string(LENSFX_BINARY) + " " + args + " 2>&1").c_str());
+    const std::string cache = (fs::temp_directory_path() / "lensfx_frame_path_e2e_cache").string();
+    return std::system(("LENSFX_CACHE_DIR=" + cache + " " + std::string(LENSFX_BINARY) + " " + args + " 2>&1").c_str());
 }
 
 const std::string kLensOnly = " --lens brendel-tessar --fstop 4 --grid 32 -q";
