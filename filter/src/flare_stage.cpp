@@ -2,11 +2,20 @@
 #include <filter/flare_stage.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
 #include <numbers>
 #include <stdexcept>
 
 #include <fmt/core.h>
+#include <opencv2/imgproc.hpp>
+#include <unistd.h>
 
 #include <detect/detector.h>
 #include <detect/threshold.h>
@@ -74,6 +83,9 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
         ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
+    app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
+        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0));
+    app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
     app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
     app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
     app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
@@ -144,6 +156,213 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
     return power;
 }
 
+DirectPowerTable::DirectPowerTable(const optics::System& system, double max_field_deg, int samples, int rays,
+                                   std::vector<gpu::SpectralPass> passes)
+    : system_(system), passes_(std::move(passes)), rays_(rays), max_field_deg_(max_field_deg),
+      power_(static_cast<std::size_t>(std::max(samples, 0))), known_(static_cast<std::size_t>(std::max(samples, 0)), 0) {
+    if (samples < 2 || rays < 1 || !(max_field_deg > 0.0))
+        throw std::invalid_argument(fmt::format("direct power table: {} samples of {} rays up to {} degrees", samples,
+                                                rays, max_field_deg));
+}
+
+const std::array<double, 3>& DirectPowerTable::sample(int i) const {
+    const auto k = static_cast<std::size_t>(std::clamp(i, 0, static_cast<int>(power_.size()) - 1));
+    if (!known_[k]) {
+        power_[k] = direct_power(system_, max_field_deg_ * static_cast<double>(k) / static_cast<double>(power_.size() - 1), 0.0, rays_,
+                                 passes_);
+        known_[k] = 1;
+    }
+    return power_[k];
+}
+
+int DirectPowerTable::traced() const { return static_cast<int>(std::count(known_.begin(), known_.end(), 1)); }
+
+std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
+    const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
+    const int n = static_cast<int>(power_.size());
+    const double u = std::clamp(field / max_field_deg_, 0.0, 1.0) * (n - 1);
+    const int i = std::min(static_cast<int>(u), n - 2);
+    const double t = u - i;
+    // Catmull-Rom through the samples around u (ends repeated); a power is never negative.
+    const auto p0 = sample(i - 1), p1 = sample(i), p2 = sample(i + 1), p3 = sample(i + 2);
+    std::array<double, 3> out{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        const double v = 0.5 * (2.0 * p1[c] + (-p0[c] + p2[c]) * t + (2.0 * p0[c] - 5.0 * p1[c] + 4.0 * p2[c] - p3[c]) * t * t +
+                                (-p0[c] + 3.0 * p1[c] - 3.0 * p2[c] + p3[c]) * t * t * t);
+        out[c] = std::max(0.0, v);
+    }
+    return out;
+}
+
+void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return;
+    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        const auto key_size = static_cast<std::uint64_t>(key.size());
+        const auto n = static_cast<std::uint64_t>(power_.size());
+        out.write(reinterpret_cast<const char*>(&key_size), sizeof(key_size));
+        out.write(key.data(), static_cast<std::streamsize>(key.size()));
+        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
+        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
+        if (!out) {
+            out.close();
+            std::filesystem::remove(tmp, ec);
+            return;
+        }
+    }
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
+}
+
+bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
+    std::ifstream in(path, std::ios::binary);
+    std::uint64_t key_size = 0, n = 0;
+    if (!in.read(reinterpret_cast<char*>(&key_size), sizeof(key_size)) || key_size != key.size()) return false;
+    std::string stored(key.size(), '\0');
+    if (!in.read(stored.data(), static_cast<std::streamsize>(stored.size())) || stored != key) return false;
+    if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n != power_.size()) return false;
+    std::vector<char> known(power_.size());
+    std::vector<std::array<double, 3>> power(power_.size());
+    if (!in.read(known.data(), static_cast<std::streamsize>(known.size())) ||
+        !in.read(reinterpret_cast<char*>(power.data()), static_cast<std::streamsize>(power.size() * sizeof(power[0]))) ||
+        in.peek() != std::char_traits<char>::eof())
+        return false;
+    for (std::size_t k = 0; k < known.size(); ++k)
+        if (known[k] && !known_[k] && std::isfinite(power[k][0]) && std::isfinite(power[k][1]) && std::isfinite(power[k][2])) {
+            power_[k] = power[k];
+            known_[k] = 1;
+        }
+    return true;
+}
+
+double min_light_fade(double relative, double min_light) {
+    if (!(min_light > 0.0)) return 1.0;
+    const double t = std::clamp((relative - min_light) / min_light, 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+std::string cache_directory() {
+    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir != nullptr && *dir != '\0')
+        return std::string(dir) == "none" ? std::string() : std::string(dir);
+    const char* home = std::getenv("HOME");
+    if (home == nullptr || *home == '\0') return {};
+    return (std::filesystem::path(home) / ".cache" / "lensfx").string();
+}
+
+namespace {
+
+constexpr char kStarburstMagic[] = "lensfx-starburst-1";
+
+// One file per iris and texture setting; the values are in the name, so a changed iris never reads a
+// stale texture.
+std::filesystem::path starburst_file(const optics::Aperture& a, const optics::StarburstOptions& o, const std::string& dir) {
+    std::string key = fmt::format("b{} r{:.17g} c{:.17g} s{} p{} {:g} {:g} {:g} {:g}", a.blades, a.rotation_deg, a.blade_curvature,
+                                  o.size, o.pupil_samples, o.first_nm, o.last_nm, o.step_nm, o.smoothing);
+    for (const auto& row : o.xyz_to_rgb) key += fmt::format(" {:.17g} {:.17g} {:.17g}", row[0], row[1], row[2]);
+    const optics::PupilImperfections& d = o.dirt;
+    key += fmt::format(" dust {:.17g} {:.17g} {:.17g} scratches {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} seed {}", d.dust_density,
+                       d.dust_radius, d.dust_opacity, d.scratches, d.scratch_length, d.scratch_width, d.scratch_angle_deg,
+                       d.scratch_spread_deg, d.scratch_opacity, d.seed);
+    if (!o.image.empty()) {
+        key += fmt::format(" image {}x{} ", o.image.width, o.image.height);
+        key.append(reinterpret_cast<const char*>(o.image.value.data()), o.image.value.size() * sizeof(float));
+    }
+    return std::filesystem::path(dir) / fmt::format("starburst-{:016x}.bin", std::hash<std::string>{}(key));
+}
+
+std::optional<optics::Starburst> read_starburst(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;
+    char magic[sizeof(kStarburstMagic)] = {};
+    optics::Starburst sb;
+    std::int32_t size = 0;
+    in.read(magic, sizeof(magic));
+    in.read(reinterpret_cast<char*>(&size), sizeof(size));
+    in.read(reinterpret_cast<char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
+    if (!in || std::string(magic, sizeof(magic) - 1) != kStarburstMagic || size < 16 || size > 8192 ||
+        !(sb.texel_per_fnumber_mm > 0.0))
+        return std::nullopt;
+    sb.size = size;
+    sb.rgb.resize(static_cast<std::size_t>(size) * static_cast<std::size_t>(size) * 3);
+    in.read(reinterpret_cast<char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
+    if (!in || in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+    return sb;
+}
+
+void write_starburst(const std::filesystem::path& path, const optics::Starburst& sb) {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return;
+    // Written aside and renamed, so a reader in another process never sees half a file.
+    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
+    {
+        std::ofstream out(tmp, std::ios::binary);
+        const std::int32_t size = sb.size;
+        out.write(kStarburstMagic, sizeof(kStarburstMagic));
+        out.write(reinterpret_cast<const char*>(&size), sizeof(size));
+        out.write(reinterpret_cast<const char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
+        out.write(reinterpret_cast<const char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
+        if (!out) {
+            out.close();
+            std::filesystem::remove(tmp, ec);
+            return;
+        }
+    }
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) std::filesystem::remove(tmp, ec);
+}
+
+// Convolves an RGB image (width x height) with a light's footprint: the flare of an extended source is
+// the point light's flare spread over the source's image. One DFT-based filter of the whole image, so the
+// cost follows the frame and kernel size, not the source's pixel count. Every ghost is treated as having
+// magnification 1 (the footprint is not scaled or flipped per ghost).
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape) {
+    const int cell = std::max(1, static_cast<int>(std::lround(shape.cell)));
+    const int ox = static_cast<int>(std::lround(shape.origin_x));
+    const int oy = static_cast<int>(std::lround(shape.origin_y));
+    const int kw = shape.width * cell, kh = shape.height * cell;
+    const int rx = std::max(std::abs(ox), std::abs(ox + kw - 1)), ry = std::max(std::abs(oy), std::abs(oy + kh - 1));
+    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
+    const float per_pixel = 1.0f / static_cast<float>(cell * cell);
+    for (int j = 0; j < kh; ++j)
+        for (int i = 0; i < kw; ++i)
+            kernel.at<float>(ry + oy + j, rx + ox + i) =
+                shape.weights[static_cast<std::size_t>(j / cell) * static_cast<std::size_t>(shape.width) +
+                              static_cast<std::size_t>(i / cell)] * per_pixel;
+    cv::Mat flipped;
+    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
+    cv::Mat image(height, width, CV_32FC3, rgb.data());
+    cv::Mat out;
+    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
+    out.copyTo(image);
+}
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+}  // namespace
+
+optics::Starburst cached_starburst(const optics::Aperture& aperture, const optics::StarburstOptions& options,
+                                   const std::string& cache_dir) {
+    if (cache_dir.empty()) return optics::make_starburst(aperture, options);
+    const std::filesystem::path path = starburst_file(aperture, options, cache_dir);
+    if (auto cached = read_starburst(path)) return std::move(*cached);
+    optics::Starburst sb = optics::make_starburst(aperture, options);
+    write_starburst(path, sb);
+    return sb;
+}
+
+std::string passes_key(const std::vector<gpu::SpectralPass>& passes) {
+    std::string key = "passes";
+    for (const gpu::SpectralPass& p : passes)
+        key += fmt::format(" {:.17g}:{:.17g},{:.17g},{:.17g}", p.wavelength_nm, p.weight[0], p.weight[1], p.weight[2]);
+    return key;
+}
+
 struct FlareStage::State {
     FlareSettings settings;
     optics::System system;
@@ -161,7 +380,12 @@ struct FlareStage::State {
     PrimariesSource primaries_source;
     std::optional<optics::Mat3> xyz_to_rgb;       // the working space's, fixed at the first light
     std::vector<gpu::SpectralPass> passes;        // with those primaries
-    std::optional<optics::Starburst> starburst;  // computed at the first light
+    std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
+    DirectPowerTable direct;                     // made at the first light, over the frame's corners
+    std::string direct_key;                      // what the table depends on (its cache file's name)
+    std::filesystem::path direct_file;
+    std::string lens_text;                       // the lens as TOML: part of the table's key
+    std::vector<std::pair<std::string, double>> times;  // of the last frame
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(std::move(s)),
@@ -176,6 +400,8 @@ struct FlareStage::State {
         const optics::Lens lens = optics::load_lens(settings.lens);
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
+        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {}", optics::write_lens_toml(lens), zoom,
+                                settings.fstop.value_or(0.0), settings.blades.value_or(-1));
         if (settings.blades) system.aperture.blades = *settings.blades;
         const optics::Paraxial first_order = optics::paraxial(system);
         efl_mm = first_order.efl_mm;
@@ -229,12 +455,33 @@ FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, 
     : state_(std::make_unique<State>(std::move(settings), std::move(gpu), std::move(working_rgb_to_xyz))) {}
 FlareStage::~FlareStage() = default;
 
+std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->times; }
+
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
-    const std::vector<detect::Light> lights = s.lights(frame);
-    FlareParts& parts = s.parts;
+    s.times.clear();
+    auto t = Clock::now();
+    std::vector<detect::Light> lights = s.lights(frame);
+    s.times.emplace_back("detect", ms_since(t));
+    const FlareParts& parts = s.parts;
     if (s.settings.flare_only) std::fill(frame.rgb.begin(), frame.rgb.end(), 0.0f);
-    if (lights.empty() || s.settings.gain == 0.0) return;  // no light: the GPU is never touched
+
+    // Lights too dim against the brightest to show are left out, fading as they approach the limit.
+    auto luminous = [](const detect::Light& l) {
+        return detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2];
+    };
+    double brightest = 0.0;
+    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight);
+    std::erase_if(lights, [&](detect::Light& l) {
+        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight / brightest, s.settings.min_light) : 0.0;
+        return !(l.weight > 0.0);
+    });
+
+    const bool layer = !s.settings.layer.empty();
+    if (lights.empty() || s.settings.gain == 0.0) {  // no light: the GPU is never touched
+        if (layer) add_rgb_layer(frame, s.settings.layer, std::vector<float>(frame.pixel_count() * 3, 0.0f));
+        return;
+    }
 
     const FlareGeometry geo = s.geometry(frame);
     s.resolve_primaries();
@@ -244,11 +491,28 @@ void FlareStage::process(Frame& frame) {
     render_options.ringing = s.settings.ringing;
     render_options.styles = s.ghost_styles;
 
-    const int dx0 = frame.spec.x - frame.spec.full_x;
-    const int dy0 = frame.spec.y - frame.spec.full_y;
+    // The flare over the display window, composited into the frame once every light is in.
+    const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
+    std::vector<float> flare_rgb(display_px * 3, 0.0f);
+    double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     for (const detect::Light& light : lights) {
+        t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
-        const std::array<double, 3> direct = direct_power(s.system, ax, ay, 64, s.passes);
+        if (s.direct.empty()) {
+            const auto [cx, cy] = geo.angles_at(0.0, 0.0);
+            const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
+            s.direct = DirectPowerTable(s.system, std::min(89.0, 1.02 * corner), 12, 96, s.passes);
+            s.direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", s.lens_text, s.direct.max_field_deg(),
+                                       passes_key(s.passes));
+            if (const std::string dir = cache_directory(); !dir.empty()) {
+                s.direct_file = std::filesystem::path(dir) /
+                                fmt::format("direct-{:016x}.bin", std::hash<std::string>{}(s.direct_key));
+                s.direct.load(s.direct_file, s.direct_key);
+            }
+        }
+        const int traced_before = s.direct.traced();
+        const std::array<double, 3> direct = s.direct.at(ax, ay);
+        if (s.direct.traced() != traced_before && !s.direct_file.empty()) s.direct.save(s.direct_file, s.direct_key);
         const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
         std::array<float, 3> scale{};
         bool any = false;
@@ -259,13 +523,15 @@ void FlareStage::process(Frame& frame) {
             scale[c] = static_cast<float>(irradiance * boost);
             any = any || scale[c] > 0.0f;
         }
+        direct_ms += ms_since(t);
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
 
         if (parts.starburst && s.settings.starburst_gain > 0.0) {
+            t = Clock::now();
             if (!s.starburst) {
                 optics::StarburstOptions starburst_options = s.starburst_options;
                 starburst_options.xyz_to_rgb = *s.xyz_to_rgb;
-                s.starburst = optics::make_starburst(s.system.aperture, starburst_options);
+                s.starburst = cached_starburst(s.system.aperture, starburst_options, cache_directory());
             }
             // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
             // already in the recorded pixels, so only the spikes and rings are added.
@@ -277,13 +543,14 @@ void FlareStage::process(Frame& frame) {
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
                                     (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
-            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x - dx0,
-                                    light.y - dy0, energy, geo.sensor_width_mm / geo.width,
-                                    geo.sensor_height_mm / geo.height, frame.rgb.data(), frame.spec.width,
-                                    frame.spec.height, core_texels);
+            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x, light.y, energy,
+                                    geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height,
+                                    flare_rgb.data(), geo.width, geo.height, core_texels);
+            starburst_ms += ms_since(t);
         }
         if (!parts.ghosts) continue;
 
+        t = Clock::now();
         gpu::FlareView view;
         view.angle_x_deg = ax;
         view.angle_y_deg = ay;
@@ -293,23 +560,68 @@ void FlareStage::process(Frame& frame) {
         view.height = geo.height;
         view.bands = s.settings.bands;
         view.xyz_to_rgb = *s.xyz_to_rgb;
-        const gpu::FlareImage flare =
+        gpu::FlareImage flare =
             s.settings.band_filter
                 ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
                 : s.renderer->render(s.system, view, render_options);
+        ghosts_ms += ms_since(t);
+        if (flare.width != geo.width || flare.height != geo.height)
+            throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
+                                                 geo.width, geo.height));
+        if (light.shape && !light.shape->weights.empty()) {
+            t = Clock::now();
+            convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape);
+            extended_ms += ms_since(t);
+        }
+        for (std::size_t i = 0; i < display_px; ++i)
+            for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+    }
+    s.times.emplace_back("direct", direct_ms);
+    s.times.emplace_back("starburst", starburst_ms);
+    s.times.emplace_back("ghosts", ghosts_ms);
+    s.times.emplace_back("extended", extended_ms);
 
-        for (int y = 0; y < frame.spec.height; ++y) {
-            const int fy = y + dy0;
-            if (fy < 0 || fy >= flare.height) continue;
-            for (int x = 0; x < frame.spec.width; ++x) {
-                const int fx = x + dx0;
-                if (fx < 0 || fx >= flare.width) continue;
-                float* px = &frame.rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) +
-                                        static_cast<std::size_t>(x)) * 3];
-                for (int c = 0; c < 3; ++c) px[c] += scale[static_cast<std::size_t>(c)] * flare.at(fx, fy, c);
+    // The data window grows to hold the flare where it lands in the display window.
+    t = Clock::now();
+    int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
+    for (int y = 0; y < geo.height; ++y) {
+        const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
+        int first = -1, last = -1;
+        for (int x = 0; x < geo.width; ++x) {
+            if (row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f) {
+                if (first < 0) first = x;
+                last = x;
             }
         }
+        if (first < 0) continue;
+        bx0 = std::min(bx0, first);
+        bx1 = std::max(bx1, last + 1);
+        by0 = std::min(by0, y);
+        by1 = y + 1;
     }
+    if (bx1 > bx0)
+        grow_data_window(frame, frame.spec.full_x + bx0, frame.spec.full_y + by0, frame.spec.full_x + bx1,
+                         frame.spec.full_y + by1);
+    const int dx0 = frame.spec.x - frame.spec.full_x;
+    const int dy0 = frame.spec.y - frame.spec.full_y;
+    std::vector<float> layer_rgb;
+    if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
+    float* target = layer ? layer_rgb.data() : frame.rgb.data();
+    for (int y = 0; y < frame.spec.height; ++y) {
+        const int fy = y + dy0;
+        if (fy < 0 || fy >= geo.height) continue;
+        for (int x = 0; x < frame.spec.width; ++x) {
+            const int fx = x + dx0;
+            if (fx < 0 || fx >= geo.width) continue;
+            float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) +
+                                  static_cast<std::size_t>(x)) * 3;
+            const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
+                                                 static_cast<std::size_t>(fx)) * 3;
+            for (int c = 0; c < 3; ++c) px[c] += f[c];
+        }
+    }
+    if (layer) add_rgb_layer(frame, s.settings.layer, layer_rgb);
+    s.times.emplace_back("composite", ms_since(t));
 }
 
 }  // namespace lensfx::filter

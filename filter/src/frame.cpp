@@ -134,4 +134,55 @@ std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>&
     return out;
 }
 
+void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1) {
+    OIIO::ImageSpec& spec = frame.spec;
+    const int nx0 = std::min(spec.x, x0), ny0 = std::min(spec.y, y0);
+    const int nx1 = std::max(spec.x + spec.width, x1), ny1 = std::max(spec.y + spec.height, y1);
+    if (nx0 == spec.x && ny0 == spec.y && nx1 == spec.x + spec.width && ny1 == spec.y + spec.height) return;
+    if (spec.depth != 1) throw std::runtime_error("cannot grow the data window of a volume image");
+    const std::size_t px_bytes = spec.pixel_bytes(true);
+    const auto new_w = static_cast<std::size_t>(nx1 - nx0), new_h = static_cast<std::size_t>(ny1 - ny0);
+    const auto old_w = static_cast<std::size_t>(spec.width);
+    const auto dx = static_cast<std::size_t>(spec.x - nx0), dy = static_cast<std::size_t>(spec.y - ny0);
+    PixelBuffer pixels(new_w * new_h * px_bytes);
+    std::memset(pixels.data(), 0, pixels.size());
+    std::vector<float> rgb(frame.rgb.empty() ? 0 : new_w * new_h * 3, 0.0f);
+    for (std::size_t y = 0; y < static_cast<std::size_t>(spec.height); ++y) {
+        std::memcpy(pixels.data() + ((y + dy) * new_w + dx) * px_bytes, frame.pixels.data() + y * old_w * px_bytes,
+                    old_w * px_bytes);
+        if (!rgb.empty())
+            std::copy_n(frame.rgb.data() + y * old_w * 3, old_w * 3, rgb.data() + ((y + dy) * new_w + dx) * 3);
+    }
+    spec.x = nx0;
+    spec.y = ny0;
+    spec.width = nx1 - nx0;
+    spec.height = ny1 - ny0;
+    frame.pixels = std::move(pixels);
+    if (!frame.rgb.empty()) frame.rgb = std::move(rgb);
+}
+
+void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<float>& rgb) {
+    if (rgb.size() != frame.pixel_count() * 3)
+        throw std::invalid_argument(fmt::format("layer {}: {} values for a data window of {} pixels", layer, rgb.size(),
+                                                frame.pixel_count()));
+    OIIO::ImageSpec spec = frame.spec;
+    const OIIO::TypeDesc type = frame.rgb_channels[0] >= 0 ? spec.channelformat(frame.rgb_channels[0]) : OIIO::TypeDesc(OIIO::TypeDesc::HALF);
+    if (spec.channelformats.empty()) spec.channelformats.assign(static_cast<std::size_t>(spec.nchannels), spec.format);
+    for (const char* c : {".R", ".G", ".B"}) {
+        const std::string name = layer + c;
+        if (std::find(spec.channelnames.begin(), spec.channelnames.end(), name) != spec.channelnames.end())
+            throw std::invalid_argument(fmt::format("layer {}: the image already has a channel {}", layer, name));
+        spec.channelnames.push_back(name);
+        spec.channelformats.push_back(type);
+    }
+    spec.nchannels += 3;
+    const std::size_t old_px = frame.spec.pixel_bytes(true), new_px = spec.pixel_bytes(true);
+    const std::size_t n = frame.pixel_count();
+    PixelBuffer pixels(n * new_px);
+    for (std::size_t i = 0; i < n; ++i) std::memcpy(pixels.data() + i * new_px, frame.pixels.data() + i * old_px, old_px);
+    frame.spec = std::move(spec);
+    frame.pixels = std::move(pixels);
+    for (int k = 0; k < 3; ++k) channel_from_float(frame, frame.spec.nchannels - 3 + k, rgb.data() + k, 3);
+}
+
 }  // namespace lensfx::filter

@@ -322,6 +322,8 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     const auto ts = Clock::now();
                     stage->process(frame);
                     rec.stage_ms.emplace_back(std::string(stage->name()), ms_since(ts));
+                    for (const auto& [part, ms] : stage->part_times())
+                        rec.stage_ms.emplace_back(fmt::format("{}.{}", stage->name(), part), ms);
                 }
                 if (load) {
                     store_rgb(frame);

@@ -5,10 +5,12 @@
 #pragma once
 
 #include <array>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -46,11 +48,13 @@ struct FlareSettings {
     PupilSettings pupil;              // dust, scratches, aperture image (the starburst's pupil)
     bool ringing = false;             // ghosts shaded by the iris with its diffraction ringing
     std::string flare_look;           // per-ghost colour/gain/offset and imperfect symmetry (TOML)
+    double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
+    std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
 // --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
-// --band-filter, --ringing, --flare-look and the pupil's dirt (add_pupil_options).
+// --band-filter, --ringing, --flare-look, --min-light, --layer and the pupil's dirt (add_pupil_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
@@ -84,6 +88,53 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
 // The working space's primaries as the renderers take them: XYZ -> RGB (inverse of RGB -> XYZ, row-major).
 optics::Mat3 xyz_to_rgb_of(const std::array<double, 9>& rgb_to_xyz);
 
+// direct_power over the field: sampled at `samples` field angles from 0 to max_field_deg along +x and
+// interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)). The lens is rotationally
+// symmetric, so only a bladed iris clipped by another aperture makes the power depend on the azimuth.
+// Samples are traced when a lookup first needs them, so a run pays only for the field its lights cross;
+// save/load keep them on disk between runs.
+class DirectPowerTable {
+public:
+    DirectPowerTable() = default;
+    DirectPowerTable(const optics::System& system, double max_field_deg, int samples = 12, int rays = 96,
+                     std::vector<gpu::SpectralPass> passes = {});
+    [[nodiscard]] std::array<double, 3> at(double ax_deg, double ay_deg) const;
+    [[nodiscard]] double max_field_deg() const { return max_field_deg_; }
+    [[nodiscard]] bool empty() const { return power_.empty(); }
+    [[nodiscard]] int traced() const;  // samples traced (or loaded) so far
+
+    // A file holding `key` (what the table was made from) and the samples known; load() takes the known
+    // samples of a file with the same key and sample count and returns whether it did.
+    void save(const std::filesystem::path& path, const std::string& key) const;
+    bool load(const std::filesystem::path& path, const std::string& key);
+
+private:
+    optics::System system_;
+    std::vector<gpu::SpectralPass> passes_;
+    int rays_ = 0;
+    double max_field_deg_ = 0.0;
+    mutable std::vector<std::array<double, 3>> power_;
+    mutable std::vector<char> known_;
+    const std::array<double, 3>& sample(int i) const;
+};
+
+// The fade of a light whose luminous flux is `relative` times the brightest light's: 0 below min_light,
+// 1 from 2 x min_light, smooth in between, so a light crossing the limit fades instead of popping.
+double min_light_fade(double relative, double min_light);
+
+// Where computed textures are kept: $LENSFX_CACHE_DIR, else ~/.cache/lensfx; empty when the variable
+// is "none" (or there is no home directory).
+std::string cache_directory();
+
+// The starburst of an iris with these options, read from `cache_dir` when a file for exactly these is
+// there, else computed and stored there (best effort: a cache that cannot be written is skipped; a damaged
+// file is recomputed). Empty cache_dir: always computed.
+optics::Starburst cached_starburst(const optics::Aperture& aperture, const optics::StarburstOptions& options,
+                                   const std::string& cache_dir);
+
+// What the passes depend on, for cache keys: wavelengths and weights at full precision.
+std::string passes_key(const std::vector<gpu::SpectralPass>& passes);
+
 class FlareStage final : public Stage {
 public:
     // `gpu`: the run's shared GL context (a private one when null). `working_rgb_to_xyz`: the working
@@ -96,6 +147,8 @@ public:
 
     std::string_view name() const override { return "flare"; }
     void process(Frame& frame) override;
+    // detect, direct (light strengths), starburst, ghosts, extended (footprint convolution), composite.
+    std::vector<std::pair<std::string, double>> part_times() const override;
 
 private:
     struct State;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <OpenImageIO/imageio.h>
@@ -79,6 +80,12 @@ void load_rgb(Frame& frame);
 void store_rgb(Frame& frame);
 // The given channels of `pixels` as float, interleaved in the order given.
 std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels);
+// Grows the data window to also cover the rectangle [x0, x1) x [y0, y1) (absolute pixel coordinates, as
+// spec.x / spec.y); new pixels are 0 in every channel, and `rgb`, when loaded, grows with `pixels`.
+void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1);
+// Appends channels LAYER.R, LAYER.G, LAYER.B, of the R channel's type, holding `rgb` (float RGB
+// interleaved over the data window). Throws std::invalid_argument when a channel of that name exists.
+void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<float>& rgb);
 
 // An effect: detection, flare, colour. The pipeline calls process() on one thread, once per frame, in
 // frame order, so a stage may keep state from frame to frame (tracking). A stage changes frame.rgb
@@ -95,6 +102,8 @@ public:
     virtual std::string_view name() const = 0;
     virtual bool wants_rgb() const { return true; }
     virtual void process(Frame& frame) = 0;
+    // Milliseconds spent in named parts of the last process() call; the report lists them as NAME.PART.
+    virtual std::vector<std::pair<std::string, double>> part_times() const { return {}; }
 };
 
 }  // namespace lensfx::filter

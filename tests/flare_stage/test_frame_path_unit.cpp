@@ -1,0 +1,186 @@
+// The frame side of the flare stage without the GPU: the --min-light fade, the starburst's disk cache,
+// and the frame operations the composite needs (growing the data window, adding a flare layer).
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <filter/flare_stage.h>
+#include <filter/frame.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+namespace fs = std::filesystem;
+using namespace lensfx;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() / ("lensfx_frame_path_" + name);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+// A frame with channels R, G, B (half) and Z (float), data window (x, y, w, h) inside a 20 x 10 display
+// window; channel c of pixel i holds 10 i + c.
+filter::Frame make_frame(int x, int y, int w, int h) {
+    filter::Frame frame;
+    frame.spec = OIIO::ImageSpec(w, h, 4, OIIO::TypeDesc::HALF);
+    frame.spec.channelnames = {"R", "G", "B", "Z"};
+    frame.spec.channelformats = {OIIO::TypeDesc::HALF, OIIO::TypeDesc::HALF, OIIO::TypeDesc::HALF, OIIO::TypeDesc::FLOAT};
+    frame.spec.x = x;
+    frame.spec.y = y;
+    frame.spec.full_x = 0;
+    frame.spec.full_y = 0;
+    frame.spec.full_width = 20;
+    frame.spec.full_height = 10;
+    frame.pixels = filter::PixelBuffer(frame.spec.image_bytes(true));
+    std::vector<float> values(static_cast<std::size_t>(w * h * 4));
+    for (std::size_t i = 0; i < values.size(); ++i) values[i] = static_cast<float>(10 * (i / 4) + i % 4);
+    const auto offsets = filter::channel_offsets(frame.spec);
+    const std::size_t px = frame.spec.pixel_bytes(true);
+    for (std::size_t i = 0; i < static_cast<std::size_t>(w * h); ++i)
+        for (std::size_t c = 0; c < 4; ++c)
+            OIIO::convert_pixel_values(OIIO::TypeFloat, &values[i * 4 + c], frame.spec.channelformat(static_cast<int>(c)),
+                                       frame.pixels.data() + i * px + offsets[c], 1);
+    filter::find_rgb_channels(frame);
+    return frame;
+}
+
+}  // namespace
+
+TEST(FramePath, MinLightFadeIsSmoothAndSkipsOnlyDimLights) {
+    EXPECT_EQ(filter::min_light_fade(0.0005, 1e-3), 0.0);
+    EXPECT_EQ(filter::min_light_fade(1e-3, 1e-3), 0.0);
+    EXPECT_EQ(filter::min_light_fade(2e-3, 1e-3), 1.0);
+    EXPECT_EQ(filter::min_light_fade(1.0, 1e-3), 1.0);
+    EXPECT_EQ(filter::min_light_fade(1e-9, 0.0), 1.0);  // 0: every light is kept
+    EXPECT_NEAR(filter::min_light_fade(1.5e-3, 1e-3), 0.5, 1e-12);
+    double previous = 0.0;
+    for (int i = 0; i <= 1000; ++i) {  // monotone, and no step larger than the slope allows
+        const double w = filter::min_light_fade(1e-3 + 1e-3 * i / 1000.0, 1e-3);
+        EXPECT_GE(w, previous);
+        EXPECT_LE(w - previous, 1.5 / 1000.0 + 1e-12);
+        previous = w;
+    }
+}
+
+TEST(FramePath, CacheDirectoryFollowsTheEnvironment) {
+    const char* saved = std::getenv("LENSFX_CACHE_DIR");
+    const std::string keep = saved ? saved : "";
+    ::setenv("LENSFX_CACHE_DIR", "/some/where", 1);
+    EXPECT_EQ(filter::cache_directory(), "/some/where");
+    ::setenv("LENSFX_CACHE_DIR", "none", 1);
+    EXPECT_EQ(filter::cache_directory(), "");
+    ::unsetenv("LENSFX_CACHE_DIR");
+    if (const char* home = std::getenv("HOME"); home && *home) {
+        EXPECT_EQ(filter::cache_directory(), (fs::path(home) / ".cache" / "lensfx").string());
+    }
+    if (saved) ::setenv("LENSFX_CACHE_DIR", keep.c_str(), 1);
+}
+
+TEST(FramePath, StarburstCacheStoresReadsAndRepairs) {
+    const fs::path dir = temp_dir("cache");
+    optics::Aperture hexagon;
+    hexagon.blades = 6;
+    hexagon.rotation_deg = 10.0;
+    const optics::Starburst computed = filter::cached_starburst(hexagon, {}, (dir / "sub").string());
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "sub")) files.push_back(e.path());
+    ASSERT_EQ(files.size(), 1u) << "one file per iris, no temporary left";
+    const optics::Starburst read = filter::cached_starburst(hexagon, {}, (dir / "sub").string());
+    EXPECT_EQ(read.size, computed.size);
+    EXPECT_EQ(read.texel_per_fnumber_mm, computed.texel_per_fnumber_mm);
+    EXPECT_EQ(read.rgb, computed.rgb);
+
+    // A damaged (truncated) file is recomputed and rewritten.
+    fs::resize_file(files[0], fs::file_size(files[0]) / 2);
+    const optics::Starburst repaired = filter::cached_starburst(hexagon, {}, (dir / "sub").string());
+    EXPECT_EQ(repaired.rgb, computed.rgb);
+    EXPECT_EQ(fs::file_size(files[0]), 19 + 4 + 8 + computed.rgb.size() * sizeof(float));
+
+    // Other options (dirt on the pupil, other primaries) are other textures, in other files.
+    optics::StarburstOptions dirty;
+    dirty.dirt.scratches = 20;
+    const optics::Starburst scratched = filter::cached_starburst(hexagon, dirty, (dir / "sub").string());
+    EXPECT_NE(scratched.rgb, computed.rgb);
+    optics::StarburstOptions acescg;
+    acescg.xyz_to_rgb[0][0] = 1.6410234;
+    EXPECT_NE(filter::cached_starburst(hexagon, acescg, (dir / "sub").string()).rgb, computed.rgb);
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir / "sub"), fs::directory_iterator{}), 3);
+}
+
+TEST(FramePath, GrowDataWindowKeepsPixelsAndZeroFillsTheRest) {
+    filter::Frame frame = make_frame(3, 2, 4, 3);
+    filter::load_rgb(frame);
+    const std::vector<float> before_z = filter::channels_as_float(frame, {3});
+    filter::grow_data_window(frame, 0, 0, 20, 10);
+    EXPECT_EQ(frame.spec.x, 0);
+    EXPECT_EQ(frame.spec.y, 0);
+    EXPECT_EQ(frame.spec.width, 20);
+    EXPECT_EQ(frame.spec.height, 10);
+    ASSERT_EQ(frame.rgb.size(), 200u * 3u);
+    ASSERT_EQ(frame.pixels.size(), frame.spec.image_bytes(true));
+    const std::vector<float> z = filter::channels_as_float(frame, {3});
+    const std::vector<float> r = filter::channels_as_float(frame, {0});
+    for (int y = 0; y < 10; ++y)
+        for (int x = 0; x < 20; ++x) {
+            const bool inside = x >= 3 && x < 7 && y >= 2 && y < 5;
+            const std::size_t i = static_cast<std::size_t>(y * 20 + x);
+            const std::size_t old = inside ? static_cast<std::size_t>((y - 2) * 4 + (x - 3)) : 0;
+            EXPECT_EQ(z[i], inside ? before_z[old] : 0.0f) << x << "," << y;
+            EXPECT_EQ(r[i], inside ? static_cast<float>(10 * old) : 0.0f) << x << "," << y;
+            EXPECT_EQ(frame.rgb[i * 3 + 1], inside ? static_cast<float>(10 * old + 1) : 0.0f) << x << "," << y;
+        }
+    // Already covered: nothing changes.
+    const filter::PixelBuffer copy = frame.pixels;
+    filter::grow_data_window(frame, 5, 5, 6, 6);
+    EXPECT_EQ(frame.spec.width, 20);
+    EXPECT_EQ(std::vector<std::byte>(copy.data(), copy.data() + copy.size()),
+              std::vector<std::byte>(frame.pixels.data(), frame.pixels.data() + frame.pixels.size()));
+}
+
+TEST(FramePath, AddRgbLayerAppendsChannelsBesideTheOriginals) {
+    filter::Frame frame = make_frame(0, 0, 4, 3);
+    const std::vector<float> original = filter::channels_as_float(frame, {0, 1, 2, 3});
+    std::vector<float> flare(12 * 3);
+    for (std::size_t i = 0; i < flare.size(); ++i) flare[i] = 0.25f * static_cast<float>(i);
+    filter::add_rgb_layer(frame, "flare", flare);
+    ASSERT_EQ(frame.spec.nchannels, 7);
+    EXPECT_EQ(frame.spec.channelnames, (std::vector<std::string>{"R", "G", "B", "Z", "flare.R", "flare.G", "flare.B"}));
+    EXPECT_EQ(frame.spec.channelformat(4), OIIO::TypeDesc::HALF);  // the R channel's type
+    EXPECT_EQ(frame.pixels.size(), frame.spec.image_bytes(true));
+    EXPECT_EQ(filter::channels_as_float(frame, {0, 1, 2, 3}), original);
+    EXPECT_EQ(filter::channels_as_float(frame, {4, 5, 6}), flare);
+    EXPECT_THROW(filter::add_rgb_layer(frame, "flare", flare), std::invalid_argument);
+    EXPECT_THROW(filter::add_rgb_layer(frame, "more", std::vector<float>(5)), std::invalid_argument);
+}
+
+TEST(FramePath, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
+    const fs::path dir = temp_dir("direct");
+    const optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, std::nullopt);
+    filter::DirectPowerTable table(system, 20.0, 12, 8);
+    EXPECT_EQ(table.traced(), 0);
+    const auto near_axis = table.at(0.5, 0.2);
+    EXPECT_EQ(table.traced(), 3) << "samples 0, 1 and 2 (the first is repeated below 0)";
+    EXPECT_GT(near_axis[1], 0.0);
+    table.save(dir / "t.bin", "key");
+
+    filter::DirectPowerTable again(system, 20.0, 12, 8);
+    EXPECT_FALSE(again.load(dir / "t.bin", "another key"));
+    EXPECT_EQ(again.traced(), 0);
+    EXPECT_TRUE(again.load(dir / "t.bin", "key"));
+    EXPECT_EQ(again.traced(), 3);
+    EXPECT_EQ(again.at(0.5, 0.2), near_axis);
+    EXPECT_EQ(again.traced(), 3) << "nothing traced for a lookup the file covers";
+    filter::DirectPowerTable other_size(system, 20.0, 10, 8);
+    EXPECT_FALSE(other_size.load(dir / "t.bin", "key"));
+    fs::resize_file(dir / "t.bin", fs::file_size(dir / "t.bin") - 1);
+    filter::DirectPowerTable damaged(system, 20.0, 12, 8);
+    EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));
+}
