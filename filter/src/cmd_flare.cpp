@@ -13,6 +13,7 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <filter/colour.h>
+#include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
@@ -42,7 +43,14 @@ struct FlareArgs {
     std::optional<double> preview_exposure;
     bool reference = false;
     int rays = 512;
-    int grid = 128;
+    int grid = gpu::GpuFlareOptions{}.grid;
+    std::string bounding = "table";
+    bool no_adaptive = false;
+    bool no_lod = false;
+    double ghost_threshold = gpu::Acceleration{}.ghost_threshold;
+    int max_ghosts = 0;
+    bool no_reduced = false;
+    std::string cache_dir;
     int threads = 2;
     std::string gpu = "auto";
 };
@@ -164,6 +172,13 @@ void run_flare(const FlareArgs& args) {
         gpu::GpuFlareOptions options;
         options.grid = args.grid;
         options.per_ghost_power = args.list;
+        options.accel.bounding = gpu::parse_bounding(args.bounding);
+        options.accel.adaptive = !args.no_adaptive;
+        options.accel.lod = !args.no_lod;
+        options.accel.ghost_threshold = args.ghost_threshold;
+        options.accel.max_ghosts = args.max_ghosts;
+        options.accel.reduced = !args.no_reduced;
+        options.accel.cache_dir = args.cache_dir;
         image = renderer.render(system, view, options);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -208,7 +223,21 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
     cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
-    cmd->add_option("--grid", args->grid, "GPU: ray grid cells per side per ghost")->capture_default_str();
+    cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
+        ->capture_default_str();
+    cmd->add_option("--bounding", args->bounding,
+                    "GPU: each ghost's pupil rectangle from the cached per-lens table, a coarse pass per frame, or none")
+        ->check(CLI::IsMember({"table", "coarse", "none"}))->capture_default_str();
+    cmd->add_flag("--no-adaptive", args->no_adaptive, "GPU: the base grid for every ghost, whatever its distortion");
+    cmd->add_flag("--no-lod", args->no_lod, "GPU: draw every ghost at the full grid, however dim");
+    cmd->add_option("--ghost-threshold", args->ghost_threshold,
+                    "GPU: skip ghosts below this fraction of the estimated total power")
+        ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--max-ghosts", args->max_ghosts, "GPU: draw only the N brightest ghosts (0 = all)")
+        ->capture_default_str()->check(CLI::NonNegativeNumber);
+    cmd->add_flag("--no-reduced", args->no_reduced, "GPU: draw every ghost at full resolution");
+    cmd->add_option("--cache-dir", args->cache_dir,
+                    "GPU: bounds-table cache (default $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)");
     cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();

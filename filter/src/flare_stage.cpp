@@ -68,7 +68,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
-    app.add_option("--grid", s.grid, "Ray grid cells per side of each ghost")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
+    app.add_option("--grid", s.grid, "Base ray grid cells per side of each ghost (the adaptive grid scales it)")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
 }
 
 FlareParts parse_parts(std::string_view text) {

@@ -7,14 +7,16 @@
 
 #include <memory>
 
+#include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 
 namespace lensfx::gpu {
 
 struct GpuFlareOptions {
-    int grid = 128;                // cells per side of each ghost's ray grid
+    int grid = 32;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
+    Acceleration accel;            // all on by default; fixed grid per ghost with every one off
 };
 
 class FlareRenderer {
@@ -26,6 +28,7 @@ public:
     FlareRenderer& operator=(const FlareRenderer&) = delete;
 
     FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
+    const RenderStats& last_stats() const;
 
 private:
     struct State;
