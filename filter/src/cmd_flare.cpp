@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -13,12 +14,14 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <filter/colour.h>
+#include <filter/flare_stage.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
+#include <optics/starburst.h>
 #include <optics/system.h>
 
 #include "commands.h"
@@ -51,6 +54,8 @@ struct FlareArgs {
     int max_ghosts = 0;
     bool no_reduced = false;
     std::string cache_dir;
+    std::string parts = "ghosts";
+    double starburst_scale = 1.0;
     int threads = 2;
     std::string gpu = "auto";
 };
@@ -158,9 +163,14 @@ void run_flare(const FlareArgs& args) {
         view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
     }
 
+    const filter::FlareParts parts = filter::parse_parts(args.parts);
     const auto start = std::chrono::steady_clock::now();
     gpu::FlareImage image;
-    if (args.reference) {
+    if (!parts.ghosts) {
+        image.width = view.width;
+        image.height = view.height;
+        image.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
+    } else if (args.reference) {
         gpu::ReferenceOptions options;
         options.rays = args.rays;
         options.threads = args.threads;
@@ -180,6 +190,20 @@ void run_flare(const FlareArgs& args) {
         options.accel.reduced = !args.no_reduced;
         options.accel.cache_dir = args.cache_dir;
         image = renderer.render(system, view, options);
+    }
+    if (parts.starburst) {
+        // The light's own diffraction pattern, whole (no recorded image holds its core here), carrying the
+        // power unit irradiance delivers through the direct path, centred where the lens images the light.
+        const optics::Paraxial paraxial = optics::paraxial(system);
+        const double k = std::numbers::pi / 180.0;
+        const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
+        const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
+        const optics::Starburst starburst = optics::make_starburst(system.aperture);
+        optics::splat_starburst(starburst, paraxial.f_number * args.starburst_scale,
+                                (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
+                                filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
+                                view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
+                                view.width, view.height);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
@@ -218,6 +242,11 @@ void register_flare_command(CLI::App& app) {
         ->check(CLI::IsMember({"lens", "none"}))->capture_default_str();
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
     cmd->add_flag("--list", args->list, "Print each ghost's power on the image");
+    cmd->add_option("--parts", args->parts, "What to render: ghosts, starburst or both (ghosts,starburst)")
+        ->capture_default_str();
+    cmd->add_option("--starburst-scale", args->starburst_scale,
+                    "Starburst size relative to its physical size (wavelength x f-number)")
+        ->capture_default_str()->check(CLI::PositiveNumber);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
     cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
