@@ -14,7 +14,7 @@
 namespace lensfx::gpu {
 
 struct GpuFlareOptions {
-    int grid = 32;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
+    int grid = 16;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
     Acceleration accel;            // all on by default; fixed grid per ghost with every one off
 };
