@@ -230,22 +230,27 @@ void write_plot(const std::vector<Row>& rows, const std::vector<std::string>& le
             ymax = std::max(ymax, std::max(p.rel_l1, 1e-5));
         }
         const double lx0 = std::floor(std::log10(xmin)), lx1 = std::ceil(std::log10(xmax));
-        const double ly0 = std::floor(std::log10(ymin)), ly1 = std::ceil(std::log10(ymax));
+        // The errors span less than a decade: the error axis is fitted to them, ticked at 1, 2 and 5.
+        const double ly0 = std::log10(ymin) - 0.1, ly1 = std::log10(ymax) + 0.1;
         const int ox = static_cast<int>(l) * pw + 70;
         const int oy = ph - 50;
         const int aw = pw - 100;
         const int ah = ph - 90;
         auto px = [&](double ms) { return ox + aw * (std::log10(ms) - lx0) / std::max(1.0, lx1 - lx0); };
-        auto py = [&](double e) { return oy - ah * (std::log10(std::max(e, 1e-5)) - ly0) / std::max(1.0, ly1 - ly0); };
+        auto py = [&](double e) { return oy - ah * (std::log10(std::max(e, 1e-5)) - ly0) / (ly1 - ly0); };
         const std::array<std::uint8_t, 3> black{0, 0, 0};
         const std::array<std::uint8_t, 3> light{220, 220, 220};
         for (double d = lx0; d <= lx1; d += 1.0) {
             canvas.line(px(std::pow(10.0, d)), oy, px(std::pow(10.0, d)), oy - ah, light);
             canvas.text(static_cast<int>(px(std::pow(10.0, d))) - 12, oy + 8, fmt::format("{:g}", std::pow(10.0, d)), black);
         }
-        for (double d = ly0; d <= ly1; d += 1.0) {
-            canvas.line(ox, py(std::pow(10.0, d)), ox + aw, py(std::pow(10.0, d)), light);
-            canvas.text(ox - 64, static_cast<int>(py(std::pow(10.0, d))) - 5, fmt::format("{:g}", std::pow(10.0, d)), black);
+        for (double d = std::floor(ly0); d <= ly1; d += 1.0) {
+            for (double m : {1.0, 2.0, 5.0}) {
+                const double e = m * std::pow(10.0, d);
+                if (std::log10(e) < ly0 || std::log10(e) > ly1) continue;
+                canvas.line(ox, py(e), ox + aw, py(e), light);
+                canvas.text(ox - 64, static_cast<int>(py(e)) - 5, fmt::format("{:g}", e), black);
+            }
         }
         canvas.line(ox, oy, ox + aw, oy, black);
         canvas.line(ox, oy, ox, oy - ah, black);
