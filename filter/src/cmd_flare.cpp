@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -13,6 +14,8 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <filter/colour.h>
+#include <filter/flare_stage.h>
+#include <gpu/acceleration.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
@@ -20,6 +23,7 @@
 #include <optics/lens_file.h>
 #include <optics/flare_look.h>
 #include <optics/paraxial.h>
+#include <optics/starburst.h>
 #include <optics/system.h>
 
 #include "commands.h"
@@ -46,7 +50,16 @@ struct FlareArgs {
     std::optional<double> preview_exposure;
     bool reference = false;
     int rays = 512;
-    int grid = 128;
+    int grid = gpu::GpuFlareOptions{}.grid;
+    std::string bounding = "table";
+    bool no_adaptive = false;
+    bool no_lod = false;
+    double ghost_threshold = gpu::Acceleration{}.ghost_threshold;
+    int max_ghosts = 0;
+    bool no_reduced = false;
+    std::string cache_dir;
+    std::string parts = "ghosts";
+    double starburst_scale = 1.0;
     int threads = 2;
     std::string gpu = "auto";
     bool ringing = false;
@@ -158,9 +171,14 @@ void run_flare(const FlareArgs& args) {
         view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
     }
 
+    const filter::FlareParts parts = filter::parse_parts(args.parts);
     const auto start = std::chrono::steady_clock::now();
     gpu::FlareImage image;
-    if (args.reference) {
+    if (!parts.ghosts) {
+        image.width = view.width;
+        image.height = view.height;
+        image.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
+    } else if (args.reference) {
         gpu::ReferenceOptions options;
         options.rays = args.rays;
         options.threads = args.threads;
@@ -174,12 +192,33 @@ void run_flare(const FlareArgs& args) {
         gpu::GpuFlareOptions options;
         options.grid = args.grid;
         options.per_ghost_power = args.list;
+        options.accel.bounding = gpu::parse_bounding(args.bounding);
+        options.accel.adaptive = !args.no_adaptive;
+        options.accel.lod = !args.no_lod;
+        options.accel.ghost_threshold = args.ghost_threshold;
+        options.accel.max_ghosts = args.max_ghosts;
+        options.accel.reduced = !args.no_reduced;
+        options.accel.cache_dir = args.cache_dir;
         options.ringing = args.ringing;
         if (!args.flare_look.empty())
             options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
         image = args.band_filter
                     ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return renderer.render(system, one, options); })
                     : renderer.render(system, view, options);
+    }
+    if (parts.starburst) {
+        // The light's own diffraction pattern, whole (no recorded image holds its core here), carrying the
+        // power unit irradiance delivers through the direct path, centred where the lens images the light.
+        const optics::Paraxial paraxial = optics::paraxial(system);
+        const double k = std::numbers::pi / 180.0;
+        const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
+        const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
+        const optics::Starburst starburst = optics::make_starburst(system.aperture);
+        optics::splat_starburst(starburst, paraxial.f_number * args.starburst_scale,
+                                (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
+                                filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
+                                view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
+                                view.width, view.height);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
@@ -222,12 +261,31 @@ void register_flare_command(CLI::App& app) {
         ->check(CLI::IsMember({"lens", "none"}))->capture_default_str();
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
     cmd->add_flag("--list", args->list, "Print each ghost's power on the image");
+    cmd->add_option("--parts", args->parts, "What to render: ghosts, starburst or both (ghosts,starburst)")
+        ->capture_default_str();
+    cmd->add_option("--starburst-scale", args->starburst_scale,
+                    "Starburst size relative to its physical size (wavelength x f-number)")
+        ->capture_default_str()->check(CLI::PositiveNumber);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
     cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
     cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
-    cmd->add_option("--grid", args->grid, "GPU: ray grid cells per side per ghost")->capture_default_str();
+    cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
+        ->capture_default_str();
+    cmd->add_option("--bounding", args->bounding,
+                    "GPU: each ghost's pupil rectangle from the cached per-lens table, a coarse pass per frame, or none")
+        ->check(CLI::IsMember({"table", "coarse", "none"}))->capture_default_str();
+    cmd->add_flag("--no-adaptive", args->no_adaptive, "GPU: the base grid for every ghost, whatever its distortion");
+    cmd->add_flag("--no-lod", args->no_lod, "GPU: draw every ghost at the full grid, however dim");
+    cmd->add_option("--ghost-threshold", args->ghost_threshold,
+                    "GPU: skip ghosts below this fraction of the estimated total power")
+        ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--max-ghosts", args->max_ghosts, "GPU: draw only the N brightest ghosts (0 = all)")
+        ->capture_default_str()->check(CLI::NonNegativeNumber);
+    cmd->add_flag("--no-reduced", args->no_reduced, "GPU: draw every ghost at full resolution");
+    cmd->add_option("--cache-dir", args->cache_dir,
+                    "GPU: bounds-table cache (default $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();

@@ -17,5 +17,7 @@ void register_gpu_command(CLI::App& app);
 void register_flare_command(CLI::App& app);
 // `lensfx track -i IN --tracks-out tracks.json`: detected and tracked lights of a shot as a track file.
 void register_track_command(CLI::App& app);
+// `lensfx bench time-vs-error --csv FILE`: the ghost renderer's time per flare next to its error.
+void register_bench_command(CLI::App& app);
 
 }  // namespace lensfx::filter

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
     lensfx::filter::register_gpu_command(app);
     lensfx::filter::register_flare_command(app);
     lensfx::filter::register_track_command(app);
+    lensfx::filter::register_bench_command(app);
 
     try {
         app.parse(argc, argv);

@@ -2,6 +2,8 @@
 #include <gpu/flare_renderer.h>
 
 #include <algorithm>
+#include <bit>
+#include <map>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -13,6 +15,7 @@
 #include <optics/paraxial.h>
 #include <optics/ringing.h>
 
+#include <gpu/acceleration.h>
 #include <gpu/gl.h>
 
 #include "flare_shaders.h"
@@ -29,6 +32,15 @@ struct StepData {
     float media[4];
 };
 
+// Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
+struct GhostSequences {
+    std::vector<StepData> steps;
+    std::vector<float> tables;            // kTableSize factors (R or T over cos incidence) per step
+    std::vector<int> offset;              // first step of each ghost
+    std::vector<int> count;               // steps of each ghost
+    std::vector<int> stop_crossings;      // of each ghost
+};
+
 }  // namespace
 
 struct FlareRenderer::State {
@@ -42,6 +54,14 @@ struct FlareRenderer::State {
     std::size_t vertices_bytes = 0;
     GlObject iris = GlObject::texture();
     std::optional<Aperture> iris_for;  // the aperture the texture currently holds
+    struct Sequences {
+        GhostSequences seq;
+        GlObject steps;
+        GlObject tables;
+    };
+    std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
+    std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
+    RenderStats stats;
 
     // Ringing textures by (aperture, FrFT order): a few wavelengths' worth, computed once each.
     struct Ringing {
@@ -108,15 +128,6 @@ FlareRenderer::~FlareRenderer() = default;
 
 namespace {
 
-// Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
-struct GhostSequences {
-    std::vector<StepData> steps;
-    std::vector<float> tables;            // kTableSize factors (R or T over cos incidence) per step
-    std::vector<int> offset;              // first step of each ghost
-    std::vector<int> count;               // steps of each ghost
-    std::vector<int> stop_crossings;      // of each ghost
-};
-
 GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
     GhostSequences out;
     for (const Ghost& ghost : ghosts) {
@@ -149,41 +160,98 @@ GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghos
     return out;
 }
 
-// Where a ghost's coarse rays got through, from the coarse pass's vertices.
-struct CoarseResult {
-    PupilRect rect;
-    double power = 0.0;  // estimated power on the sensor plane (unclipped by the image frame)
-};
-
-CoarseResult coarse_bounds(const float* vertices, int res, const PupilRect& square, int stop_crossings,
-                           const Aperture& aperture, double cos_angle) {
+// What a coarse pass over the entrance square learns of one ghost, from its vertices: where the rays
+// get through and land within sensor_radius_mm of the centre (the circle round the sensor, the same for
+// every azimuth of the light), their power, how uniform the unblocked cells' sensor areas are and the sensor extent.
+GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& square, int stop_crossings,
+                              const Aperture& aperture, double cos_angle, double sensor_radius_mm) {
     const double dx = (square.x1 - square.x0) / res;
     const double dy = (square.y1 - square.y0) / res;
-    CoarseResult out;
+    const std::size_t stride = static_cast<std::size_t>(res + 1);
+    std::vector<char> passes(stride * stride, 0);
+    GhostEstimate out;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
+    PupilRect sensor{1e300, 1e300, -1e300, -1e300};
     bool any = false;
     for (int iy = 0; iy <= res; ++iy) {
         for (int ix = 0; ix <= res; ++ix) {
-            const float* v = vertices + (static_cast<std::size_t>(iy) * static_cast<std::size_t>(res + 1) +
-                                         static_cast<std::size_t>(ix)) * 12;
+            const std::size_t index = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
+            const float* v = vertices + index * 12;
             if (v[10] < 0.5f || v[2] > 1.0f) continue;
+            if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) continue;
             bool inside = true;
             for (int k = 0; k < std::min(stop_crossings, 3) && inside; ++k) {
                 inside = aperture_sdf(aperture, static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
             }
             if (!inside) continue;
+            passes[index] = 1;
             any = true;
             out.power += static_cast<double>(v[3]) * dx * dy * cos_angle;
             const double x = square.x0 + dx * ix;
             const double y = square.y0 + dy * iy;
             box = {std::min(box.x0, x), std::min(box.y0, y), std::max(box.x1, x), std::max(box.y1, y)};
+            const double sx = v[0];
+            const double sy = v[1];
+            sensor = {std::min(sensor.x0, sx), std::min(sensor.y0, sy), std::max(sensor.x1, sx), std::max(sensor.y1, sy)};
         }
     }
-    if (any) {
-        out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy),
-                    std::min(square.x1, box.x1 + dx), std::min(square.y1, box.y1 + dy)};
+    if (!any) return out;
+    out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy), std::min(square.x1, box.x1 + dx),
+                std::min(square.y1, box.y1 + dy)};
+    out.extent_mm = std::max(sensor.x1 - sensor.x0, sensor.y1 - sensor.y0);
+    // Sensor areas of the cells whose four corners all get through (shoelace over the quadrilateral).
+    double sum = 0.0;
+    double sum2 = 0.0;
+    int cells = 0;
+    for (int iy = 0; iy < res; ++iy) {
+        for (int ix = 0; ix < res; ++ix) {
+            const std::size_t a = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
+            const std::size_t corner[4] = {a, a + 1, a + stride + 1, a + stride};
+            if (!(passes[corner[0]] && passes[corner[1]] && passes[corner[2]] && passes[corner[3]])) continue;
+            double twice = 0.0;
+            for (int k = 0; k < 4; ++k) {
+                const float* p = vertices + corner[k] * 12;
+                const float* q = vertices + corner[(k + 1) % 4] * 12;
+                twice += static_cast<double>(p[0]) * static_cast<double>(q[1]) - static_cast<double>(q[0]) * static_cast<double>(p[1]);
+            }
+            const double area = 0.5 * std::abs(twice);
+            sum += area;
+            sum2 += area * area;
+            ++cells;
+        }
+    }
+    if (cells > 1 && sum > 0.0) {
+        const double mean = sum / cells;
+        out.area_cv = std::sqrt(std::max(0.0, sum2 / cells - mean * mean)) / mean;
+    } else {
+        out.area_cv = 1e9;  // too few whole cells to judge: treat as sharp
     }
     return out;
+}
+
+// Bilinear upsampling of a reduced-resolution target (same sensor extent) added into a full-size image.
+void add_upsampled(const std::vector<float>& small, int sw, int sh, std::vector<float>& full, int w, int h) {
+    for (int y = 0; y < h; ++y) {
+        const double v = std::clamp((y + 0.5) * sh / h - 0.5, 0.0, sh - 1.0);
+        const int y0 = std::min(static_cast<int>(v), sh - 1);
+        const int y1 = std::min(y0 + 1, sh - 1);
+        const double fy = v - y0;
+        for (int x = 0; x < w; ++x) {
+            const double u = std::clamp((x + 0.5) * sw / w - 0.5, 0.0, sw - 1.0);
+            const int x0 = std::min(static_cast<int>(u), sw - 1);
+            const int x1 = std::min(x0 + 1, sw - 1);
+            const double fx = u - x0;
+            auto at = [&](int xx, int yy, int c) {
+                return static_cast<double>(small[(static_cast<std::size_t>(yy) * static_cast<std::size_t>(sw) +
+                                                  static_cast<std::size_t>(xx)) * 4 + static_cast<std::size_t>(c)]);
+            };
+            float* out = full.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 4;
+            for (int c = 0; c < 3; ++c) {
+                out[c] += static_cast<float>((1 - fy) * ((1 - fx) * at(x0, y0, c) + fx * at(x1, y0, c)) +
+                                             fy * ((1 - fx) * at(x0, y1, c) + fx * at(x1, y1, c)));
+            }
+        }
+    }
 }
 
 }  // namespace
@@ -194,15 +262,31 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     }
     if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
     State& s = *state_;
+    const Acceleration& accel = options.accel;
+    s.stats = {};
     const std::vector<Ghost> ghosts = selected_ghosts(system, view);
     FloatTarget target(view.width, view.height);
     target.bind();
     target.clear();
     s.upload_iris(system.aperture);
 
-    const int grid = options.grid;
-    const std::size_t dense_bytes = static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12 * sizeof(float);
-    if (dense_bytes != s.vertices_bytes) {
+    const auto passes = view.passes();
+    std::vector<TraceSystem> traced;
+    for (const auto& pass : passes) {
+        traced.emplace_back(system, pass.wavelength_nm);
+        for (std::size_t k = 0; k < traced.back().interfaces().size(); ++k) {
+            if (traced.back().interfaces()[k].has_aspheric) {
+                throw std::runtime_error(fmt::format(
+                    "{}: surface {} is aspheric; the GPU ghost renderer traces spheres and conics only",
+                    system.name, k + 1));
+            }
+        }
+    }
+
+    // The largest grid any plan can ask for: the vertex buffer is sized once for it.
+    const int max_grid = accel.adaptive ? std::max(options.grid, 512) : options.grid;
+    const std::size_t dense_bytes = static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * 12 * sizeof(float);
+    if (dense_bytes > s.vertices_bytes) {
         s.vertices = GlObject::buffer();
         glNamedBufferStorage(s.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
         s.vertices_bytes = dense_bytes;
@@ -225,7 +309,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     std::vector<double> accumulated;  // per-ghost mode: the image summed on the CPU
     if (options.per_ghost_power) accumulated.assign(pixels * 3, 0.0);
 
-    auto dispatch_trace = [&](int res, const PupilRect& rect, int first_step, int step_count, GLuint vertex_offset) {
+    auto dispatch_trace = [&](int res, const PupilRect& rect, double rotation, const optics::Vec3& direction,
+                              int first_step, int step_count, GLuint vertex_offset) {
         glUseProgram(s.trace.get());
         glUniform1i(s.trace.uniform("step_offset"), first_step);
         glUniform1i(s.trace.uniform("step_count"), step_count);
@@ -233,56 +318,53 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         glUniform1i(s.trace.uniform("grid"), res);
         glUniform4f(s.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
                     static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-        glUniform3f(s.trace.uniform("direction"), static_cast<float>(axis.direction.x),
-                    static_cast<float>(axis.direction.y), static_cast<float>(axis.direction.z));
+        glUniform2f(s.trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)),
+                    static_cast<float>(std::sin(rotation)));
+        glUniform3f(s.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
+                    static_cast<float>(direction.z));
         glUniform1i(s.trace.uniform("table_size"), kTableSize);
         const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
         glDispatchCompute(groups, groups, 1);
     };
 
-    std::vector<const GhostStyle*> style(ghosts.size(), nullptr);
-    for (const GhostStyle& st : options.styles)
-        for (std::size_t g = 0; g < ghosts.size(); ++g)
-            if (ghosts[g].first == std::max(st.first, st.second) && ghosts[g].second == std::min(st.first, st.second))
-                style[g] = &st;
-    const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
-
-    for (const SpectralPass& pass : view.passes()) {
-        const double wavelength = pass.wavelength_nm;
-        const TraceSystem traced(system, wavelength);
-        glUseProgram(s.raster.get());
-        glUniform1i(s.raster.uniform("ringing"), options.ringing ? 1 : 0);
-        glUniform1i(s.raster.uniform("iris_ringing"), 1);
-        if (options.ringing)
-            glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(wavelength, f_number)));
-        for (std::size_t k = 0; k < traced.interfaces().size(); ++k) {
-            if (traced.interfaces()[k].has_aspheric) {
-                throw std::runtime_error(fmt::format(
-                    "{}: surface {} is aspheric; the GPU ghost renderer traces spheres and conics only",
-                    system.name, k + 1));
-            }
+    // Ghost sequences and coating tables per wavelength, built once per system and ghost selection.
+    std::uint64_t key = system_hash(system);
+    auto mix = [&key](std::uint64_t v) { key = (key ^ v) * 0x100000001b3ull; };
+    for (const Ghost& ghost : ghosts) mix(static_cast<std::uint64_t>(ghost.first) * 4096u + static_cast<std::uint64_t>(ghost.second));
+    auto sequences = [&](std::size_t p) -> State::Sequences& {
+        const std::pair<std::uint64_t, double> id{key, passes[p].wavelength_nm};
+        auto it = s.sequences.find(id);
+        if (it == s.sequences.end()) {
+            if (s.sequences.size() >= 24) s.sequences.clear();
+            State::Sequences built{build_sequences(traced[p], ghosts), GlObject::buffer(), GlObject::buffer()};
+            glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
+                                 built.seq.steps.data(), 0);
+            glNamedBufferStorage(built.tables.get(), static_cast<GLsizeiptr>(built.seq.tables.size() * sizeof(float)),
+                                 built.seq.tables.data(), 0);
+            it = s.sequences.emplace(id, std::move(built)).first;
         }
-        if (ghosts.empty()) break;
-        const GhostSequences seq = build_sequences(traced, ghosts);
-        s.steps = GlObject::buffer();
-        glNamedBufferStorage(s.steps.get(), static_cast<GLsizeiptr>(seq.steps.size() * sizeof(StepData)), seq.steps.data(), 0);
-        s.tables = GlObject::buffer();
-        glNamedBufferStorage(s.tables.get(), static_cast<GLsizeiptr>(seq.tables.size() * sizeof(float)), seq.tables.data(), 0);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.steps.get());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, s.tables.get());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, it->second.steps.get());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, it->second.tables.get());
         glUseProgram(s.trace.get());
-        glUniform1f(s.trace.uniform("sensor_z"), static_cast<float>(traced.sensor_z()));
+        glUniform1f(s.trace.uniform("sensor_z"), static_cast<float>(traced[p].sensor_z()));
+        return it->second;
+    };
 
-        // Coarse pass over the whole entrance square, all ghosts in batches: which part of the pupil each
-        // ghost's light gets through, and roughly how much. At least 8 coarse rays span the entrance pupil.
-        const PupilRect square = entrance_square(traced, view);
+    // Rays landing farther from the centre than this miss the image (with a margin of 5%).
+    const double sensor_radius = 0.525 * std::hypot(view.sensor_width_mm, view.sensor_height_mm);
+    // Coarse pass over the whole entrance square of a light direction, all ghosts in batches: which part
+    // of the pupil each ghost's light gets through, and roughly how much. At least 8 coarse rays span the
+    // entrance pupil.
+    auto coarse_pass = [&](std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture) {
+        const optics::Ray ray = optics::collimated_ray(at.angle_x_deg, at.angle_y_deg, 0.0, 0.0, 0.0);
+        const PupilRect square = entrance_square(traced[p], at);
         const double side = std::max(square.x1 - square.x0, square.y1 - square.y0);
-        const double epd = optics::paraxial(system, wavelength).entrance_pupil_diameter_mm;
+        const double epd = optics::paraxial(system, passes[p].wavelength_nm).entrance_pupil_diameter_mm;
         const double spacing = std::min(side / 48.0, std::max(epd, 1e-3) / 8.0);
         const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
         const std::size_t coarse_vertices = static_cast<std::size_t>(res + 1) * static_cast<std::size_t>(res + 1);
         const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (coarse_vertices * 48));
-        std::vector<CoarseResult> coarse(ghosts.size());
+        std::vector<GhostEstimate> coarse(ghosts.size());
         std::vector<float> readback;
         for (std::size_t first = 0; first < ghosts.size(); first += batch) {
             const std::size_t n = std::min(batch, ghosts.size() - first);
@@ -291,7 +373,8 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                                  GL_MAP_READ_BIT);
             glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, coarse_buffer.get());
             for (std::size_t g = first; g < first + n; ++g) {
-                dispatch_trace(res, square, seq.offset[g], seq.count[g], static_cast<GLuint>((g - first) * coarse_vertices));
+                dispatch_trace(res, square, 0.0, ray.direction, seq.offset[g], seq.count[g],
+                               static_cast<GLuint>((g - first) * coarse_vertices));
             }
             glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
             readback.resize(n * coarse_vertices * 12);
@@ -299,28 +382,119 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                                     readback.data());
             check_gl("the coarse ghost pass");
             for (std::size_t g = first; g < first + n; ++g) {
-                coarse[g] = coarse_bounds(readback.data() + (g - first) * coarse_vertices * 12, res, square,
-                                          seq.stop_crossings[g], system.aperture, cos_angle);
+                coarse[g] = coarse_estimate(readback.data() + (g - first) * coarse_vertices * 12, res, square,
+                                            seq.stop_crossings[g], aperture, std::abs(ray.direction.z), sensor_radius);
             }
         }
-        double total_estimate = 0.0;
-        for (const CoarseResult& c : coarse) total_estimate += c.power;
+        return coarse;
+    };
+
+    // Bounds table: the entries on either side of this light's field angle, computed (and saved) if missing.
+    const FieldDirection field = field_direction(view);
+    BoundsTable* table = nullptr;
+    if (accel.bounding == Bounding::Table && !ghosts.empty()) {
+        // The table's key adds the wavelengths to the system and ghost selection.
+        std::uint64_t table_key = key;
+        for (const auto& pass : passes) table_key = (table_key ^ std::bit_cast<std::uint64_t>(pass.wavelength_nm)) * 0x100000001b3ull;
+        table_key = (table_key ^ std::bit_cast<std::uint64_t>(sensor_radius)) * 0x100000001b3ull;
+        auto it = s.bounds_tables.find(table_key);
+        if (it == s.bounds_tables.end()) {
+            const std::string dir = accel.cache_dir.empty() ? default_cache_dir() : accel.cache_dir;
+            it = s.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes.size()),
+                                                         static_cast<int>(ghosts.size()), dir)).first;
+            s.stats.table_loaded = it->second.load();
+        }
+        table = &it->second;
+        const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
+        bool computed = false;
+        for (int index : {i0, i0 + 1}) {
+            if (table->entry(index)) continue;
+            FlareView at = view;
+            at.angle_x_deg = index * BoundsTable::step_deg;
+            at.angle_y_deg = 0.0;
+            Aperture round = system.aperture;
+            round.blades = 0;  // the stop's circle holds any bladed iris: bounds for every iris rotation
+            std::vector<std::vector<GhostEstimate>> entry;
+            for (std::size_t p = 0; p < passes.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
+            table->store(index, std::move(entry));
+            ++s.stats.table_computed;
+            computed = true;
+        }
+        if (computed) {
+            try {
+                table->save();
+            } catch (const std::exception& e) {  // a cache that cannot be written only costs time
+                fmt::print(stderr, "lensfx: warning: {}\n", e.what());
+            }
+        }
+    }
+
+    std::vector<const GhostStyle*> style(ghosts.size(), nullptr);
+    for (const GhostStyle& st : options.styles)
+        for (std::size_t g = 0; g < ghosts.size(); ++g)
+            if (ghosts[g].first == std::max(st.first, st.second) && ghosts[g].second == std::min(st.first, st.second))
+                style[g] = &st;
+    const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
+
+    std::optional<FloatTarget> half;
+    std::optional<FloatTarget> quarter;
+    const double pixel_mm = view.sensor_width_mm / view.width;
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+        const SpectralPass& pass = passes[p];
+        if (ghosts.empty()) break;
+        glUseProgram(s.raster.get());
+        glUniform1i(s.raster.uniform("ringing"), options.ringing ? 1 : 0);
+        glUniform1i(s.raster.uniform("iris_ringing"), 1);
+        if (options.ringing)
+            glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(pass.wavelength_nm, f_number)));
+        const GhostSequences& seq = sequences(p).seq;
+
+        std::vector<GhostEstimate> estimates;
+        double rotation = 0.0;
+        if (table) {
+            estimates = table->interpolate(static_cast<int>(p), field.theta_deg);
+            rotation = field.phi;
+        } else if (accel.bounding == Bounding::Coarse || accel.lod || accel.adaptive || accel.reduced) {
+            estimates = coarse_pass(p, seq, view, system.aperture);
+        } else {
+            estimates.assign(ghosts.size(), GhostEstimate{entrance_square(traced[p], view), 1.0, 0.0, 0.0});
+        }
+        if (accel.bounding == Bounding::None) {
+            // Ghosts the coarse pass found no light of stay culled; the others cover the whole square.
+            const PupilRect square = entrance_square(traced[p], view);
+            for (GhostEstimate& e : estimates) {
+                if (!e.rect.empty()) e.rect = square;
+            }
+        }
+        const std::vector<GhostPlan> plans = plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power);
 
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
         for (std::size_t g = 0; g < ghosts.size(); ++g) {
             const Ghost& ghost = ghosts[g];
-            const PupilRect& rect = coarse[g].rect;
-            if (rect.empty()) continue;
+            const PupilRect& rect = estimates[g].rect;
             if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
-            // Intensity LOD: ghosts holding 1% of the estimated total or more get the full grid; dimmer
-            // ones a grid whose ray count scales with their power (at least 16 x 16 cells).
-            const double share = total_estimate > 0.0 ? coarse[g].power / total_estimate : 1.0;
-            const int ghost_grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / 0.01))),
-                                              std::min(16, grid), grid);
-            dispatch_trace(ghost_grid, rect, seq.offset[g], seq.count[g], 0);
+            const GhostPlan& plan = plans[g];
+            if (!plan.draw) {
+                ++s.stats.ghosts_skipped;
+                continue;
+            }
+            const int ghost_grid = plan.grid;
+            ++s.stats.ghosts_drawn;
+            s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
+            dispatch_trace(ghost_grid, rect, rotation, axis.direction, seq.offset[g], seq.count[g], 0);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
             check_gl(fmt::format("tracing ghost {},{}", ghost.second, ghost.first));
 
+            if (plan.reduce > 1) {
+                std::optional<FloatTarget>& small = plan.reduce == 2 ? half : quarter;
+                if (!small) {
+                    small.emplace((view.width + plan.reduce - 1) / plan.reduce, (view.height + plan.reduce - 1) / plan.reduce);
+                    small->bind();
+                    small->clear();
+                }
+                small->bind();
+                ++s.stats.ghosts_reduced;
+            }
             const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
             glUseProgram(s.raster.get());
             glUniform1i(s.raster.uniform("grid"), ghost_grid);
@@ -337,6 +511,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             glUniform2f(s.raster.uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
+            if (plan.reduce > 1) target.bind();
 
             if (options.per_ghost_power) {
                 const std::vector<float> rgba = target.read_rgba();
@@ -356,7 +531,10 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     out.width = view.width;
     out.height = view.height;
     out.rgb.resize(pixels * 3);
-    const std::vector<float> rgba = options.per_ghost_power ? std::vector<float>{} : target.read_rgba();
+    std::vector<float> rgba = options.per_ghost_power ? std::vector<float>{} : target.read_rgba();
+    for (const std::optional<FloatTarget>* small : {&half, &quarter}) {
+        if (*small) add_upsampled((*small)->read_rgba(), (*small)->width(), (*small)->height(), rgba, view.width, view.height);
+    }
     for (int y = 0; y < view.height; ++y) {
         const std::size_t src_row = static_cast<std::size_t>(view.height - 1 - y);  // GL rows run bottom-up
         for (int x = 0; x < view.width; ++x) {
@@ -374,5 +552,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     glBindVertexArray(0);
     return out;
 }
+
+const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }
 
 }  // namespace lensfx::gpu

@@ -18,7 +18,8 @@ uniform int step_offset;  // this ghost's first step in steps[] (and table in fa
 uniform int step_count;
 uniform uint vertex_offset;  // this ghost's first vertex in vertices[]
 uniform int grid;
-uniform vec4 rect;       // entrance plane z = 0: x0, y0, x1, y1 (mm)
+uniform vec4 rect;       // entrance plane z = 0: x0, y0, x1, y1 (mm), in a frame turned by rect_rotation
+uniform vec2 rect_rotation;  // (cos, sin) of the frame's angle: bounds-table rectangles of a turned light
 uniform vec3 direction;  // unit, towards +z
 uniform float sensor_z;
 uniform int table_size;
@@ -35,7 +36,8 @@ void main() {
     uvec2 id = gl_GlobalInvocationID.xy;
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     vec2 f = vec2(id) / float(grid);
-    vec3 o = vec3(mix(rect.xy, rect.zw, f), 0.0);
+    vec2 q = mix(rect.xy, rect.zw, f);
+    vec3 o = vec3(rect_rotation.x * q.x - rect_rotation.y * q.y, rect_rotation.y * q.x + rect_rotation.x * q.y, 0.0);
     vec3 d = direction;
     float r_rel = 0.0;
     float transmission = 1.0;

@@ -39,7 +39,7 @@ struct FlareSettings {
     bool flare_only = false;          // write the flare alone (on black)
     std::string tracks;               // render the lights of this track file instead of detecting
     std::string gpu = "auto";         // EGL platform: auto, device, surfaceless
-    int grid = 128;                   // ray grid per ghost (cells per side)
+    int grid = 16;                    // base ray grid per ghost, as gpu::GpuFlareOptions (adaptive on top)
     std::string parts = "ghosts,starburst";  // what to render: ghosts, starburst, or both
     double starburst_gain = 1.0;      // energy of the starburst relative to the light's recorded energy
     double starburst_scale = 1.0;     // size relative to the physical (wavelength x f-number) scale

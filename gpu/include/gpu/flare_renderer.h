@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <optics/flare_look.h>
@@ -17,8 +18,9 @@ namespace lensfx::gpu {
 using optics::GhostStyle;  // per-ghost colour, gain and offset (optics/flare_look.h)
 
 struct GpuFlareOptions {
-    int grid = 128;                // cells per side of each ghost's ray grid
+    int grid = 16;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
+    Acceleration accel;            // all on by default; fixed grid per ghost with every one off
     // High quality: ghosts are shaded by the iris with its ringing (the fractional Fourier transform of
     // order eq. 5 at each pass's wavelength and the lens's f-number) instead of the sharp iris.
     bool ringing = false;
@@ -34,6 +36,7 @@ public:
     FlareRenderer& operator=(const FlareRenderer&) = delete;
 
     FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
+    const RenderStats& last_stats() const;
 
 private:
     struct State;

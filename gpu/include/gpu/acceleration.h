@@ -1,0 +1,123 @@
+// The ghost renderer's accelerations (flare paper section 4.2, culling paper): ray bounding from a
+// per-lens table of entrance-pupil rectangles, adaptive grid resolution, intensity level of detail and
+// reduced-resolution drawing. Each can be switched off; `lensfx bench time-vs-error` measures them.
+// Also the bounds table itself, cached in memory and on disk per lens, zoom, f-number and aperture.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gpu/flare.h>
+
+namespace lensfx::gpu {
+
+// Where each ghost's ray grid lies on the entrance plane. Table: looked up in the cached bounds table
+// (no per-frame coarse pass). Coarse: a coarse GPU pass over the entrance square every frame. None: the
+// whole entrance square (a coarse pass still estimates power when the level of detail needs it).
+enum class Bounding { Table, Coarse, None };
+Bounding parse_bounding(const std::string& text);  // "table", "coarse" or "none"; throws otherwise
+const char* to_string(Bounding bounding);
+
+struct Acceleration {
+    Bounding bounding = Bounding::Table;
+    bool adaptive = true;          // grid per ghost from the variance of its cell areas on the sensor
+    bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
+    double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
+    int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
+    bool reduced = true;           // draw smooth, large ghosts at 1/2 or 1/4 resolution and upsample
+    std::string cache_dir;         // bounds table files; empty = default_cache_dir(), "none" = memory only
+};
+
+// Documented errors: switching one acceleration off changes a 480x320 image of the test lenses
+// (tests/gpu/acceleration_test.cpp) by less than this relative L1 over 32x32-pixel blocks (the measure
+// of `lensfx bench time-vs-error`) and this relative total power.
+// Measured at the default base grid 16 on the Tessar at (8, 5) and the Angenieux double Gauss at
+// (-4, 11) degrees: table against coarse bounds 0.0037, adaptive 0.0070, LOD 0.0003, reduced drawing
+// 0.0006 in L1; 0.0030 (adaptive) and at most 0.0003 (the others) in power.
+inline constexpr double kTableL1 = 0.006, kTablePower = 0.001;
+inline constexpr double kAdaptiveL1 = 0.012, kAdaptivePower = 0.005;
+inline constexpr double kLodL1 = 0.003, kLodPower = 0.002;
+inline constexpr double kReducedL1 = 0.003, kReducedPower = 0.001;
+
+// $XDG_CACHE_HOME/lensfx, else $HOME/.cache/lensfx, else empty (no disk cache).
+std::string default_cache_dir();
+
+// What a coarse pass learns of one ghost at one wavelength and light direction.
+struct GhostEstimate {
+    PupilRect rect;           // entrance-plane rectangle of the rays that get through to the circle round
+                              // the sensor (empty: none did)
+    double power = 0.0;       // their power, mm^2 per unit irradiance
+    double area_cv = 0.0;     // coefficient of variation of the unblocked coarse cells' sensor areas
+    double extent_mm = 0.0;   // larger side of the ghost's bounding box on the sensor
+};
+
+// Per-ghost drawing decisions from the estimates of one pass.
+struct GhostPlan {
+    bool draw = false;
+    int grid = 0;    // cells per side
+    int reduce = 1;  // 1 full resolution, 2 or 4: drawn at 1/reduce of the image size and upsampled
+};
+// base_grid: the --grid option. pixel_mm: the sensor width of one pixel. per_ghost_power disables the
+// reduced drawing (the per-ghost read-back happens on the full-size target).
+std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
+                                   int base_grid, double pixel_mm, bool per_ghost_power);
+
+// A stable 64-bit hash (FNV-1a) of everything about a system that changes its ghosts' bounds: every
+// interface (shape, position, media, coatings), the stop, the sensor and the iris.
+std::uint64_t system_hash(const System& system);
+
+// Entrance-pupil rectangles of every ghost over a grid of field angles (and a sensor size) (light in the x-z plane, at
+// multiples of step_deg), for a round iris of the stop radius (which contains any bladed iris): by the
+// lens's rotational symmetry a light at field angle theta and azimuth phi sees the rectangle of theta
+// turned by phi. Entries are computed on demand (by the caller's coarse pass), kept in memory and
+// written to <dir>/bounds-<key>.bin.
+class BoundsTable {
+public:
+    static constexpr double step_deg = 0.5;
+
+    BoundsTable(std::uint64_t key, int passes, int ghosts, std::string dir);
+    std::uint64_t key() const { return key_; }
+    std::string path() const;  // empty without a disk cache
+    // The entry at step index i (angle i * step_deg): per pass, per ghost; nullptr when not computed.
+    const std::vector<std::vector<GhostEstimate>>* entry(int index) const;
+    void store(int index, std::vector<std::vector<GhostEstimate>> estimates);
+    // Reads the file if it exists and matches the key and shape; returns the number of entries read.
+    // A corrupt or foreign file is ignored (and overwritten by the next save).
+    int load();
+    void save() const;  // writes atomically (temporary file, then rename); throws naming the file
+
+    // For a field angle between two entries: the union of their rectangles, the larger cv and extent,
+    // the interpolated power. Both entries must be present.
+    std::vector<GhostEstimate> interpolate(int pass, double theta_deg) const;
+
+private:
+    std::uint64_t key_;
+    int passes_;
+    int ghosts_;
+    std::string dir_;
+    std::map<int, std::vector<std::vector<GhostEstimate>>> entries_;
+};
+
+// The field angle (degrees from the axis) and azimuth (radians, counter-clockwise from +x on the
+// entrance plane) of a view's light direction, as collimated_ray builds it.
+struct FieldDirection {
+    double theta_deg = 0.0;
+    double phi = 0.0;
+};
+FieldDirection field_direction(const FlareView& view);
+
+// What the last render did: for tests and the benchmark.
+struct RenderStats {
+    int ghosts_drawn = 0;       // summed over passes
+    int ghosts_skipped = 0;     // by the level of detail or an empty rectangle
+    int ghosts_reduced = 0;     // drawn at reduced resolution
+    long long rays = 0;         // grid vertices traced for drawing
+    int table_computed = 0;     // bounds-table entries computed by this render
+    int table_loaded = 0;       // entries read from disk by this render
+};
+
+}  // namespace lensfx::gpu

@@ -1,0 +1,295 @@
+// Ghost renderer accelerations: per-ghost plans, the system hash and the bounds table's disk cache.
+#include <gpu/acceleration.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+#include <system_error>
+
+#include <fmt/core.h>
+
+namespace lensfx::gpu {
+
+Bounding parse_bounding(const std::string& text) {
+    if (text == "table") return Bounding::Table;
+    if (text == "coarse") return Bounding::Coarse;
+    if (text == "none") return Bounding::None;
+    throw std::invalid_argument(fmt::format("--bounding {}: table, coarse or none expected", text));
+}
+
+const char* to_string(Bounding bounding) {
+    switch (bounding) {
+        case Bounding::Table: return "table";
+        case Bounding::Coarse: return "coarse";
+        case Bounding::None: return "none";
+    }
+    return "?";
+}
+
+std::string default_cache_dir() {
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/lensfx";
+    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/lensfx";
+    return {};
+}
+
+namespace {
+
+// Adaptive grid: cells whose sensor areas vary by less than kSmoothCv (nearly an affine map, which the
+// linear triangles reproduce exactly) get half the base grid; above kSharpCv (caustics) each doubling
+// of the variation doubles the grid, up to kMaxLevel doublings (more bought no measurable accuracy at
+// 32x32-pixel blocks, `lensfx bench time-vs-error`). Distorted cells never get less than the base.
+constexpr double kSmoothCv = 0.1;
+constexpr double kSharpCv = 0.8;
+constexpr int kMaxLevel = 1;
+constexpr int kMinGrid = 16;
+constexpr int kMaxGrid = 512;
+// Intensity LOD: ghosts under kFullShare of the estimated total get a grid scaled by sqrt(share/kFullShare).
+constexpr double kFullShare = 0.01;
+// Reduced drawing: ghosts at least this many pixels across, with cells this uniform.
+constexpr double kHalfExtentPx = 96.0;
+constexpr double kQuarterExtentPx = 256.0;
+constexpr double kReducedMaxCv = 0.3;
+
+}  // namespace
+
+std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
+                                   int base_grid, double pixel_mm, bool per_ghost_power) {
+    std::vector<GhostPlan> plans(estimates.size());
+    double total = 0.0;
+    for (const GhostEstimate& e : estimates) total += e.power;
+    std::vector<std::size_t> order(estimates.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return estimates[a].power > estimates[b].power; });
+    std::vector<int> rank(estimates.size());
+    for (std::size_t r = 0; r < order.size(); ++r) rank[order[r]] = static_cast<int>(r);
+
+    for (std::size_t g = 0; g < estimates.size(); ++g) {
+        const GhostEstimate& e = estimates[g];
+        GhostPlan& plan = plans[g];
+        if (e.rect.empty()) continue;
+        const double share = total > 0.0 ? e.power / total : 1.0;
+        if (accel.lod && (share < accel.ghost_threshold || (accel.max_ghosts > 0 && rank[g] >= accel.max_ghosts))) {
+            continue;
+        }
+        plan.draw = true;
+        int grid = base_grid;
+        if (accel.adaptive) {
+            if (e.area_cv < kSmoothCv) {
+                grid = std::max(std::min(kMinGrid, base_grid), base_grid / 2);
+            } else if (e.area_cv > kSharpCv) {
+                const int level = std::min(kMaxLevel, static_cast<int>(std::ceil(std::log2(e.area_cv / kSharpCv))));
+                grid = std::max(base_grid, std::min(kMaxGrid, base_grid << level));
+            }
+        }
+        if (accel.lod && share < kFullShare) {
+            grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
+                              grid);
+        }
+        plan.grid = grid;
+        if (accel.reduced && !per_ghost_power && e.area_cv < kReducedMaxCv && pixel_mm > 0.0) {
+            const double extent_px = e.extent_mm / pixel_mm;
+            plan.reduce = extent_px >= kQuarterExtentPx ? 4 : (extent_px >= kHalfExtentPx ? 2 : 1);
+        }
+    }
+    return plans;
+}
+
+namespace {
+
+struct Fnv {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    void bytes(const void* data, std::size_t n) {
+        const auto* p = static_cast<const unsigned char*>(data);
+        for (std::size_t i = 0; i < n; ++i) {
+            h ^= p[i];
+            h *= 0x100000001b3ull;
+        }
+    }
+    void num(double v) { bytes(&v, sizeof v); }
+    void num(std::int64_t v) { bytes(&v, sizeof v); }
+    void text(const std::string& s) {
+        num(static_cast<std::int64_t>(s.size()));
+        bytes(s.data(), s.size());
+    }
+    void glass(const optics::Glass& g) {
+        text(g.name);
+        num(static_cast<std::int64_t>(g.formula));
+        num(static_cast<std::int64_t>(g.coefficients.size()));
+        for (double c : g.coefficients) num(c);
+        num(g.nd);
+        num(g.vd);
+    }
+};
+
+}  // namespace
+
+std::uint64_t system_hash(const System& system) {
+    Fnv f;
+    f.text("lensfx bounds v1");
+    f.text(system.name);
+    f.num(static_cast<std::int64_t>(system.interfaces.size()));
+    for (const System::Interface& s : system.interfaces) {
+        f.num(s.radius_mm);
+        f.num(s.z_mm);
+        f.num(s.semi_diameter_mm);
+        f.glass(s.before);
+        f.glass(s.after);
+        f.num(static_cast<std::int64_t>(s.coating.kind));
+        f.num(s.coating.design_wavelength_nm);
+        f.num(s.coating.layer_index);
+        f.num(s.coating.thickness_offset);
+        f.num(static_cast<std::int64_t>(s.coating.layers.size()));
+        for (const optics::Coating::Layer& layer : s.coating.layers) {
+            f.glass(layer.material);
+            f.num(layer.thickness_nm);
+        }
+        f.num(static_cast<std::int64_t>(s.is_stop));
+        f.num(s.conic);
+        f.num(static_cast<std::int64_t>(s.aspheric.size()));
+        for (double a : s.aspheric) f.num(a);
+    }
+    f.num(static_cast<std::int64_t>(system.stop));
+    f.num(system.sensor_z_mm);
+    f.num(static_cast<std::int64_t>(system.aperture.blades));
+    f.num(system.aperture.rotation_deg);
+    f.num(system.aperture.blade_curvature);
+    return f.h;
+}
+
+FieldDirection field_direction(const FlareView& view) {
+    const double k = std::numbers::pi / 180.0;
+    const double tx = std::tan(view.angle_x_deg * k);
+    const double ty = std::tan(view.angle_y_deg * k);
+    const double t = std::hypot(tx, ty);
+    return {std::atan(t) / k, t > 0.0 ? std::atan2(ty, tx) : 0.0};
+}
+
+BoundsTable::BoundsTable(std::uint64_t key, int passes, int ghosts, std::string dir)
+    : key_(key), passes_(passes), ghosts_(ghosts), dir_(std::move(dir)) {}
+
+std::string BoundsTable::path() const {
+    if (dir_.empty() || dir_ == "none") return {};
+    return fmt::format("{}/bounds-{:016x}.bin", dir_, key_);
+}
+
+const std::vector<std::vector<GhostEstimate>>* BoundsTable::entry(int index) const {
+    auto it = entries_.find(index);
+    return it == entries_.end() ? nullptr : &it->second;
+}
+
+void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estimates) {
+    if (static_cast<int>(estimates.size()) != passes_) {
+        throw std::logic_error(fmt::format("bounds table: {} passes stored, {} expected", estimates.size(), passes_));
+    }
+    entries_[index] = std::move(estimates);
+}
+
+namespace {
+
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '1'};
+constexpr int kFieldsPerGhost = 7;
+
+}  // namespace
+
+int BoundsTable::load() {
+    const std::string file = path();
+    if (file.empty()) return 0;
+    std::ifstream in(file, std::ios::binary);
+    if (!in) return 0;
+    char magic[8];
+    std::uint64_t key = 0;
+    std::int32_t shape[3] = {0, 0, 0};  // passes, ghosts, entries
+    in.read(magic, sizeof magic);
+    in.read(reinterpret_cast<char*>(&key), sizeof key);
+    in.read(reinterpret_cast<char*>(shape), sizeof shape);
+    if (!in || std::memcmp(magic, kMagic, sizeof magic) != 0 || key != key_ || shape[0] != passes_ ||
+        shape[1] != ghosts_ || shape[2] < 0 || shape[2] > 100000) {
+        return 0;
+    }
+    std::map<int, std::vector<std::vector<GhostEstimate>>> read;
+    std::vector<double> values(static_cast<std::size_t>(passes_) * static_cast<std::size_t>(ghosts_) * kFieldsPerGhost);
+    for (int e = 0; e < shape[2]; ++e) {
+        std::int32_t index = 0;
+        in.read(reinterpret_cast<char*>(&index), sizeof index);
+        in.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(values.size() * sizeof(double)));
+        if (!in) return 0;
+        std::vector<std::vector<GhostEstimate>> entry(static_cast<std::size_t>(passes_),
+                                                      std::vector<GhostEstimate>(static_cast<std::size_t>(ghosts_)));
+        const double* v = values.data();
+        for (auto& pass : entry) {
+            for (GhostEstimate& g : pass) {
+                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6]};
+                v += kFieldsPerGhost;
+            }
+        }
+        read[index] = std::move(entry);
+    }
+    const int count = static_cast<int>(read.size());
+    for (auto& [index, entry] : read) entries_.try_emplace(index, std::move(entry));
+    return count;
+}
+
+void BoundsTable::save() const {
+    const std::string file = path();
+    if (file.empty()) return;
+    std::error_code ec;
+    std::filesystem::create_directories(dir_, ec);
+    if (ec) throw std::runtime_error(fmt::format("{}: cannot create the cache directory: {}", dir_, ec.message()));
+    const std::string temporary = fmt::format("{}.{}.tmp", file, static_cast<const void*>(this));
+    {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        const std::int32_t shape[3] = {passes_, ghosts_, static_cast<std::int32_t>(entries_.size())};
+        out.write(kMagic, sizeof kMagic);
+        out.write(reinterpret_cast<const char*>(&key_), sizeof key_);
+        out.write(reinterpret_cast<const char*>(shape), sizeof shape);
+        for (const auto& [index, entry] : entries_) {
+            const std::int32_t i = index;
+            out.write(reinterpret_cast<const char*>(&i), sizeof i);
+            for (const auto& pass : entry) {
+                for (const GhostEstimate& g : pass) {
+                    const double v[kFieldsPerGhost] = {g.rect.x0, g.rect.y0, g.rect.x1, g.rect.y1, g.power, g.area_cv,
+                                                       g.extent_mm};
+                    out.write(reinterpret_cast<const char*>(v), sizeof v);
+                }
+            }
+        }
+        if (!out) throw std::runtime_error(fmt::format("{}: cannot write the bounds cache", temporary));
+    }
+    std::filesystem::rename(temporary, file, ec);
+    if (ec) throw std::runtime_error(fmt::format("{}: cannot write the bounds cache: {}", file, ec.message()));
+}
+
+std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) const {
+    const int i0 = static_cast<int>(std::floor(theta_deg / step_deg));
+    const double t = theta_deg / step_deg - i0;
+    const auto* a = entry(i0);
+    const auto* b = entry(i0 + 1);
+    if (!a || !b) throw std::logic_error(fmt::format("bounds table: entries {} and {} missing", i0, i0 + 1));
+    const auto& ea = (*a)[static_cast<std::size_t>(pass)];
+    const auto& eb = (*b)[static_cast<std::size_t>(pass)];
+    std::vector<GhostEstimate> out(ea.size());
+    for (std::size_t g = 0; g < ea.size(); ++g) {
+        const GhostEstimate& p = ea[g];
+        const GhostEstimate& q = eb[g];
+        GhostEstimate& r = out[g];
+        if (p.rect.empty() || q.rect.empty()) {
+            r = p.rect.empty() ? q : p;
+        } else {
+            r.rect = {std::min(p.rect.x0, q.rect.x0), std::min(p.rect.y0, q.rect.y0), std::max(p.rect.x1, q.rect.x1),
+                      std::max(p.rect.y1, q.rect.y1)};
+        }
+        r.power = (1.0 - t) * p.power + t * q.power;
+        r.area_cv = std::max(p.area_cv, q.area_cv);
+        r.extent_mm = std::max(p.extent_mm, q.extent_mm);
+    }
+    return out;
+}
+
+}  // namespace lensfx::gpu

@@ -1,0 +1,208 @@
+// The ghost renderer's accelerations (issue 5): switching each one off changes the image by less than
+// its documented error (relative L1 over 32x32-pixel blocks and total power, acceleration.h) on test
+// lenses, and the bounds table's disk cache survives a restart and is invalidated when the lens, zoom,
+// f-number or aperture changes. Plus the CPU side: system hash, ghost plans, table file round trip.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+
+#include <gpu/acceleration.h>
+#include <gpu/context.h>
+#include <gpu/flare.h>
+#include <gpu/flare_renderer.h>
+#include <optics/ghosts.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+namespace lensfx::gpu {
+namespace {
+
+std::filesystem::path fresh_dir(const std::string& name) {
+    const auto dir = std::filesystem::temp_directory_path() /
+                     fmt::format("lensfx-accel-{}-{}", name, static_cast<long long>(::getpid()));
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+TEST(SystemHash, ChangesWithLensZoomFstopAndAperture) {
+    const optics::Lens zoom_lens = optics::load_lens("canon-70-200");
+    const std::uint64_t base = system_hash(optics::realize(zoom_lens, 0.0));
+    EXPECT_EQ(base, system_hash(optics::realize(zoom_lens, 0.0)));
+    EXPECT_NE(base, system_hash(optics::realize(zoom_lens, 0.5)));
+    EXPECT_NE(base, system_hash(optics::realize(zoom_lens, 0.0, 8.0)));
+    optics::System bladed = optics::realize(zoom_lens, 0.0);
+    bladed.aperture.blades = 6;
+    EXPECT_NE(base, system_hash(bladed));
+    EXPECT_NE(base, system_hash(optics::realize(optics::load_lens("brendel-tessar"))));
+}
+
+TEST(PlanGhosts, ThresholdBudgetAndAdaptiveGrid) {
+    std::vector<GhostEstimate> e(4);
+    for (GhostEstimate& g : e) g.rect = {-1, -1, 1, 1};
+    e[0].power = 1.0;     // sharp: cv 2 -> grid above the base
+    e[0].area_cv = 2.0;
+    e[1].power = 0.5;     // smooth: half the base grid
+    e[1].area_cv = 0.01;
+    e[2].power = 1e-6;    // below 1e-4 of the total
+    e[3].power = 0.2;     // moderately distorted: the base grid
+    e[3].area_cv = 0.2;
+    Acceleration a;
+    auto plans = plan_ghosts(e, a, 32, 0.1, false);
+    EXPECT_TRUE(plans[0].draw);
+    EXPECT_GT(plans[0].grid, 32);
+    EXPECT_EQ(plans[1].grid, 16);
+    EXPECT_FALSE(plans[2].draw);
+    EXPECT_EQ(plans[3].grid, 32);
+    a.max_ghosts = 2;
+    plans = plan_ghosts(e, a, 32, 0.1, false);
+    EXPECT_TRUE(plans[0].draw && plans[1].draw);
+    EXPECT_FALSE(plans[3].draw);
+    a = {};
+    a.lod = false;
+    a.adaptive = false;
+    plans = plan_ghosts(e, a, 32, 0.1, false);
+    for (const GhostPlan& p : plans) EXPECT_TRUE(p.draw && p.grid == 32);
+}
+
+TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
+    const auto dir = fresh_dir("table");
+    BoundsTable table(0x1234, 2, 3, dir.string());
+    std::vector<std::vector<GhostEstimate>> entry(2, std::vector<GhostEstimate>(3));
+    entry[1][2] = {{-1.5, -0.5, 2.0, 0.25}, 3e-4, 0.7, 5.5};
+    table.store(4, entry);
+    table.store(5, entry);
+    table.save();
+    BoundsTable again(0x1234, 2, 3, dir.string());
+    EXPECT_EQ(again.load(), 2);
+    ASSERT_NE(again.entry(5), nullptr);
+    EXPECT_EQ((*again.entry(5))[1][2].rect.x1, 2.0);
+    EXPECT_EQ((*again.entry(5))[1][2].extent_mm, 5.5);
+    const auto mid = again.interpolate(1, 4.5 * BoundsTable::step_deg);
+    EXPECT_DOUBLE_EQ(mid[2].power, 3e-4);
+    BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
+    EXPECT_EQ(other.load(), 0);
+    std::ofstream(again.path(), std::ios::trunc) << "garbage";
+    EXPECT_EQ(again.load(), 0);
+    std::filesystem::remove_all(dir);
+}
+
+struct Lens {
+    const char* name;
+    double ax, ay;
+};
+
+// Documented errors (acceleration.h): switching one acceleration off moves the 32x32-block relative L1
+// by less than `l1` and the total power by less than `power`.
+struct Switch {
+    const char* name;
+    void (*off)(GpuFlareOptions&);
+    double l1;
+    double power;
+};
+
+TEST(Acceleration, EachSwitchChangesTheImageLessThanDocumented) {
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    const std::vector<Switch> switches = {
+        {"bounding coarse", [](GpuFlareOptions& o) { o.accel.bounding = Bounding::Coarse; }, kTableL1, kTablePower},
+        {"no adaptive", [](GpuFlareOptions& o) { o.accel.adaptive = false; }, kAdaptiveL1, kAdaptivePower},
+        {"no lod", [](GpuFlareOptions& o) { o.accel.lod = false; }, kLodL1, kLodPower},
+        {"no reduced", [](GpuFlareOptions& o) { o.accel.reduced = false; }, kReducedL1, kReducedPower},
+    };
+    std::vector<double> changed(switches.size(), 0.0);
+    for (const Lens& l : {Lens{"brendel-tessar", 8.0, 5.0}, Lens{"angenieux-double-gauss", -4.0, 11.0}}) {
+        const optics::System system = optics::realize(optics::load_lens(l.name));
+        FlareView view;
+        view.width = 480;
+        view.height = 320;
+        view.angle_x_deg = l.ax;
+        view.angle_y_deg = l.ay;
+        GpuFlareOptions on;
+        on.accel.cache_dir = "none";
+        const FlareImage with = renderer.render(system, view, on);
+        for (const Switch& s : switches) {
+            GpuFlareOptions off = on;
+            s.off(off);
+            const FlareImage without = renderer.render(system, view, off);
+            const FlareError e = compare_flare(with, without, view, 32);
+            RecordProperty(fmt::format("{} {}", l.name, s.name), fmt::format("l1 {:.4f} power {:.4f}", e.block_l1, e.total));
+            EXPECT_LT(e.block_l1, s.l1) << l.name << ": " << s.name;
+            EXPECT_LT(e.total, s.power) << l.name << ": " << s.name;
+            changed[&s - switches.data()] = std::max(changed[&s - switches.data()], e.block_l1);
+        }
+    }
+    // Each switch does something on one of these lenses at least.
+    for (std::size_t i = 0; i < switches.size(); ++i) EXPECT_GT(changed[i], 0.0) << switches[i].name;
+}
+
+TEST(Acceleration, DiskCacheSurvivesRestartAndFollowsTheSystem) {
+    const auto dir = fresh_dir("cache");
+    const Context context(Platform::Surfaceless);
+    const optics::Lens lens = optics::load_lens("canon-70-200");
+    FlareView view;
+    view.width = 120;
+    view.height = 80;
+    view.angle_x_deg = 3.0;
+    view.angle_y_deg = 2.0;
+    view.wavelength_nm = 550.0;
+    GpuFlareOptions options;
+    options.accel.cache_dir = dir.string();
+    const optics::System system = optics::realize(lens, 0.0);
+    // Three ghosts of each system keep the table's coarse passes short.
+    auto three_ghosts = [base = view](const optics::System& sys) {
+        FlareView v = base;
+        const auto ghosts = optics::enumerate_ghosts(sys);
+        for (std::size_t g = 0; g < 3 && g < ghosts.size(); ++g) v.only_ghosts.emplace_back(ghosts[g].first, ghosts[g].second);
+        return v;
+    };
+    view = three_ghosts(system);
+
+    FlareImage first;
+    {
+        FlareRenderer renderer(context);
+        first = renderer.render(system, view, options);
+        EXPECT_EQ(renderer.last_stats().table_computed, 2);
+        EXPECT_EQ(renderer.last_stats().table_loaded, 0);
+        renderer.render(system, view, options);  // in memory now
+        EXPECT_EQ(renderer.last_stats().table_computed, 0);
+    }
+    const auto files = [&] {
+        int n = 0;
+        for (const auto& f : std::filesystem::directory_iterator(dir)) n += f.path().extension() == ".bin";
+        return n;
+    };
+    EXPECT_EQ(files(), 1);
+    {
+        FlareRenderer restarted(context);  // a new process would see the same: an empty memory cache
+        const FlareImage again = restarted.render(system, view, options);
+        EXPECT_EQ(restarted.last_stats().table_computed, 0);
+        EXPECT_EQ(restarted.last_stats().table_loaded, 2);
+        EXPECT_EQ(again.rgb, first.rgb);
+
+        optics::System bladed = system;
+        bladed.aperture.blades = 5;
+        for (const optics::System& changed :
+             {optics::realize(lens, 0.5), optics::realize(lens, 0.0, 8.0), bladed,
+              optics::realize(optics::load_lens("brendel-tessar"))}) {
+            restarted.render(changed, three_ghosts(changed), options);
+            EXPECT_EQ(restarted.last_stats().table_computed, 2) << changed.name;
+            EXPECT_EQ(restarted.last_stats().table_loaded, 0) << changed.name;
+        }
+    }
+    EXPECT_EQ(files(), 5);
+    std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace lensfx::gpu
