@@ -6,6 +6,7 @@
 #include <numbers>
 #include <optional>
 #include <stdexcept>
+#include <string>
 
 #include <epoxy/gl.h>
 #include <fmt/core.h>
@@ -22,6 +23,7 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
+constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 
 struct StepData {
     float geom[4];
@@ -32,8 +34,12 @@ struct StepData {
 
 struct FlareRenderer::State {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, shaders::ghost_trace_comp}}};
-    Program raster{"ghost_raster", {{ShaderStage::Type::Vertex, shaders::ghost_raster_vert},
-                                    {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
+    Program raster{"ghost_raster",
+                   {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
+                    {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
+    Program splat{"ghost_splat",
+                  {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
+                   {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
     GlObject vao = GlObject::vertex_array();
     GlObject steps = GlObject::buffer();
     GlObject tables = GlObject::buffer();
@@ -184,6 +190,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
     glBindTextureUnit(0, s.iris.get());
+    glEnable(GL_PROGRAM_POINT_SIZE);
 
     const optics::Ray axis = optics::collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
     const double cos_angle = std::abs(axis.direction.z);
@@ -277,17 +284,25 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             check_gl(fmt::format("tracing ghost {},{}", ghost.second, ghost.first));
 
             const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+            // Triangles of a pixel or more are rasterised; smaller ones become 2 x 2-pixel point splats.
+            for (const Program* program : {&s.raster, &s.splat}) {
+                glUseProgram(program->get());
+                glUniform1i(program->uniform("grid"), ghost_grid);
+                glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                            static_cast<float>(view.sensor_height_mm / 2));
+                glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                glUniform1f(program->uniform("pixel_area"), static_cast<float>(pixel_area));
+                glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                glUniform1i(program->uniform("iris_sdf"), 0);
+                glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                glUniform4f(program->uniform("channels"), mask[0] ? 1.0f : 0.0f, mask[1] ? 1.0f : 0.0f,
+                            mask[2] ? 1.0f : 0.0f, 0.0f);
+            }
             glUseProgram(s.raster.get());
-            glUniform1i(s.raster.uniform("grid"), ghost_grid);
-            glUniform2f(s.raster.uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                        static_cast<float>(view.sensor_height_mm / 2));
-            glUniform1f(s.raster.uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-            glUniform1i(s.raster.uniform("iris_sdf"), 0);
-            glUniform1f(s.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-            glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
-            glUniform4f(s.raster.uniform("channels"), mask[0] ? 1.0f : 0.0f, mask[1] ? 1.0f : 0.0f,
-                        mask[2] ? 1.0f : 0.0f, 0.0f);
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+            glUseProgram(s.splat.get());
+            glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
 
             if (options.per_ghost_power) {
