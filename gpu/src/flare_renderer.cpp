@@ -284,7 +284,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
             check_gl(fmt::format("tracing ghost {},{}", ghost.second, ghost.first));
 
             const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-            // Triangles of a pixel or more are rasterised; smaller ones become 2 x 2-pixel point splats.
+            // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
             for (const Program* program : {&s.raster, &s.splat}) {
                 glUseProgram(program->get());
                 glUniform1i(program->uniform("grid"), ghost_grid);
@@ -293,6 +293,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                 glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
                 glUniform1f(program->uniform("pixel_area"), static_cast<float>(pixel_area));
                 glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                glUniform2f(program->uniform("viewport"), static_cast<float>(view.width), static_cast<float>(view.height));
                 glUniform1i(program->uniform("iris_sdf"), 0);
                 glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
                 glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);

@@ -176,7 +176,8 @@ void main() {
 }
 )GLSL";
 
-// One 2 x 2-pixel point per triangle smaller than `splat_area` pixels, at its centroid: a pixel centre
+// One 2 x 2-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
+// bilinearly over the four pixels (ghost_splat_frag): a pixel centre
 // would catch such a triangle (and its flux) or miss it by chance, and along a caustic's rim, where the
 // grid's triangles crowd, the catches and misses are correlated, so the ghost's power came out wrong and
 // depended on the image size. The point carries the triangle's flux shaded as a rasterised triangle would
@@ -185,7 +186,9 @@ inline constexpr const char* ghost_splat_vert = R"GLSL(
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
 uniform int stop_crossings;
+uniform vec2 viewport;        // pixels
 flat out float v_irradiance;
+flat out vec2 v_centre;       // window coordinates (pixels)
 
 bool inside(vec2 uv) {
     return textureLod(iris_sdf, uv / (2.0 * iris_extent) + 0.5, 0.0).r <= 0.0;
@@ -215,18 +218,23 @@ void main() {
         shade += 0.25 * at_q.w;
     }
     gl_Position = clip_position((q * vec3(1.0 / 3.0)).xy);
-    v_irradiance = triangle_flux * shade / (4.0 * pixel_area);
+    v_centre = (gl_Position.xy * 0.5 + 0.5) * viewport;
+    v_irradiance = triangle_flux * shade / pixel_area;
 }
 )GLSL";
 
+// Bilinear (tent) weights over the 2 x 2 pixels the point covers: they sum to one, and a dense regular
+// lattice of splats adds up nearly flat (a box would beat against the pixel grid).
 inline constexpr const char* ghost_splat_frag = R"GLSL(
 #version 430
 flat in float v_irradiance;
+flat in vec2 v_centre;
 uniform vec4 channels;
 out vec4 colour;
 
 void main() {
-    colour = channels * v_irradiance;
+    vec2 w = max(vec2(0.0), 1.0 - abs(gl_FragCoord.xy - v_centre));
+    colour = channels * (v_irradiance * w.x * w.y);
 }
 )GLSL";
 
