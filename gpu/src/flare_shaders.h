@@ -217,8 +217,15 @@ void main() {
         if (stop_crossings > 2 && !inside(w * samples[k])) continue;
         shade += 0.25 * at_q.w;
     }
-    gl_Position = clip_position((q * vec3(1.0 / 3.0)).xy);
-    v_centre = (gl_Position.xy * 0.5 + 0.5) * viewport;
+    // GL drops a point whose centre is outside the viewport, also its share of the pixels inside: a point
+    // centred within a pixel of the frame is drawn from just inside it, its weights from the true centre.
+    v_centre = (clip_position((q * vec3(1.0 / 3.0)).xy).xy * 0.5 + 0.5) * viewport;
+    if (any(lessThanEqual(v_centre, vec2(-1.0))) || any(greaterThanEqual(v_centre, viewport + 1.0))) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        v_irradiance = 0.0;
+        return;
+    }
+    gl_Position = vec4(clamp(v_centre, vec2(0.01), viewport - 0.01) / viewport * 2.0 - 1.0, 0.0, 1.0);
     v_irradiance = triangle_flux * shade / pixel_area;
 }
 )GLSL";
