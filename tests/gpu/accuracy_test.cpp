@@ -76,11 +76,15 @@ INSTANTIATE_TEST_SUITE_P(Presets, GhostAccuracy,
                          ::testing::Values(Case{"brendel-tessar", 0.0, 0, 240, false},
                                            Case{"brendel-tessar", 0.5, 0, 240, false},
                                            Case{"brendel-tessar", 0.9, 0, 240, false},
+                                           Case{"brendel-tessar", 0.0, 8, 200, true},
                                            Case{"brendel-tessar", 0.5, 8, 200, true},
+                                           Case{"brendel-tessar", 0.9, 8, 200, true},
                                            Case{"mld-double-gauss", 0.0, 0, 200, false},
                                            Case{"mld-double-gauss", 0.5, 0, 200, false},
                                            Case{"mld-double-gauss", 0.9, 0, 200, false},
-                                           Case{"mld-double-gauss", 0.5, 8, 200, true}));
+                                           Case{"mld-double-gauss", 0.0, 8, 200, true},
+                                           Case{"mld-double-gauss", 0.5, 8, 200, true},
+                                           Case{"mld-double-gauss", 0.9, 8, 200, true}));
 
 // The Nikon zoom (210 ghosts, many small and nearly focused): the case behind the renderer's point splats
 // of sub-pixel triangles. Each case takes about half a minute on two idle cores (a minute under load).
@@ -88,7 +92,9 @@ INSTANTIATE_TEST_SUITE_P(NikonZoom, GhostAccuracy,
                          ::testing::Values(Case{"nikon-80-200", 0.0, 0, 120, true},
                                            Case{"nikon-80-200", 0.5, 0, 120, true},
                                            Case{"nikon-80-200", 0.9, 0, 120, true},
-                                           Case{"nikon-80-200", 0.5, 8, 120, true}));
+                                           Case{"nikon-80-200", 0.0, 8, 120, true},
+                                           Case{"nikon-80-200", 0.5, 8, 120, true},
+                                           Case{"nikon-80-200", 0.9, 8, 120, true}));
 
 // Relative per-pixel L1 between a and b read through a mirror (x: left-right, y: top-bottom) or transposed.
 double pixel_difference(const FlareImage& a, const FlareImage& b, bool mirror_x, bool mirror_y, bool transpose) {
