@@ -8,6 +8,7 @@
 #include <numbers>
 #include <optional>
 #include <stdexcept>
+#include <string>
 
 #include <epoxy/gl.h>
 #include <fmt/core.h>
@@ -26,6 +27,7 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
+constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 
 struct StepData {
     float geom[4];
@@ -45,8 +47,12 @@ struct GhostSequences {
 
 struct FlareRenderer::State {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, shaders::ghost_trace_comp}}};
-    Program raster{"ghost_raster", {{ShaderStage::Type::Vertex, shaders::ghost_raster_vert},
-                                    {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
+    Program raster{"ghost_raster",
+                   {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
+                    {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
+    Program splat{"ghost_splat",
+                  {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
+                   {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
     GlObject vao = GlObject::vertex_array();
     GlObject steps = GlObject::buffer();
     GlObject tables = GlObject::buffer();
@@ -299,6 +305,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
     glBindTextureUnit(0, s.iris.get());
+    glEnable(GL_PROGRAM_POINT_SIZE);
 
     const optics::Ray axis = optics::collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
     const double cos_angle = std::abs(axis.direction.z);
@@ -442,9 +449,11 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     for (std::size_t p = 0; p < passes.size(); ++p) {
         const SpectralPass& pass = passes[p];
         if (ghosts.empty()) break;
-        glUseProgram(s.raster.get());
-        glUniform1i(s.raster.uniform("ringing"), options.ringing ? 1 : 0);
-        glUniform1i(s.raster.uniform("iris_ringing"), 1);
+        for (const Program* program : {&s.raster, &s.splat}) {
+            glUseProgram(program->get());
+            glUniform1i(program->uniform("ringing"), options.ringing ? 1 : 0);
+            glUniform1i(program->uniform("iris_ringing"), 1);
+        }
         if (options.ringing)
             glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(pass.wavelength_nm, f_number)));
         const GhostSequences& seq = sequences(p).seq;
@@ -496,20 +505,33 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                 ++s.stats.ghosts_reduced;
             }
             const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-            glUseProgram(s.raster.get());
-            glUniform1i(s.raster.uniform("grid"), ghost_grid);
-            glUniform2f(s.raster.uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                        static_cast<float>(view.sensor_height_mm / 2));
-            glUniform1f(s.raster.uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-            glUniform1i(s.raster.uniform("iris_sdf"), 0);
-            glUniform1f(s.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-            glUniform1i(s.raster.uniform("stop_crossings"), seq.stop_crossings[g]);
+            // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
+            // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
+            const int target_w = plan.reduce > 1 ? (view.width + plan.reduce - 1) / plan.reduce : view.width;
+            const int target_h = plan.reduce > 1 ? (view.height + plan.reduce - 1) / plan.reduce : view.height;
+            const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
             const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
             const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-            glUniform4f(s.raster.uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
-                        static_cast<float>(pass.weight[1] * gain[1]), static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
-            glUniform2f(s.raster.uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+            for (const Program* program : {&s.raster, &s.splat}) {
+                glUseProgram(program->get());
+                glUniform1i(program->uniform("grid"), ghost_grid);
+                glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                            static_cast<float>(view.sensor_height_mm / 2));
+                glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
+                glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+                glUniform1i(program->uniform("iris_sdf"), 0);
+                glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
+                            static_cast<float>(pass.weight[1] * gain[1]), static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
+                glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+            }
+            glUseProgram(s.raster.get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+            glUseProgram(s.splat.get());
+            glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
             check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
             if (plan.reduce > 1) target.bind();
 

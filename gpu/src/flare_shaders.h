@@ -1,5 +1,5 @@
-// GLSL sources of the ghost renderer: the bundle tracer (compute) and the grid rasteriser (vertex +
-// fragment). Data layouts match flare_renderer.cpp.
+// GLSL sources of the ghost renderer: the bundle tracer (compute), the grid rasteriser (vertex +
+// fragment) and the point splats of its sub-pixel triangles. Data layouts match flare_renderer.cpp.
 #pragma once
 
 namespace lensfx::gpu::shaders {
@@ -105,15 +105,49 @@ void main() {
 }
 )GLSL";
 
-// Two triangles per grid cell, fetched by gl_VertexID; each carries half the cell's flux over its own
-// sensor area. Triangles with a lost corner (missed surface, total internal reflection) are dropped.
-inline constexpr const char* ghost_raster_vert = R"GLSL(
+// Shared by both grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
+// whether a triangle's sensor footprint is too small for pixel-centre rasterisation (under `splat_area`
+// pixels), in which case it is drawn as a point splat instead.
+inline constexpr const char* ghost_grid_glsl = R"GLSL(
 #version 430
 layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
 uniform int grid;
 uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
+uniform float pixel_area;     // mm^2
+uniform float splat_area;     // triangles under this many pixels are splatted, not rasterised
+
+ivec3 triangle_corners(int tri) {
+    int cell = tri / 2;
+    bool upper = (tri & 1) == 1;
+    int cx = cell % grid;
+    int cy = cell / grid;
+    int stride = grid + 1;
+    int a = cy * stride + cx;
+    return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
+}
+
+bool corners_valid(ivec3 i) {
+    return vertices[3 * i.x + 2].z > 0.5 && vertices[3 * i.y + 2].z > 0.5 && vertices[3 * i.z + 2].z > 0.5;
+}
+
+float sensor_area(ivec3 i) {
+    vec2 e1 = vertices[3 * i.y].xy - vertices[3 * i.x].xy;
+    vec2 e2 = vertices[3 * i.z].xy - vertices[3 * i.x].xy;
+    return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
+}
+
+// Upright photograph: the sensor image turned 180 degrees.
+vec4 clip_position(vec2 sensor) {
+    return vec4((offset_mm.x - sensor.x) / half_sensor.x, (offset_mm.y - sensor.y) / half_sensor.y, 0.0, 1.0);
+}
+)GLSL";
+
+// Triangles at least `splat_area` pixels large, fetched by gl_VertexID; each carries half the cell's flux
+// over its own sensor area. Triangles with a lost corner (missed surface, total internal reflection) are
+// dropped, and so are the small ones (ghost_splat_vert draws those).
+inline constexpr const char* ghost_raster_vert = R"GLSL(
 out float v_r_rel;
 out float v_transmission;
 out vec2 v_uv0;
@@ -124,32 +158,17 @@ flat out float v_irradiance;
 void main() {
     int tri = gl_VertexID / 3;
     int corner = gl_VertexID - 3 * tri;
-    int cell = tri / 2;
-    bool upper = (tri & 1) == 1;
-    int cx = cell % grid;
-    int cy = cell / grid;
-    int stride = grid + 1;
-    int a = cy * stride + cx;
-    int i0 = a;
-    int i1 = upper ? a + stride + 1 : a + 1;
-    int i2 = upper ? a + stride : a + stride + 1;
-    vec4 p0 = vertices[3 * i0];
-    vec4 p1 = vertices[3 * i1];
-    vec4 p2 = vertices[3 * i2];
-    bool valid = vertices[3 * i0 + 2].z > 0.5 && vertices[3 * i1 + 2].z > 0.5 && vertices[3 * i2 + 2].z > 0.5;
-    int me = corner == 0 ? i0 : (corner == 1 ? i1 : i2);
+    ivec3 i = triangle_corners(tri);
+    float area = sensor_area(i);
+    int me = i[corner];
     vec4 q = vertices[3 * me];
     vec4 s = vertices[3 * me + 1];
     vec4 w = vertices[3 * me + 2];
-    vec2 e1 = p1.xy - p0.xy;
-    vec2 e2 = p2.xy - p0.xy;
-    float area = 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
-    if (!valid || !(area > 0.0)) {
+    if (!corners_valid(i) || !(area >= splat_area * pixel_area)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
     } else {
-        // Upright photograph: the sensor image turned 180 degrees.
-        gl_Position = vec4((offset_mm.x - q.x) / half_sensor.x, (offset_mm.y - q.y) / half_sensor.y, 0.0, 1.0);
+        gl_Position = clip_position(q.xy);
         v_irradiance = triangle_flux / area;
     }
     v_r_rel = q.z;
@@ -157,6 +176,80 @@ void main() {
     v_uv0 = s.xy;
     v_uv1 = s.zw;
     v_uv2 = w.xy;
+}
+)GLSL";
+
+// One 2 x 2-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
+// bilinearly over the four pixels (ghost_splat_frag): a pixel centre
+// would catch such a triangle (and its flux) or miss it by chance, and along a caustic's rim, where the
+// grid's triangles crowd, the catches and misses are correlated, so the ghost's power came out wrong and
+// depended on the image size. The point carries the triangle's flux shaded as a rasterised triangle would
+// be on average: r_rel clip, iris and Fresnel factor interpolated to four points of the triangle.
+inline constexpr const char* ghost_splat_vert = R"GLSL(
+uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
+uniform float iris_extent;
+uniform int stop_crossings;
+uniform vec2 viewport;        // pixels
+uniform bool ringing;         // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
+uniform sampler2D iris_ringing;
+flat out float v_irradiance;
+flat out vec2 v_centre;       // window coordinates (pixels)
+
+float iris(vec2 uv) {
+    vec2 t = uv / (2.0 * iris_extent) + 0.5;
+    if (ringing) return textureLod(iris_ringing, t, 0.0).r;
+    return textureLod(iris_sdf, t, 0.0).r <= 0.0 ? 1.0 : 0.0;
+}
+
+void main() {
+    ivec3 i = triangle_corners(gl_VertexID);
+    float area = sensor_area(i);
+    gl_PointSize = 2.0;
+    if (!corners_valid(i) || !(area < splat_area * pixel_area)) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        v_irradiance = 0.0;
+        return;
+    }
+    mat3x4 q = mat3x4(vertices[3 * i.x], vertices[3 * i.y], vertices[3 * i.z]);
+    mat3x4 s = mat3x4(vertices[3 * i.x + 1], vertices[3 * i.y + 1], vertices[3 * i.z + 1]);
+    mat3x2 w = mat3x2(vertices[3 * i.x + 2].xy, vertices[3 * i.y + 2].xy, vertices[3 * i.z + 2].xy);
+    const vec3 samples[4] = vec3[4](vec3(1.0 / 3.0), vec3(0.6, 0.2, 0.2), vec3(0.2, 0.6, 0.2), vec3(0.2, 0.2, 0.6));
+    float shade = 0.0;
+    for (int k = 0; k < 4; ++k) {
+        vec4 at_q = q * samples[k];
+        vec4 at_s = s * samples[k];
+        if (at_q.z > 1.0) continue;
+        float through = 1.0;
+        if (stop_crossings > 0) through *= iris(at_s.xy);
+        if (stop_crossings > 1) through *= iris(at_s.zw);
+        if (stop_crossings > 2) through *= iris(w * samples[k]);
+        shade += 0.25 * at_q.w * through;
+    }
+    // GL drops a point whose centre is outside the viewport, also its share of the pixels inside: a point
+    // centred within a pixel of the frame is drawn from just inside it, its weights from the true centre.
+    v_centre = (clip_position((q * vec3(1.0 / 3.0)).xy).xy * 0.5 + 0.5) * viewport;
+    if (any(lessThanEqual(v_centre, vec2(-1.0))) || any(greaterThanEqual(v_centre, viewport + 1.0))) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+        v_irradiance = 0.0;
+        return;
+    }
+    gl_Position = vec4(clamp(v_centre, vec2(0.01), viewport - 0.01) / viewport * 2.0 - 1.0, 0.0, 1.0);
+    v_irradiance = triangle_flux * shade / pixel_area;
+}
+)GLSL";
+
+// Bilinear (tent) weights over the 2 x 2 pixels the point covers: they sum to one, and a dense regular
+// lattice of splats adds up nearly flat (a box would beat against the pixel grid).
+inline constexpr const char* ghost_splat_frag = R"GLSL(
+#version 430
+flat in float v_irradiance;
+flat in vec2 v_centre;
+uniform vec4 channels;
+out vec4 colour;
+
+void main() {
+    vec2 w = max(vec2(0.0), 1.0 - abs(gl_FragCoord.xy - v_centre));
+    colour = channels * (v_irradiance * w.x * w.y);
 }
 )GLSL";
 
