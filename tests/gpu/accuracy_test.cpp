@@ -52,7 +52,11 @@ TEST_P(GhostAccuracy, GpuMatchesDenseReference) {
 
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
+    // The accuracy setting: base grid 128 with the accelerations on. At the fast default (base 16) the
+    // totals and block errors hold, but a few stopped-down ghosts whose light the iris clips at more than
+    // one crossing are off by up to 22% (docs/ghost-accuracy.md).
     GpuFlareOptions options;
+    options.grid = 128;
     options.per_ghost_power = true;
     const FlareImage image = renderer.render(system, view, options);
     ReferenceOptions reference_options;
@@ -147,13 +151,15 @@ TEST_P(GhostMirror, MirroredLightGivesMirroredImage) {
     view.angle_y_deg = 0.3 * field_deg;
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
-    const FlareImage image = renderer.render(system, view);
+    GpuFlareOptions options;
+    options.grid = 128;  // the accuracy setting, as above
+    const FlareImage image = renderer.render(system, view, options);
     ASSERT_GT(image.total_power(view)[0], 0.0);
     view.angle_x_deg = -view.angle_x_deg;
-    const FlareImage left = mirrored(renderer.render(system, view), true, false);
+    const FlareImage left = mirrored(renderer.render(system, view, options), true, false);
     view.angle_x_deg = -view.angle_x_deg;
     view.angle_y_deg = -view.angle_y_deg;
-    const FlareImage below = mirrored(renderer.render(system, view), false, true);
+    const FlareImage below = mirrored(renderer.render(system, view, options), false, true);
     const FlareError left_right = compare_flare(left, image, view);
     const FlareError top_bottom = compare_flare(below, image, view);
     for (const auto& [error, what] : {std::pair{left_right, "left-right"}, std::pair{top_bottom, "top-bottom"}}) {
