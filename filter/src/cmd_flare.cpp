@@ -57,6 +57,7 @@ struct FlareArgs {
     double ghost_threshold = gpu::Acceleration{}.ghost_threshold;
     int max_ghosts = 0;
     bool no_reduced = false;
+    bool aperture_culling = false;
     std::string cache_dir;
     std::string parts = "ghosts";
     double starburst_scale = 1.0;
@@ -198,6 +199,7 @@ void run_flare(const FlareArgs& args) {
         options.accel.ghost_threshold = args.ghost_threshold;
         options.accel.max_ghosts = args.max_ghosts;
         options.accel.reduced = !args.no_reduced;
+        options.accel.aperture_culling = args.aperture_culling;
         options.accel.cache_dir = args.cache_dir;
         options.ringing = args.ringing;
         if (!args.flare_look.empty())
@@ -284,6 +286,8 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--max-ghosts", args->max_ghosts, "GPU: draw only the N brightest ghosts (0 = all)")
         ->capture_default_str()->check(CLI::NonNegativeNumber);
     cmd->add_flag("--no-reduced", args->no_reduced, "GPU: draw every ghost at full resolution");
+    cmd->add_flag("--aperture-culling", args->aperture_culling,
+                  "GPU: leave out the ghosts that cross the stop three times (for small iris openings)");
     cmd->add_option("--cache-dir", args->cache_dir,
                     "GPU: bounds-table cache (default $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");

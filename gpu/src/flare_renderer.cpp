@@ -270,7 +270,9 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     State& s = *state_;
     const Acceleration& accel = options.accel;
     s.stats = {};
-    const std::vector<Ghost> ghosts = selected_ghosts(system, view);
+    std::vector<Ghost> ghosts = selected_ghosts(system, view);
+    if (accel.aperture_culling)
+        std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
     FloatTarget target(view.width, view.height);
     target.bind();
     target.clear();

@@ -146,6 +146,38 @@ TEST(Acceleration, EachSwitchChangesTheImageLessThanDocumented) {
     for (std::size_t i = 0; i < switches.size(); ++i) EXPECT_GT(changed[i], 0.0) << switches[i].name;
 }
 
+// Aperture culling leaves out exactly the ghosts that cross the stop three times; well stopped down they
+// carry little. Measured at (8, 5) degrees, 240x160: the double Gauss loses 36% of its ghost power at f/8,
+// 1.8% at f/16, nothing at f/32; the Nikon zoom 17.5% wide open, 4.7% at f/8.
+TEST(Acceleration, ApertureCullingDropsTheThreeCrossingGhosts) {
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    const optics::System system = optics::realize(optics::load_lens("mld-double-gauss"), 0.0, 16.0);
+    optics::GhostOptions cull;
+    cull.aperture_culling = true;
+    const std::size_t all = optics::enumerate_ghosts(system).size();
+    const std::size_t kept = optics::enumerate_ghosts(system, cull).size();
+    ASSERT_LT(kept, all);
+    FlareView view;
+    view.width = 240;
+    view.height = 160;
+    view.angle_x_deg = 8.0;
+    view.angle_y_deg = 5.0;
+    GpuFlareOptions on;
+    on.accel.cache_dir = "none";
+    on.per_ghost_power = true;
+    const FlareImage full = renderer.render(system, view, on);
+    on.accel.aperture_culling = true;
+    const FlareImage culled = renderer.render(system, view, on);
+    EXPECT_EQ(culled.ghosts.size(), kept);
+    EXPECT_EQ(full.ghosts.size(), all);
+    const double p_full = full.total_power(view)[1], p_culled = culled.total_power(view)[1];
+    ASSERT_GT(p_full, 0.0);
+    EXPECT_LT(p_culled, p_full);
+    EXPECT_GT(p_culled, 0.95 * p_full);
+    RecordProperty("kept_power", fmt::format("{:.4f}", p_culled / p_full));
+}
+
 TEST(Acceleration, DiskCacheSurvivesRestartAndFollowsTheSystem) {
     const auto dir = fresh_dir("cache");
     const Context context(Platform::Surfaceless);

@@ -29,6 +29,10 @@ struct Acceleration {
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
     bool reduced = true;           // draw smooth, large ghosts at 1/2 or 1/4 resolution and upsample
+    // Aperture culling (section 4.2): leave out the ghosts that cross the stop three times (first reflection
+    // behind the stop, second in front), mostly blocked when the iris is small. Off by default: the level
+    // of detail already skips them when they are dim, and wide open they are not.
+    bool aperture_culling = false;
     std::string cache_dir;         // bounds table files; empty = default_cache_dir(), "none" = memory only
 };
 
