@@ -15,6 +15,7 @@
 #include <fmt/core.h>
 #include <filter/colour.h>
 #include <filter/flare_stage.h>
+#include <filter/pupil_options.h>
 #include <gpu/acceleration.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
@@ -61,6 +62,7 @@ struct FlareArgs {
     std::string cache_dir;
     std::string parts = "ghosts";
     double starburst_scale = 1.0;
+    PupilSettings pupil;
     int threads = 2;
     std::string gpu = "auto";
     bool ringing = false;
@@ -215,7 +217,7 @@ void run_flare(const FlareArgs& args) {
         const double k = std::numbers::pi / 180.0;
         const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
         const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
-        const optics::Starburst starburst = optics::make_starburst(system.aperture);
+        const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
         optics::splat_starburst(starburst, paraxial.f_number * args.starburst_scale,
                                 (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
                                 filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
@@ -268,6 +270,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--starburst-scale", args->starburst_scale,
                     "Starburst size relative to its physical size (wavelength x f-number)")
         ->capture_default_str()->check(CLI::PositiveNumber);
+    add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
     cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
