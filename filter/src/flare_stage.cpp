@@ -194,20 +194,18 @@ std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
     return out;
 }
 
-void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
+namespace {
+
+// Best effort: written aside and renamed, so a reader in another process never sees half a file; a cache
+// that cannot be written is skipped.
+void write_cache_file(const std::filesystem::path& path, const std::function<void(std::ofstream&)>& write) {
     std::error_code ec;
     std::filesystem::create_directories(path.parent_path(), ec);
     if (ec) return;
     const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
     {
         std::ofstream out(tmp, std::ios::binary);
-        const auto key_size = static_cast<std::uint64_t>(key.size());
-        const auto n = static_cast<std::uint64_t>(power_.size());
-        out.write(reinterpret_cast<const char*>(&key_size), sizeof(key_size));
-        out.write(key.data(), static_cast<std::streamsize>(key.size()));
-        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
-        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
-        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
+        write(out);
         if (!out) {
             out.close();
             std::filesystem::remove(tmp, ec);
@@ -216,6 +214,20 @@ void DirectPowerTable::save(const std::filesystem::path& path, const std::string
     }
     std::filesystem::rename(tmp, path, ec);
     if (ec) std::filesystem::remove(tmp, ec);
+}
+
+}  // namespace
+
+void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
+    write_cache_file(path, [&](std::ofstream& out) {
+        const auto key_size = static_cast<std::uint64_t>(key.size());
+        const auto n = static_cast<std::uint64_t>(power_.size());
+        out.write(reinterpret_cast<const char*>(&key_size), sizeof(key_size));
+        out.write(key.data(), static_cast<std::streamsize>(key.size()));
+        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
+        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
+    });
 }
 
 bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
@@ -294,26 +306,13 @@ std::optional<optics::Starburst> read_starburst(const std::filesystem::path& pat
 }
 
 void write_starburst(const std::filesystem::path& path, const optics::Starburst& sb) {
-    std::error_code ec;
-    std::filesystem::create_directories(path.parent_path(), ec);
-    if (ec) return;
-    // Written aside and renamed, so a reader in another process never sees half a file.
-    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
-    {
-        std::ofstream out(tmp, std::ios::binary);
+    write_cache_file(path, [&](std::ofstream& out) {
         const std::int32_t size = sb.size;
         out.write(kStarburstMagic, sizeof(kStarburstMagic));
         out.write(reinterpret_cast<const char*>(&size), sizeof(size));
         out.write(reinterpret_cast<const char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
         out.write(reinterpret_cast<const char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
-        if (!out) {
-            out.close();
-            std::filesystem::remove(tmp, ec);
-            return;
-        }
-    }
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) std::filesystem::remove(tmp, ec);
+    });
 }
 
 // Convolves an RGB image (width x height) with a light's footprint: the flare of an extended source is
