@@ -15,6 +15,7 @@
 #include <fmt/core.h>
 #include <filter/colour.h>
 #include <filter/flare_stage.h>
+#include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
 #include <gpu/acceleration.h>
 #include <gpu/band_filter.h>
@@ -52,14 +53,7 @@ struct FlareArgs {
     bool reference = false;
     int rays = 512;
     int grid = gpu::GpuFlareOptions{}.grid;
-    std::string bounding = "table";
-    bool no_adaptive = false;
-    bool no_lod = false;
-    double ghost_threshold = gpu::Acceleration{}.ghost_threshold;
-    int max_ghosts = 0;
-    bool no_reduced = false;
-    bool aperture_culling = false;
-    std::string cache_dir;
+    AccelerationSettings accel;
     std::string parts = "ghosts";
     double starburst_scale = 1.0;
     PupilSettings pupil;
@@ -195,14 +189,7 @@ void run_flare(const FlareArgs& args) {
         gpu::GpuFlareOptions options;
         options.grid = args.grid;
         options.per_ghost_power = args.list;
-        options.accel.bounding = gpu::parse_bounding(args.bounding);
-        options.accel.adaptive = !args.no_adaptive;
-        options.accel.lod = !args.no_lod;
-        options.accel.ghost_threshold = args.ghost_threshold;
-        options.accel.max_ghosts = args.max_ghosts;
-        options.accel.reduced = !args.no_reduced;
-        options.accel.aperture_culling = args.aperture_culling;
-        options.accel.cache_dir = args.cache_dir;
+        options.accel = args.accel.acceleration();
         options.ringing = args.ringing;
         if (!args.flare_look.empty())
             options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
@@ -278,21 +265,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
     cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
         ->capture_default_str();
-    cmd->add_option("--bounding", args->bounding,
-                    "GPU: each ghost's pupil rectangle from the cached per-lens table, a coarse pass per frame, or none")
-        ->check(CLI::IsMember({"table", "coarse", "none"}))->capture_default_str();
-    cmd->add_flag("--no-adaptive", args->no_adaptive, "GPU: the base grid for every ghost, whatever its distortion");
-    cmd->add_flag("--no-lod", args->no_lod, "GPU: draw every ghost at the full grid, however dim");
-    cmd->add_option("--ghost-threshold", args->ghost_threshold,
-                    "GPU: skip ghosts below this fraction of the estimated total power")
-        ->capture_default_str()->check(CLI::Range(0.0, 1.0));
-    cmd->add_option("--max-ghosts", args->max_ghosts, "GPU: draw only the N brightest ghosts (0 = all)")
-        ->capture_default_str()->check(CLI::NonNegativeNumber);
-    cmd->add_flag("--no-reduced", args->no_reduced, "GPU: draw every ghost at full resolution");
-    cmd->add_flag("--aperture-culling", args->aperture_culling,
-                  "GPU: leave out the ghosts that cross the stop three times (for small iris openings)");
-    cmd->add_option("--cache-dir", args->cache_dir,
-                    "GPU: bounds-table cache (default $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)");
+    add_acceleration_options(*cmd, args->accel, "GPU accelerations");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();

@@ -22,6 +22,7 @@
 #include <detect/track_file.h>
 #include <detect/tracker.h>
 #include <gpu/band_filter.h>
+#include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
@@ -90,6 +91,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
     app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
     add_pupil_options(app, s.pupil);
+    add_acceleration_options(app, s.accel, "Ghost renderer accelerations");
 }
 
 FlareParts parse_parts(std::string_view text) {
@@ -257,13 +259,7 @@ double min_light_fade(double relative, double min_light) {
     return t * t * (3.0 - 2.0 * t);
 }
 
-std::string cache_directory() {
-    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir != nullptr && *dir != '\0')
-        return std::string(dir) == "none" ? std::string() : std::string(dir);
-    const char* home = std::getenv("HOME");
-    if (home == nullptr || *home == '\0') return {};
-    return (std::filesystem::path(home) / ".cache" / "lensfx").string();
-}
+std::string cache_directory() { return gpu::default_cache_dir(); }
 
 namespace {
 
@@ -488,6 +484,7 @@ void FlareStage::process(Frame& frame) {
     gpu::GpuFlareOptions render_options;
     render_options.grid = s.settings.grid;
     render_options.ringing = s.settings.ringing;
+    render_options.accel = s.settings.accel.acceleration();
     render_options.styles = s.ghost_styles;
 
     // The flare over the display window, composited into the frame once every light is in.

@@ -33,6 +33,7 @@ const char* to_string(Bounding bounding) {
 }
 
 std::string default_cache_dir() {
+    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir && *dir) return std::string(dir) == "none" ? std::string() : dir;
     if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/lensfx";
     if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/lensfx";
     return {};

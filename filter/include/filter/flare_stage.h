@@ -17,6 +17,7 @@
 
 #include <detect/source.h>
 #include <filter/frame.h>
+#include <filter/ghost_options.h>
 #include <filter/gpu_session.h>
 #include <filter/pupil_options.h>
 #include <gpu/flare.h>
@@ -50,11 +51,13 @@ struct FlareSettings {
     std::string flare_look;           // per-ghost colour/gain/offset and imperfect symmetry (TOML)
     double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
     std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
+    AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
 // --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
-// --band-filter, --ringing, --flare-look, --min-light, --layer and the pupil's dirt (add_pupil_options).
+// --band-filter, --ringing, --flare-look, --min-light, --layer, the pupil's dirt (add_pupil_options) and
+// the renderer's accelerations (add_acceleration_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
@@ -122,8 +125,8 @@ private:
 // 1 from 2 x min_light, smooth in between, so a light crossing the limit fades instead of popping.
 double min_light_fade(double relative, double min_light);
 
-// Where computed textures are kept: $LENSFX_CACHE_DIR, else ~/.cache/lensfx; empty when the variable
-// is "none" (or there is no home directory).
+// Where computed textures are kept: gpu::default_cache_dir() ($LENSFX_CACHE_DIR, "none" = empty, else
+// $XDG_CACHE_HOME/lensfx, else ~/.cache/lensfx).
 std::string cache_directory();
 
 // The starburst of an iris with these options, read from `cache_dir` when a file for exactly these is

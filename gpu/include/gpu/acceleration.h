@@ -47,6 +47,7 @@ inline constexpr double kAdaptiveL1 = 0.012, kAdaptivePower = 0.005;
 inline constexpr double kLodL1 = 0.003, kLodPower = 0.002;
 inline constexpr double kReducedL1 = 0.003, kReducedPower = 0.001;
 
+// Where computed tables and textures are kept: $LENSFX_CACHE_DIR ("none": empty), else
 // $XDG_CACHE_HOME/lensfx, else $HOME/.cache/lensfx, else empty (no disk cache).
 std::string default_cache_dir();
 
