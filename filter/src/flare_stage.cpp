@@ -371,7 +371,7 @@ struct FlareStage::State {
     FlareParts parts;
     double f_number = 0.0;
     optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
-    std::vector<optics::GhostStyle> ghost_styles;  // from --flare-look
+    gpu::GpuFlareOptions render_options;         // grid, ringing, accelerations, --flare-look styles
     PrimariesSource primaries_source;
     std::optional<optics::Mat3> xyz_to_rgb;       // the working space's, fixed at the first light
     std::vector<gpu::SpectralPass> passes;        // with those primaries
@@ -405,8 +405,12 @@ struct FlareStage::State {
         sensor = parse_sensor(settings.sensor);
         if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
         starburst_options = filter::starburst_options(settings.pupil);
+        render_options.grid = settings.grid;
+        render_options.ringing = settings.ringing;
+        render_options.accel = settings.accel.acceleration();
         if (!settings.flare_look.empty())
-            ghost_styles = optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
+            render_options.styles =
+                optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
         if (settings.bands != 0) gpu::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
@@ -481,11 +485,7 @@ void FlareStage::process(Frame& frame) {
     const FlareGeometry geo = s.geometry(frame);
     s.resolve_primaries();
     if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
-    gpu::GpuFlareOptions render_options;
-    render_options.grid = s.settings.grid;
-    render_options.ringing = s.settings.ringing;
-    render_options.accel = s.settings.accel.acceleration();
-    render_options.styles = s.ghost_styles;
+    const gpu::GpuFlareOptions& render_options = s.render_options;
 
     // The flare over the display window, composited into the frame once every light is in.
     const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
