@@ -28,6 +28,8 @@ constexpr int kTableSize = 256;        // Fresnel/coating factor samples over co
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
+constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
+constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
 
 struct StepData {
     float geom[4];
@@ -67,6 +69,17 @@ struct FlareRenderer::State {
     };
     std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
     std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
+    // Render targets at full, 1/2 and 1/4 of the image size, kept while the image size stays.
+    std::optional<FloatTarget> targets[3];
+
+    // The target at 1/reduce (1, 2 or 4) of width x height, made (or remade for a new size) on demand.
+    FloatTarget& target(int reduce, int width, int height) {
+        std::optional<FloatTarget>& t = targets[reduce == 1 ? 0 : (reduce == 2 ? 1 : 2)];
+        const int w = (width + reduce - 1) / reduce;
+        const int h = (height + reduce - 1) / reduce;
+        if (!t || t->width() != w || t->height() != h) t.emplace(w, h);
+        return *t;
+    }
     RenderStats stats;
 
     // Ringing textures by (aperture, FrFT order): a few wavelengths' worth, computed once each.
@@ -235,26 +248,40 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     return out;
 }
 
-// Bilinear upsampling of a reduced-resolution target (same sensor extent) added into a full-size image.
-void add_upsampled(const std::vector<float>& small, int sw, int sh, std::vector<float>& full, int w, int h) {
+// Adds a target's read-back (RGBA rows bottom to top, as GL stores them) into a top-down RGB image of
+// w x h covering the same sensor extent: copied at the same size, upsampled bilinearly from a reduced one.
+void add_target(const std::vector<float>& rgba, int sw, int sh, std::vector<float>& rgb, int w, int h) {
+    struct Tap {
+        int i0, i1;
+        float f;
+    };
+    auto taps = [](int n, int sn) {
+        std::vector<Tap> out(static_cast<std::size_t>(n));
+        for (int i = 0; i < n; ++i) {
+            const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
+            const int i0 = std::min(static_cast<int>(u), sn - 1);
+            out[static_cast<std::size_t>(i)] = {i0, std::min(i0 + 1, sn - 1), static_cast<float>(u - i0)};
+        }
+        return out;
+    };
+    const std::vector<Tap> xs = taps(w, sw);
+    const std::vector<Tap> ys = taps(h, sh);
     for (int y = 0; y < h; ++y) {
-        const double v = std::clamp((y + 0.5) * sh / h - 0.5, 0.0, sh - 1.0);
-        const int y0 = std::min(static_cast<int>(v), sh - 1);
-        const int y1 = std::min(y0 + 1, sh - 1);
-        const double fy = v - y0;
+        const Tap ty = ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
+        const float* r0 = rgba.data() + static_cast<std::size_t>(ty.i0) * static_cast<std::size_t>(sw) * 4;
+        const float* r1 = rgba.data() + static_cast<std::size_t>(ty.i1) * static_cast<std::size_t>(sw) * 4;
+        float* out = rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
+        if (sw == w && sh == h) {
+            for (int x = 0; x < w; ++x)
+                for (int c = 0; c < 3; ++c) out[x * 3 + c] += r0[x * 4 + c];
+            continue;
+        }
         for (int x = 0; x < w; ++x) {
-            const double u = std::clamp((x + 0.5) * sw / w - 0.5, 0.0, sw - 1.0);
-            const int x0 = std::min(static_cast<int>(u), sw - 1);
-            const int x1 = std::min(x0 + 1, sw - 1);
-            const double fx = u - x0;
-            auto at = [&](int xx, int yy, int c) {
-                return static_cast<double>(small[(static_cast<std::size_t>(yy) * static_cast<std::size_t>(sw) +
-                                                  static_cast<std::size_t>(xx)) * 4 + static_cast<std::size_t>(c)]);
-            };
-            float* out = full.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 4;
+            const Tap tx = xs[static_cast<std::size_t>(x)];
             for (int c = 0; c < 3; ++c) {
-                out[c] += static_cast<float>((1 - fy) * ((1 - fx) * at(x0, y0, c) + fx * at(x1, y0, c)) +
-                                             fy * ((1 - fx) * at(x0, y1, c) + fx * at(x1, y1, c)));
+                const float top = r0[tx.i0 * 4 + c] + tx.f * (r0[tx.i1 * 4 + c] - r0[tx.i0 * 4 + c]);
+                const float bottom = r1[tx.i0 * 4 + c] + tx.f * (r1[tx.i1 * 4 + c] - r1[tx.i0 * 4 + c]);
+                out[x * 3 + c] += top + ty.f * (bottom - top);
             }
         }
     }
@@ -273,9 +300,10 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     std::vector<Ghost> ghosts = selected_ghosts(system, view);
     if (accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
-    FloatTarget target(view.width, view.height);
+    FloatTarget& target = s.target(1, view.width, view.height);
     target.bind();
     target.clear();
+    bool drawn_into[3] = {options.per_ghost_power, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
     const auto passes = view.passes();
@@ -291,9 +319,10 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         }
     }
 
-    // The largest grid any plan can ask for: the vertex buffer is sized once for it.
+    // The vertex buffer holds a batch of ghosts, and at least the largest grid any plan can ask for.
     const int max_grid = accel.adaptive ? std::max(options.grid, 512) : options.grid;
-    const std::size_t dense_bytes = static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * 12 * sizeof(float);
+    const std::size_t dense_bytes =
+        std::max(kBatchBytes, static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * kVertexBytes);
     if (dense_bytes > s.vertices_bytes) {
         s.vertices = GlObject::buffer();
         glNamedBufferStorage(s.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
@@ -445,8 +474,6 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
                 style[g] = &st;
     const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
 
-    std::optional<FloatTarget> half;
-    std::optional<FloatTarget> quarter;
     const double pixel_mm = view.sensor_width_mm / view.width;
     for (std::size_t p = 0; p < passes.size(); ++p) {
         const SpectralPass& pass = passes[p];
@@ -479,96 +506,134 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         }
         const std::vector<GhostPlan> plans = plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power);
 
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
+        // The ghosts to draw, traced in batches into one vertex buffer and then drawn grouped by target:
+        // a barrier or a change of target makes a software rasteriser finish everything it has queued,
+        // so there is one of each per batch rather than per ghost. Per-ghost power reads the target after
+        // every ghost, so there each ghost is a batch.
+        // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a
+        // software rasteriser blends and stores less.
+        glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
+        std::vector<std::size_t> todo;
         for (std::size_t g = 0; g < ghosts.size(); ++g) {
-            const Ghost& ghost = ghosts[g];
-            const PupilRect& rect = estimates[g].rect;
             if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
-            const GhostPlan& plan = plans[g];
-            if (!plan.draw) {
+            if (!plans[g].draw) {
                 ++s.stats.ghosts_skipped;
                 continue;
             }
-            const int ghost_grid = plan.grid;
-            ++s.stats.ghosts_drawn;
-            s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
-            dispatch_trace(ghost_grid, rect, rotation, axis.direction, seq.offset[g], seq.count[g], 0);
+            todo.push_back(g);
+        }
+        struct Job {
+            std::size_t ghost;
+            GLuint first_vertex;
+        };
+        for (std::size_t next = 0; next < todo.size();) {
+            std::vector<Job> batch;
+            std::size_t used = 0;
+            while (next < todo.size()) {
+                const std::size_t g = todo[next];
+                const std::size_t n = static_cast<std::size_t>(plans[g].grid + 1) * static_cast<std::size_t>(plans[g].grid + 1);
+                if (!batch.empty() && (options.per_ghost_power || (used + n) * kVertexBytes > s.vertices_bytes)) break;
+                batch.push_back({g, static_cast<GLuint>(used)});
+                used += n;
+                ++next;
+            }
+            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
+            for (const Job& job : batch) {
+                const std::size_t g = job.ghost;
+                const int ghost_grid = plans[g].grid;
+                ++s.stats.ghosts_drawn;
+                s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
+                dispatch_trace(ghost_grid, estimates[g].rect, rotation, axis.direction, seq.offset[g], seq.count[g],
+                               job.first_vertex);
+            }
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-            check_gl(fmt::format("tracing ghost {},{}", ghost.second, ghost.first));
+            check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
-            if (plan.reduce > 1) {
-                std::optional<FloatTarget>& small = plan.reduce == 2 ? half : quarter;
-                if (!small) {
-                    small.emplace((view.width + plan.reduce - 1) / plan.reduce, (view.height + plan.reduce - 1) / plan.reduce);
-                    small->bind();
-                    small->clear();
-                }
-                small->bind();
-                ++s.stats.ghosts_reduced;
-            }
-            const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-            // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
-            // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
-            const int target_w = plan.reduce > 1 ? (view.width + plan.reduce - 1) / plan.reduce : view.width;
-            const int target_h = plan.reduce > 1 ? (view.height + plan.reduce - 1) / plan.reduce : view.height;
-            const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
-            const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-            const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-            for (const Program* program : {&s.raster, &s.splat}) {
-                glUseProgram(program->get());
-                glUniform1i(program->uniform("grid"), ghost_grid);
-                glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                            static_cast<float>(view.sensor_height_mm / 2));
-                glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
-                glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-                glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
-                glUniform1i(program->uniform("iris_sdf"), 0);
-                glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
-                glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
-                glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
-                            static_cast<float>(pass.weight[1] * gain[1]), static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
-                glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
-            }
-            glUseProgram(s.raster.get());
-            glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
-            glUseProgram(s.splat.get());
-            glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
-            check_gl(fmt::format("rasterising ghost {},{}", ghost.second, ghost.first));
-            if (plan.reduce > 1) target.bind();
+            for (const int reduce : {4, 2, 1}) {
+                bool bound = false;
+                for (const Job& job : batch) {
+                    const std::size_t g = job.ghost;
+                    const GhostPlan& plan = plans[g];
+                    if (plan.reduce != reduce) continue;
+                    if (!bound) {
+                        const int slot = reduce == 1 ? 0 : (reduce == 2 ? 1 : 2);
+                        FloatTarget& t = s.target(reduce, view.width, view.height);
+                        t.bind();
+                        if (slot > 0 && !drawn_into[slot]) t.clear();
+                        drawn_into[slot] = true;
+                        bound = true;
+                    }
+                    if (reduce > 1) ++s.stats.ghosts_reduced;
+                    const int ghost_grid = plan.grid;
+                    const PupilRect& rect = estimates[g].rect;
+                    const double cell_area =
+                        (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+                    // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
+                    // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
+                    const int target_w = (view.width + reduce - 1) / reduce;
+                    const int target_h = (view.height + reduce - 1) / reduce;
+                    const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
+                    const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+                    const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                    for (const Program* program : {&s.raster, &s.splat}) {
+                        glUseProgram(program->get());
+                        glUniform1i(program->uniform("grid"), ghost_grid);
+                        glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+                        glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                                    static_cast<float>(view.sensor_height_mm / 2));
+                        glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                        glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
+                        glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                        glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+                        glUniform1i(program->uniform("iris_sdf"), 0);
+                        glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                        glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                        glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
+                                    static_cast<float>(pass.weight[1] * gain[1]),
+                                    static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
+                        glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+                    }
+                    glUseProgram(s.raster.get());
+                    glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+                    glUseProgram(s.splat.get());
+                    glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
+                    check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
 
-            if (options.per_ghost_power) {
-                const std::vector<float> rgba = target.read_rgba();
-                for (std::size_t i = 0; i < pixels; ++i) {
-                    for (std::size_t c = 0; c < 3; ++c) {
-                        const double value = rgba[i * 4 + c];
-                        accumulated[i * 3 + c] += value;
-                        powers[g].power[c] += value * pixel_area;
+                    if (options.per_ghost_power) {
+                        const std::vector<float> rgba = target.read_rgba();
+                        for (std::size_t i = 0; i < pixels; ++i) {
+                            for (std::size_t c = 0; c < 3; ++c) {
+                                const double value = rgba[i * 4 + c];
+                                accumulated[i * 3 + c] += value;
+                                powers[g].power[c] += value * pixel_area;
+                            }
+                        }
+                        target.clear();
                     }
                 }
-                target.clear();
             }
         }
     }
+    target.bind();
 
+    glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     FlareImage out;
     out.width = view.width;
     out.height = view.height;
-    out.rgb.resize(pixels * 3);
-    std::vector<float> rgba = options.per_ghost_power ? std::vector<float>{} : target.read_rgba();
-    for (const std::optional<FloatTarget>* small : {&half, &quarter}) {
-        if (*small) add_upsampled((*small)->read_rgba(), (*small)->width(), (*small)->height(), rgba, view.width, view.height);
-    }
-    for (int y = 0; y < view.height; ++y) {
-        const std::size_t src_row = static_cast<std::size_t>(view.height - 1 - y);  // GL rows run bottom-up
-        for (int x = 0; x < view.width; ++x) {
-            const std::size_t src = src_row * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x);
-            const std::size_t dst = static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) +
-                                    static_cast<std::size_t>(x);
-            for (std::size_t c = 0; c < 3; ++c) {
-                out.rgb[dst * 3 + c] = options.per_ghost_power ? static_cast<float>(accumulated[src * 3 + c])
-                                                               : rgba[src * 4 + c];
-            }
+    out.rgb.assign(pixels * 3, 0.0f);
+    if (options.per_ghost_power) {
+        for (int y = 0; y < view.height; ++y) {
+            const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
+            const std::size_t dst = static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) * 3;
+            for (std::size_t i = 0; i < static_cast<std::size_t>(view.width) * 3; ++i)
+                out.rgb[dst + i] = static_cast<float>(accumulated[src + i]);
+        }
+    } else {
+        if (drawn_into[0]) add_target(target.read_rgba(), view.width, view.height, out.rgb, view.width, view.height);
+        for (int slot : {1, 2}) {
+            if (!drawn_into[slot]) continue;
+            const FloatTarget& small = s.target(slot == 1 ? 2 : 4, view.width, view.height);
+            add_target(small.read_rgba(), small.width(), small.height(), out.rgb, view.width, view.height);
         }
     }
     if (options.per_ghost_power) out.ghosts = std::move(powers);

@@ -112,6 +112,7 @@ inline constexpr const char* ghost_grid_glsl = R"GLSL(
 #version 430
 layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
 uniform int grid;
+uniform int first_vertex;     // the ghost's first vertex in vertices[]
 uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
@@ -124,7 +125,7 @@ ivec3 triangle_corners(int tri) {
     int cx = cell % grid;
     int cy = cell / grid;
     int stride = grid + 1;
-    int a = cy * stride + cx;
+    int a = first_vertex + cy * stride + cx;
     return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
 }
 

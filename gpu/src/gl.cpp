@@ -161,7 +161,7 @@ void FloatTarget::bind() const {
 
 void FloatTarget::clear() const {
     const float zero[4] = {0.f, 0.f, 0.f, 0.f};
-    glClearNamedFramebufferfv(framebuffer_.get(), GL_COLOR, 0, zero);
+    glClearTexImage(texture_.get(), 0, GL_RGBA, GL_FLOAT, zero);
 }
 
 std::vector<float> FloatTarget::read_rgba() const {
