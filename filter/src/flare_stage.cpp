@@ -491,6 +491,14 @@ void FlareStage::process(Frame& frame) {
     const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
     std::vector<float> flare_rgb(display_px * 3, 0.0f);
     double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
+    gpu::FlareView view;  // the frame as the lens sees it; each light sets the angles
+    view.sensor_width_mm = geo.sensor_width_mm;
+    view.sensor_height_mm = geo.sensor_height_mm;
+    view.width = geo.width;
+    view.height = geo.height;
+    view.bands = s.settings.bands;
+    view.xyz_to_rgb = *s.xyz_to_rgb;
+    std::vector<gpu::ScaledLight> point_lights;  // their ghosts drawn together: one clear and read-back
     for (const detect::Light& light : lights) {
         t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
@@ -546,16 +554,14 @@ void FlareStage::process(Frame& frame) {
         }
         if (!parts.ghosts) continue;
 
-        t = Clock::now();
-        gpu::FlareView view;
         view.angle_x_deg = ax;
         view.angle_y_deg = ay;
-        view.sensor_width_mm = geo.sensor_width_mm;
-        view.sensor_height_mm = geo.sensor_height_mm;
-        view.width = geo.width;
-        view.height = geo.height;
-        view.bands = s.settings.bands;
-        view.xyz_to_rgb = *s.xyz_to_rgb;
+        const bool extended = light.shape && !light.shape->weights.empty();
+        if (!extended && !s.settings.band_filter) {  // drawn with the frame's other point lights below
+            point_lights.push_back({ax, ay, {scale[0], scale[1], scale[2]}});
+            continue;
+        }
+        t = Clock::now();
         gpu::FlareImage flare =
             s.settings.band_filter
                 ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
@@ -564,13 +570,18 @@ void FlareStage::process(Frame& frame) {
         if (flare.width != geo.width || flare.height != geo.height)
             throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
                                                  geo.width, geo.height));
-        if (light.shape && !light.shape->weights.empty()) {
+        if (extended) {
             t = Clock::now();
             convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape);
             extended_ms += ms_since(t);
         }
         for (std::size_t i = 0; i < display_px; ++i)
             for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+    }
+    if (!point_lights.empty()) {
+        t = Clock::now();
+        s.renderer->render_add(s.system, view, point_lights, render_options, flare_rgb);
+        ghosts_ms += ms_since(t);
     }
     s.times.emplace_back("direct", direct_ms);
     s.times.emplace_back("starburst", starburst_ms);

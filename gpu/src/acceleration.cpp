@@ -52,18 +52,23 @@ constexpr int kMinGrid = 16;
 constexpr int kMaxGrid = 512;
 // Intensity LOD: ghosts under kFullShare of the estimated total get a grid scaled by sqrt(share/kFullShare).
 constexpr double kFullShare = 0.01;
-// Reduced drawing: ghosts at least this many pixels across, with cells this uniform.
+// Reduced drawing: smooth ghosts (cells this uniform) at least this many pixels across at 1/2, 1/4, 1/8
+// of the image size (their edges soften by at most 2 % of their size); ghosts with caustics only when
+// they are so large that a 2-pixel softening is under 0.2 % of their size.
 constexpr double kHalfExtentPx = 96.0;
 constexpr double kQuarterExtentPx = 256.0;
+constexpr double kEighthExtentPx = 1024.0;
 constexpr double kReducedMaxCv = 0.3;
+constexpr double kSharpHalfExtentPx = 1024.0;
 
 }  // namespace
 
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
-                                   int base_grid, double pixel_mm, bool per_ghost_power) {
+                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power) {
     std::vector<GhostPlan> plans(estimates.size());
-    double total = 0.0;
-    for (const GhostEstimate& e : estimates) total += e.power;
+    double total = total_power;
+    if (!(total > 0.0))
+        for (const GhostEstimate& e : estimates) total += e.power;
     std::vector<std::size_t> order(estimates.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
     std::stable_sort(order.begin(), order.end(),
@@ -94,9 +99,15 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
                               grid);
         }
         plan.grid = grid;
-        if (accel.reduced && !per_ghost_power && e.area_cv < kReducedMaxCv && pixel_mm > 0.0) {
+        if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) {
             const double extent_px = e.extent_mm / pixel_mm;
-            plan.reduce = extent_px >= kQuarterExtentPx ? 4 : (extent_px >= kHalfExtentPx ? 2 : 1);
+            if (e.area_cv < kReducedMaxCv) {
+                plan.reduce = extent_px >= kEighthExtentPx ? 8
+                              : extent_px >= kQuarterExtentPx ? 4
+                              : extent_px >= kHalfExtentPx ? 2 : 1;
+            } else {
+                plan.reduce = extent_px >= kSharpHalfExtentPx ? 2 : 1;
+            }
         }
     }
     return plans;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <map>
 #include <cmath>
 #include <numbers>
@@ -69,12 +70,12 @@ struct FlareRenderer::State {
     };
     std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
     std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
-    // Render targets at full, 1/2 and 1/4 of the image size, kept while the image size stays.
-    std::optional<FloatTarget> targets[3];
+    // Render targets at full, 1/2, 1/4 and 1/8 of the image size, kept while the image size stays.
+    std::optional<FloatTarget> targets[4];
 
-    // The target at 1/reduce (1, 2 or 4) of width x height, made (or remade for a new size) on demand.
+    // The target at 1/reduce (1, 2, 4 or 8) of width x height, made (or remade for a new size) on demand.
     FloatTarget& target(int reduce, int width, int height) {
-        std::optional<FloatTarget>& t = targets[reduce == 1 ? 0 : (reduce == 2 ? 1 : 2)];
+        std::optional<FloatTarget>& t = targets[std::countr_zero(static_cast<unsigned>(reduce))];
         const int w = (width + reduce - 1) / reduce;
         const int h = (height + reduce - 1) / reduce;
         if (!t || t->width() != w || t->height() != h) t.emplace(w, h);
@@ -289,7 +290,8 @@ void add_target(const std::vector<float>& rgba, int sw, int sh, std::vector<floa
 
 }  // namespace
 
-FlareImage FlareRenderer::render(const System& system, const FlareView& view, const GpuFlareOptions& options) {
+void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                         const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
     if (options.grid < 2 || options.grid > 2048) {
         throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
     }
@@ -303,7 +305,7 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     FloatTarget& target = s.target(1, view.width, view.height);
     target.bind();
     target.clear();
-    bool drawn_into[3] = {options.per_ghost_power, false, false};  // targets drawn into (and cleared) by this render
+    bool drawn_into[4] = {options.per_ghost_power, false, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
     const auto passes = view.passes();
@@ -338,8 +340,6 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     glBindTextureUnit(0, s.iris.get());
     glEnable(GL_PROGRAM_POINT_SIZE);
 
-    const optics::Ray axis = optics::collimated_ray(view.angle_x_deg, view.angle_y_deg, 0.0, 0.0, 0.0);
-    const double cos_angle = std::abs(axis.direction.z);
     const double pixel_area = view.pixel_area_mm2();
     const std::size_t pixels = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
     std::vector<GhostPower> powers(ghosts.size());
@@ -427,46 +427,6 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
         return coarse;
     };
 
-    // Bounds table: the entries on either side of this light's field angle, computed (and saved) if missing.
-    const FieldDirection field = field_direction(view);
-    BoundsTable* table = nullptr;
-    if (accel.bounding == Bounding::Table && !ghosts.empty()) {
-        // The table's key adds the wavelengths to the system and ghost selection.
-        std::uint64_t table_key = key;
-        for (const auto& pass : passes) table_key = (table_key ^ std::bit_cast<std::uint64_t>(pass.wavelength_nm)) * 0x100000001b3ull;
-        table_key = (table_key ^ std::bit_cast<std::uint64_t>(sensor_radius)) * 0x100000001b3ull;
-        auto it = s.bounds_tables.find(table_key);
-        if (it == s.bounds_tables.end()) {
-            const std::string dir = accel.cache_dir.empty() ? default_cache_dir() : accel.cache_dir;
-            it = s.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes.size()),
-                                                         static_cast<int>(ghosts.size()), dir)).first;
-            s.stats.table_loaded = it->second.load();
-        }
-        table = &it->second;
-        const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
-        bool computed = false;
-        for (int index : {i0, i0 + 1}) {
-            if (table->entry(index)) continue;
-            FlareView at = view;
-            at.angle_x_deg = index * BoundsTable::step_deg;
-            at.angle_y_deg = 0.0;
-            Aperture round = system.aperture;
-            round.blades = 0;  // the stop's circle holds any bladed iris: bounds for every iris rotation
-            std::vector<std::vector<GhostEstimate>> entry;
-            for (std::size_t p = 0; p < passes.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
-            table->store(index, std::move(entry));
-            ++s.stats.table_computed;
-            computed = true;
-        }
-        if (computed) {
-            try {
-                table->save();
-            } catch (const std::exception& e) {  // a cache that cannot be written only costs time
-                fmt::print(stderr, "lensfx: warning: {}\n", e.what());
-            }
-        }
-    }
-
     std::vector<const GhostStyle*> style(ghosts.size(), nullptr);
     for (const GhostStyle& st : options.styles)
         for (std::size_t g = 0; g < ghosts.size(); ++g)
@@ -475,140 +435,216 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
 
     const double pixel_mm = view.sensor_width_mm / view.width;
-    for (std::size_t p = 0; p < passes.size(); ++p) {
-        const SpectralPass& pass = passes[p];
-        if (ghosts.empty()) break;
-        for (const Program* program : {&s.raster, &s.splat}) {
-            glUseProgram(program->get());
-            glUniform1i(program->uniform("ringing"), options.ringing ? 1 : 0);
-            glUniform1i(program->uniform("iris_ringing"), 1);
-        }
-        if (options.ringing)
-            glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(pass.wavelength_nm, f_number)));
-        const GhostSequences& seq = sequences(p).seq;
 
-        std::vector<GhostEstimate> estimates;
-        double rotation = 0.0;
-        if (table) {
-            estimates = table->interpolate(static_cast<int>(p), field.theta_deg);
-            rotation = field.phi;
-        } else if (accel.bounding == Bounding::Coarse || accel.lod || accel.adaptive || accel.reduced) {
-            estimates = coarse_pass(p, seq, view, system.aperture);
-        } else {
-            estimates.assign(ghosts.size(), GhostEstimate{entrance_square(traced[p], view), 1.0, 0.0, 0.0});
+    // Every light's ghost estimates first: the level of detail weighs each ghost against all the lights'
+    // ghosts of its pass, so the ghosts of a dim light get fewer rays, or none.
+    struct LightEstimates {
+        std::vector<std::vector<GhostEstimate>> pass;  // per pass, per ghost; power scaled by the light
+        double rotation = 0.0;                         // bounds-table rectangles turned to the light's azimuth
+    };
+    std::vector<LightEstimates> light_estimates(lights.size());
+    std::vector<double> pass_total(passes.size(), 0.0);
+    for (std::size_t l = 0; l < lights.size() && !ghosts.empty(); ++l) {
+        const ScaledLight& light = lights[l];
+        FlareView lit = view;
+        lit.angle_x_deg = light.angle_x_deg;
+        lit.angle_y_deg = light.angle_y_deg;
+        // Bounds table: the entries on either side of this light's field angle, computed (and saved) if missing.
+        const FieldDirection field = field_direction(lit);
+        BoundsTable* table = nullptr;
+        if (accel.bounding == Bounding::Table && !ghosts.empty()) {
+            // The table's key adds the wavelengths to the system and ghost selection.
+            std::uint64_t table_key = key;
+            for (const auto& pass : passes) table_key = (table_key ^ std::bit_cast<std::uint64_t>(pass.wavelength_nm)) * 0x100000001b3ull;
+            table_key = (table_key ^ std::bit_cast<std::uint64_t>(sensor_radius)) * 0x100000001b3ull;
+            auto it = s.bounds_tables.find(table_key);
+            if (it == s.bounds_tables.end()) {
+                const std::string dir = accel.cache_dir.empty() ? default_cache_dir() : accel.cache_dir;
+                it = s.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes.size()),
+                                                             static_cast<int>(ghosts.size()), dir)).first;
+                s.stats.table_loaded = it->second.load();
+            }
+            table = &it->second;
+            const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
+            bool computed = false;
+            for (int index : {i0, i0 + 1}) {
+                if (table->entry(index)) continue;
+                FlareView at = lit;
+                at.angle_x_deg = index * BoundsTable::step_deg;
+                at.angle_y_deg = 0.0;
+                Aperture round = system.aperture;
+                round.blades = 0;  // the stop's circle holds any bladed iris: bounds for every iris rotation
+                std::vector<std::vector<GhostEstimate>> entry;
+                for (std::size_t p = 0; p < passes.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
+                table->store(index, std::move(entry));
+                ++s.stats.table_computed;
+                computed = true;
+            }
+            if (computed) {
+                try {
+                    table->save();
+                } catch (const std::exception& e) {  // a cache that cannot be written only costs time
+                    fmt::print(stderr, "lensfx: warning: {}\n", e.what());
+                }
+            }
         }
-        if (accel.bounding == Bounding::None) {
-            // Ghosts the coarse pass found no light of stay culled; the others cover the whole square.
-            const PupilRect square = entrance_square(traced[p], view);
+
+        if (table) light_estimates[l].rotation = field.phi;
+        for (std::size_t p = 0; p < passes.size(); ++p) {
+            const GhostSequences& seq = sequences(p).seq;
+            std::vector<GhostEstimate> estimates;
+            if (table) {
+                estimates = table->interpolate(static_cast<int>(p), field.theta_deg);
+            } else if (accel.bounding == Bounding::Coarse || accel.lod || accel.adaptive || accel.reduced) {
+                estimates = coarse_pass(p, seq, lit, system.aperture);
+            } else {
+                estimates.assign(ghosts.size(), GhostEstimate{entrance_square(traced[p], lit), 1.0, 0.0, 0.0});
+            }
+            if (accel.bounding == Bounding::None) {
+                // Ghosts the coarse pass found no light of stay culled; the others cover the whole square.
+                const PupilRect square = entrance_square(traced[p], lit);
+                for (GhostEstimate& e : estimates) {
+                    if (!e.rect.empty()) e.rect = square;
+                }
+            }
+            double weight = 0.0;
+            for (std::size_t c = 0; c < 3; ++c) weight += std::abs(passes[p].weight[c] * light.scale[c]);
             for (GhostEstimate& e : estimates) {
-                if (!e.rect.empty()) e.rect = square;
+                e.power *= weight;
+                pass_total[p] += e.power;
             }
+            light_estimates[l].pass.push_back(std::move(estimates));
         }
-        const std::vector<GhostPlan> plans = plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power);
+    }
 
-        // The ghosts to draw, traced in batches into one vertex buffer and then drawn grouped by target:
-        // a barrier or a change of target makes a software rasteriser finish everything it has queued,
-        // so there is one of each per batch rather than per ghost. Per-ghost power reads the target after
-        // every ghost, so there each ghost is a batch.
-        // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a
-        // software rasteriser blends and stores less.
-        glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
-        std::vector<std::size_t> todo;
-        for (std::size_t g = 0; g < ghosts.size(); ++g) {
-            if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
-            if (!plans[g].draw) {
-                ++s.stats.ghosts_skipped;
-                continue;
+    for (std::size_t l = 0; l < lights.size(); ++l) {
+        const ScaledLight& light = lights[l];
+        FlareView lit = view;
+        lit.angle_x_deg = light.angle_x_deg;
+        lit.angle_y_deg = light.angle_y_deg;
+        const optics::Ray axis = optics::collimated_ray(lit.angle_x_deg, lit.angle_y_deg, 0.0, 0.0, 0.0);
+        const double cos_angle = std::abs(axis.direction.z);
+        for (std::size_t p = 0; p < passes.size(); ++p) {
+            const SpectralPass& pass = passes[p];
+            if (ghosts.empty()) break;
+            for (const Program* program : {&s.raster, &s.splat}) {
+                glUseProgram(program->get());
+                glUniform1i(program->uniform("ringing"), options.ringing ? 1 : 0);
+                glUniform1i(program->uniform("iris_ringing"), 1);
             }
-            todo.push_back(g);
-        }
-        struct Job {
-            std::size_t ghost;
-            GLuint first_vertex;
-        };
-        for (std::size_t next = 0; next < todo.size();) {
-            std::vector<Job> batch;
-            std::size_t used = 0;
-            while (next < todo.size()) {
-                const std::size_t g = todo[next];
-                const std::size_t n = static_cast<std::size_t>(plans[g].grid + 1) * static_cast<std::size_t>(plans[g].grid + 1);
-                if (!batch.empty() && (options.per_ghost_power || (used + n) * kVertexBytes > s.vertices_bytes)) break;
-                batch.push_back({g, static_cast<GLuint>(used)});
-                used += n;
-                ++next;
-            }
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
-            for (const Job& job : batch) {
-                const std::size_t g = job.ghost;
-                const int ghost_grid = plans[g].grid;
-                ++s.stats.ghosts_drawn;
-                s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
-                dispatch_trace(ghost_grid, estimates[g].rect, rotation, axis.direction, seq.offset[g], seq.count[g],
-                               job.first_vertex);
-            }
-            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-            check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
+            if (options.ringing)
+                glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(pass.wavelength_nm, f_number)));
+            const GhostSequences& seq = sequences(p).seq;
 
-            for (const int reduce : {4, 2, 1}) {
-                bool bound = false;
+            const std::vector<GhostEstimate>& estimates = light_estimates[l].pass[p];
+            const double rotation = light_estimates[l].rotation;
+            const std::vector<GhostPlan> plans =
+                plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power, pass_total[p]);
+
+            // The ghosts to draw, traced in batches into one vertex buffer and then drawn grouped by target:
+            // a barrier or a change of target makes a software rasteriser finish everything it has queued,
+            // so there is one of each per batch rather than per ghost. Per-ghost power reads the target after
+            // every ghost, so there each ghost is a batch.
+            // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a
+            // software rasteriser blends and stores less.
+            glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
+            std::vector<std::size_t> todo;
+            for (std::size_t g = 0; g < ghosts.size(); ++g) {
+                if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
+                if (!plans[g].draw) {
+                    ++s.stats.ghosts_skipped;
+                    continue;
+                }
+                todo.push_back(g);
+            }
+            struct Job {
+                std::size_t ghost;
+                GLuint first_vertex;
+            };
+            for (std::size_t next = 0; next < todo.size();) {
+                std::vector<Job> batch;
+                std::size_t used = 0;
+                while (next < todo.size()) {
+                    const std::size_t g = todo[next];
+                    const std::size_t n = static_cast<std::size_t>(plans[g].grid + 1) * static_cast<std::size_t>(plans[g].grid + 1);
+                    if (!batch.empty() && (options.per_ghost_power || (used + n) * kVertexBytes > s.vertices_bytes)) break;
+                    batch.push_back({g, static_cast<GLuint>(used)});
+                    used += n;
+                    ++next;
+                }
+                glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
                 for (const Job& job : batch) {
                     const std::size_t g = job.ghost;
-                    const GhostPlan& plan = plans[g];
-                    if (plan.reduce != reduce) continue;
-                    if (!bound) {
-                        const int slot = reduce == 1 ? 0 : (reduce == 2 ? 1 : 2);
-                        FloatTarget& t = s.target(reduce, view.width, view.height);
-                        t.bind();
-                        if (slot > 0 && !drawn_into[slot]) t.clear();
-                        drawn_into[slot] = true;
-                        bound = true;
-                    }
-                    if (reduce > 1) ++s.stats.ghosts_reduced;
-                    const int ghost_grid = plan.grid;
-                    const PupilRect& rect = estimates[g].rect;
-                    const double cell_area =
-                        (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-                    // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
-                    // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
-                    const int target_w = (view.width + reduce - 1) / reduce;
-                    const int target_h = (view.height + reduce - 1) / reduce;
-                    const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
-                    const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-                    const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-                    for (const Program* program : {&s.raster, &s.splat}) {
-                        glUseProgram(program->get());
-                        glUniform1i(program->uniform("grid"), ghost_grid);
-                        glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
-                        glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                                    static_cast<float>(view.sensor_height_mm / 2));
-                        glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                        glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
-                        glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-                        glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
-                        glUniform1i(program->uniform("iris_sdf"), 0);
-                        glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
-                        glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
-                        glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0]),
-                                    static_cast<float>(pass.weight[1] * gain[1]),
-                                    static_cast<float>(pass.weight[2] * gain[2]), 0.0f);
-                        glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
-                    }
-                    glUseProgram(s.raster.get());
-                    glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
-                    glUseProgram(s.splat.get());
-                    glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
-                    check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
+                    const int ghost_grid = plans[g].grid;
+                    ++s.stats.ghosts_drawn;
+                    s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
+                    dispatch_trace(ghost_grid, estimates[g].rect, rotation, axis.direction, seq.offset[g], seq.count[g],
+                                   job.first_vertex);
+                }
+                glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+                check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
-                    if (options.per_ghost_power) {
-                        const std::vector<float> rgba = target.read_rgba();
-                        for (std::size_t i = 0; i < pixels; ++i) {
-                            for (std::size_t c = 0; c < 3; ++c) {
-                                const double value = rgba[i * 4 + c];
-                                accumulated[i * 3 + c] += value;
-                                powers[g].power[c] += value * pixel_area;
-                            }
+                for (const int reduce : {8, 4, 2, 1}) {
+                    bool bound = false;
+                    for (const Job& job : batch) {
+                        const std::size_t g = job.ghost;
+                        const GhostPlan& plan = plans[g];
+                        if (plan.reduce != reduce) continue;
+                        if (!bound) {
+                            const int slot = std::countr_zero(static_cast<unsigned>(reduce));
+                            FloatTarget& t = s.target(reduce, view.width, view.height);
+                            t.bind();
+                            if (slot > 0 && !drawn_into[slot]) t.clear();
+                            drawn_into[slot] = true;
+                            bound = true;
                         }
-                        target.clear();
+                        if (reduce > 1) ++s.stats.ghosts_reduced;
+                        const int ghost_grid = plan.grid;
+                        const PupilRect& rect = estimates[g].rect;
+                        const double cell_area =
+                            (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+                        // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
+                        // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
+                        const int target_w = (view.width + reduce - 1) / reduce;
+                        const int target_h = (view.height + reduce - 1) / reduce;
+                        const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
+                        const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+                        const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                        for (const Program* program : {&s.raster, &s.splat}) {
+                            glUseProgram(program->get());
+                            glUniform1i(program->uniform("grid"), ghost_grid);
+                            glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+                            glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                                        static_cast<float>(view.sensor_height_mm / 2));
+                            glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                            glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
+                            glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                            glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+                            glUniform1i(program->uniform("iris_sdf"), 0);
+                            glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                            glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                            glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
+                                        static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
+                                        static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
+                            glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+                        }
+                        glUseProgram(s.raster.get());
+                        glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+                        glUseProgram(s.splat.get());
+                        glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
+                        check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
+
+                        if (options.per_ghost_power) {
+                            const std::vector<float> rgba = target.read_rgba();
+                            for (std::size_t i = 0; i < pixels; ++i) {
+                                for (std::size_t c = 0; c < 3; ++c) {
+                                    const double value = rgba[i * 4 + c];
+                                    accumulated[i * 3 + c] += value;
+                                    powers[g].power[c] += value * pixel_area;
+                                }
+                            }
+                            target.clear();
+                        }
                     }
                 }
             }
@@ -617,29 +653,46 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
     target.bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    FlareImage out;
-    out.width = view.width;
-    out.height = view.height;
-    out.rgb.assign(pixels * 3, 0.0f);
+    glFinish();
+    const auto read_start = std::chrono::steady_clock::now();
     if (options.per_ghost_power) {
         for (int y = 0; y < view.height; ++y) {
             const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
             const std::size_t dst = static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) * 3;
             for (std::size_t i = 0; i < static_cast<std::size_t>(view.width) * 3; ++i)
-                out.rgb[dst + i] = static_cast<float>(accumulated[src + i]);
+                rgb[dst + i] += static_cast<float>(accumulated[src + i]);
         }
+        if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
-        if (drawn_into[0]) add_target(target.read_rgba(), view.width, view.height, out.rgb, view.width, view.height);
-        for (int slot : {1, 2}) {
+        if (drawn_into[0]) add_target(target.read_rgba(), view.width, view.height, rgb, view.width, view.height);
+        for (int slot : {1, 2, 3}) {
             if (!drawn_into[slot]) continue;
-            const FloatTarget& small = s.target(slot == 1 ? 2 : 4, view.width, view.height);
-            add_target(small.read_rgba(), small.width(), small.height(), out.rgb, view.width, view.height);
+            const FloatTarget& small = s.target(1 << slot, view.width, view.height);
+            add_target(small.read_rgba(), small.width(), small.height(), rgb, view.width, view.height);
         }
     }
-    if (options.per_ghost_power) out.ghosts = std::move(powers);
+    s.stats.readback_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start).count();
     glUseProgram(0);
     glBindVertexArray(0);
+}
+
+FlareImage FlareRenderer::render(const System& system, const FlareView& view, const GpuFlareOptions& options) {
+    FlareImage out;
+    out.width = view.width;
+    out.height = view.height;
+    out.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
+    const ScaledLight light{view.angle_x_deg, view.angle_y_deg, {1.0, 1.0, 1.0}};
+    draw(system, view, std::span(&light, 1), options, out.rgb, options.per_ghost_power ? &out.ghosts : nullptr);
     return out;
+}
+
+void FlareRenderer::render_add(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                               const GpuFlareOptions& options, std::vector<float>& rgb) {
+    if (options.per_ghost_power) throw std::invalid_argument("render_add: per-ghost power needs one light (render)");
+    if (rgb.size() != static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3)
+        throw std::invalid_argument(fmt::format("render_add: the image holds {} values, {}x{} RGB expected", rgb.size(),
+                                                view.width, view.height));
+    draw(system, view, lights, options, rgb, nullptr);
 }
 
 const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }

@@ -28,7 +28,7 @@ struct Acceleration {
     bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
-    bool reduced = true;           // draw smooth, large ghosts at 1/2 or 1/4 resolution and upsample
+    bool reduced = true;           // draw large ghosts at 1/2, 1/4 or 1/8 resolution and upsample
     // Aperture culling (section 4.2): leave out the ghosts that cross the stop three times (first reflection
     // behind the stop, second in front), mostly blocked when the iris is small. Off by default: the level
     // of detail already skips them when they are dim, and wide open they are not.
@@ -64,12 +64,13 @@ struct GhostEstimate {
 struct GhostPlan {
     bool draw = false;
     int grid = 0;    // cells per side
-    int reduce = 1;  // 1 full resolution, 2 or 4: drawn at 1/reduce of the image size and upsampled
+    int reduce = 1;  // 1 full resolution, 2, 4 or 8: drawn at 1/reduce of the image size and upsampled
 };
 // base_grid: the --grid option. pixel_mm: the sensor width of one pixel. per_ghost_power disables the
-// reduced drawing (the per-ghost read-back happens on the full-size target).
+// reduced drawing (the per-ghost read-back happens on the full-size target). total_power: what the level
+// of detail takes each ghost's share of (all lights' ghosts in this pass); 0: the estimates' sum.
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
-                                   int base_grid, double pixel_mm, bool per_ghost_power);
+                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0);
 
 // A stable 64-bit hash (FNV-1a) of everything about a system that changes its ghosts' bounds: every
 // interface (shape, position, media, coatings), the stop, the sensor and the iris.
@@ -123,6 +124,7 @@ struct RenderStats {
     long long rays = 0;         // grid vertices traced for drawing
     int table_computed = 0;     // bounds-table entries computed by this render
     int table_loaded = 0;       // entries read from disk by this render
+    double readback_ms = 0.0;   // reading the targets back and upsampling into the image (after the GL finished)
 };
 
 }  // namespace lensfx::gpu

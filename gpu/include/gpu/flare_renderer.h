@@ -5,7 +5,9 @@
 // interpolated stop coordinates and the per-ray Fresnel/coating factor, and added in an RGBA32F target.
 #pragma once
 
+#include <array>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <gpu/acceleration.h>
@@ -27,6 +29,14 @@ struct GpuFlareOptions {
     std::vector<GhostStyle> styles;  // ghosts not listed keep their physical look
 };
 
+// One light of a frame for render_add: its direction (as FlareView's angles) and the factor per channel its
+// ghosts are added with.
+struct ScaledLight {
+    double angle_x_deg = 0.0;
+    double angle_y_deg = 0.0;
+    std::array<double, 3> scale{1.0, 1.0, 1.0};
+};
+
 class FlareRenderer {
 public:
     // Compiles the shaders; the context must stay alive and current while the renderer is used.
@@ -36,9 +46,15 @@ public:
     FlareRenderer& operator=(const FlareRenderer&) = delete;
 
     FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
-    const RenderStats& last_stats() const;
+    // The ghosts of several lights seen through the same view (its angles ignored) added into rgb (view.width x
+    // view.height, top row first), each light's scaled: the targets are cleared and read back once for all.
+    void render_add(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                    const GpuFlareOptions& options, std::vector<float>& rgb);
+    const RenderStats& last_stats() const;  // of the last render or render_add (summed over its lights)
 
 private:
+    void draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+              const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
     struct State;
     std::unique_ptr<State> state_;
 };
