@@ -1,5 +1,6 @@
 // The flare stage: lights -> directions and strengths -> GPU ghost images -> added to the frame.
 #include <filter/flare_stage.h>
+#include <filter/footprint.h>
 
 #include <algorithm>
 #include <chrono>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <numbers>
 #include <stdexcept>
 
@@ -311,31 +313,6 @@ void write_starburst(const std::filesystem::path& path, const optics::Starburst&
     });
 }
 
-// Convolves an RGB image (width x height) with a light's footprint: the flare of an extended source is
-// the point light's flare spread over the source's image. One DFT-based filter of the whole image, so the
-// cost follows the frame and kernel size, not the source's pixel count. Every ghost is treated as having
-// magnification 1 (the footprint is not scaled or flipped per ghost).
-void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape) {
-    const int cell = std::max(1, static_cast<int>(std::lround(shape.cell)));
-    const int ox = static_cast<int>(std::lround(shape.origin_x));
-    const int oy = static_cast<int>(std::lround(shape.origin_y));
-    const int kw = shape.width * cell, kh = shape.height * cell;
-    const int rx = std::max(std::abs(ox), std::abs(ox + kw - 1)), ry = std::max(std::abs(oy), std::abs(oy + kh - 1));
-    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
-    const float per_pixel = 1.0f / static_cast<float>(cell * cell);
-    for (int j = 0; j < kh; ++j)
-        for (int i = 0; i < kw; ++i)
-            kernel.at<float>(ry + oy + j, rx + ox + i) =
-                shape.weights[static_cast<std::size_t>(j / cell) * static_cast<std::size_t>(shape.width) +
-                              static_cast<std::size_t>(i / cell)] * per_pixel;
-    cv::Mat flipped;
-    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
-    cv::Mat image(height, width, CV_32FC3, rgb.data());
-    cv::Mat out;
-    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
-    out.copyTo(image);
-}
-
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
@@ -380,6 +357,9 @@ struct FlareStage::State {
     std::string direct_key;                      // what the table depends on (its cache file's name)
     std::filesystem::path direct_file;
     std::string lens_text;                       // the lens as TOML: part of the table's key
+    std::vector<optics::Ghost> ghosts;           // the lens's ghosts, their imaging and axial power: for
+    std::vector<optics::GhostImaging> imaging;   // extended lights, made at the first one
+    std::vector<double> axial_power;
     std::vector<std::pair<std::string, double>> times;  // of the last frame
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
@@ -556,27 +536,43 @@ void FlareStage::process(Frame& frame) {
 
         view.angle_x_deg = ax;
         view.angle_y_deg = ay;
-        const bool extended = light.shape && !light.shape->weights.empty();
-        if (!extended && !s.settings.band_filter) {  // drawn with the frame's other point lights below
-            point_lights.push_back({ax, ay, {scale[0], scale[1], scale[2]}});
-            continue;
-        }
-        t = Clock::now();
-        gpu::FlareImage flare =
-            s.settings.band_filter
-                ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
-                : s.renderer->render(s.system, view, render_options);
-        ghosts_ms += ms_since(t);
-        if (flare.width != geo.width || flare.height != geo.height)
-            throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
-                                                 geo.width, geo.height));
-        if (extended) {
+        std::vector<FootprintGroup> groups(1);  // a point light: all ghosts, no footprint
+        if (light.shape && !light.shape->weights.empty()) {
             t = Clock::now();
-            convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape);
+            if (s.imaging.empty()) {
+                s.ghosts = optics::enumerate_ghosts(s.system);
+                s.imaging = optics::ghost_imaging(s.system, s.ghosts);
+                const optics::TraceSystem traced(s.system, optics::kLambdaD_nm);
+                for (const optics::Ghost& g : s.ghosts) s.axial_power.push_back(optics::ghost_axial_factor(traced, g));
+            }
+            groups = footprint_groups(s.ghosts, s.imaging, s.axial_power, *light.shape, geo.sensor_width_mm / geo.width);
+            if (groups.size() == 1 && groups[0].magnification == 0.0) groups[0].ghosts.clear();  // all of them
             extended_ms += ms_since(t);
         }
-        for (std::size_t i = 0; i < display_px; ++i)
-            for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+        if (groups.size() == 1 && groups[0].ghosts.empty() && !s.settings.band_filter) {
+            point_lights.push_back({ax, ay, {scale[0], scale[1], scale[2]}});  // drawn with the frame's others
+            continue;
+        }
+        for (const FootprintGroup& group : groups) {
+            t = Clock::now();
+            view.only_ghosts = group.ghosts;
+            gpu::FlareImage flare =
+                s.settings.band_filter
+                    ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
+                    : s.renderer->render(s.system, view, render_options);
+            view.only_ghosts.clear();
+            ghosts_ms += ms_since(t);
+            if (flare.width != geo.width || flare.height != geo.height)
+                throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width,
+                                                     flare.height, geo.width, geo.height));
+            if (group.magnification != 0.0) {
+                t = Clock::now();
+                convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape, group.magnification);
+                extended_ms += ms_since(t);
+            }
+            for (std::size_t i = 0; i < display_px; ++i)
+                for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+        }
     }
     if (!point_lights.empty()) {
         t = Clock::now();

@@ -1,6 +1,9 @@
 #include <optics/ghosts.h>
 
+#include <optics/paraxial.h>
+
 #include <algorithm>
+#include <optional>
 
 namespace lensfx::optics {
 
@@ -72,6 +75,37 @@ double ghost_axial_factor(const TraceSystem& system, const Ghost& ghost) {
         factor *= st.reflect ? rt.R : rt.T;
     }
     return factor;
+}
+
+std::vector<GhostImaging> ghost_imaging(const System& system, const std::vector<Ghost>& ghosts, double wavelength_nm) {
+    const TraceSystem traced(system, wavelength_nm);
+    const Paraxial first_order = paraxial(system, wavelength_nm);
+    const double pupil_z = system.interfaces.front().z_mm + first_order.entrance_pupil_mm;
+    const double pupil_radius = 0.5 * first_order.entrance_pupil_diameter_mm;
+    // Small enough to stay first order, large enough to stay clear of rounding.
+    const double angle_deg = 0.02;
+    const double height = 1e-3 * pupil_radius;
+    // Sensor x of the ray through the entrance pupil at (x, 0) from a light at angle ax; nullopt if it fails.
+    auto landing = [&](std::span<const Step> path, double ax, double x) -> std::optional<double> {
+        const TraceResult r = trace(traced, collimated_ray(ax, 0.0, x, 0.0, pupil_z), path);
+        if (!r.ok()) return std::nullopt;
+        return r.position.x;
+    };
+    const std::vector<Step> direct = direct_path(system);
+    const auto d0 = landing(direct, -angle_deg, 0.0);
+    const auto d1 = landing(direct, angle_deg, 0.0);
+    const double direct_shift = d0 && d1 ? *d1 - *d0 : 0.0;
+    std::vector<GhostImaging> out(ghosts.size());
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        const auto c0 = landing(ghosts[g].path, -angle_deg, 0.0);
+        const auto c1 = landing(ghosts[g].path, angle_deg, 0.0);
+        const auto lo = landing(ghosts[g].path, 0.0, -height);
+        const auto hi = landing(ghosts[g].path, 0.0, height);
+        if (!c0 || !c1 || !lo || !hi || direct_shift == 0.0) continue;
+        out[g].magnification = (*c1 - *c0) / direct_shift;
+        out[g].blur_mm = std::abs(*hi - *lo) / (2.0 * height) * 2.0 * pupil_radius;
+    }
+    return out;
 }
 
 }  // namespace lensfx::optics

@@ -3,6 +3,7 @@
 // in --report, flicker of a light moving in sub-pixel steps, and the same output with any thread count.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -210,7 +211,12 @@ TEST(FramePath, ExtendedSourceSpreadsItsGhostsWithoutLosingEnergy) {
             ref_total += rb;
             l1 += std::abs(bb - rb);
         }
-    EXPECT_NEAR(b.sum(1) / ref_total, 1.0, 0.03);
+    // Ghosts too blurred for the window to show are drawn as from a point, the others through the window
+    // scaled by their magnification, so the energy is the small light's (less what the sharp ghosts spread
+    // beyond the frame), and the image is close to the all-at-magnification-1 convolution, which also loses
+    // the blurred ghosts' energy at the frame's edges.
+    std::printf("extended/point energy %.4f, extended/reference %.4f, L1 %.4f\n", b.sum(1) / (s.sum(1) * scale), b.sum(1) / ref_total, l1 / ref_total);
+    EXPECT_NEAR(b.sum(1) / (s.sum(1) * scale), 1.0, 0.03);
     EXPECT_LT(l1 / ref_total, 0.1) << "8x8-block relative L1 against the direct convolution";
     float s_max = 0.0f, b_max = 0.0f;
     for (std::size_t i = 1; i < s.px.size(); i += 3) {

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <filter/flare_stage.h>
+#include <filter/footprint.h>
 #include <filter/frame.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
@@ -183,4 +185,90 @@ TEST(FramePath, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
     fs::resize_file(dir / "t.bin", fs::file_size(dir / "t.bin") - 1);
     filter::DirectPowerTable damaged(system, 20.0, 12, 8);
     EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));
+}
+
+namespace {
+
+// x centroid and sum of channel c of an RGB image.
+std::pair<double, double> centroid_x(const std::vector<float>& rgb, int width, int c) {
+    double sum = 0.0, moment = 0.0;
+    for (std::size_t i = 0; i < rgb.size() / 3; ++i) {
+        sum += static_cast<double>(rgb[i * 3 + static_cast<std::size_t>(c)]);
+        moment += static_cast<double>(rgb[i * 3 + static_cast<std::size_t>(c)]) * static_cast<double>(i % static_cast<std::size_t>(width));
+    }
+    return {moment / sum, sum};
+}
+
+}  // namespace
+
+TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
+    // A bar 12 px wide, 4 px tall, to the right of the light (cells of 2 px): its centre 6 px right.
+    detect::Shape bar;
+    bar.width = 6;
+    bar.height = 2;
+    bar.cell = 2.0;
+    bar.origin_x = 0.0;
+    bar.origin_y = -2.0;
+    bar.weights.assign(12, 1.0f / 12.0f);
+    const int w = 121, h = 41;
+    for (const double m : {1.0, 2.0, -1.5, 0.5, -0.25}) {
+        std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
+        const std::size_t light = static_cast<std::size_t>(20 * w + 60);
+        rgb[light * 3] = 1.0f;
+        rgb[light * 3 + 1] = 2.0f;
+        rgb[light * 3 + 2] = 3.0f;
+        filter::convolve_footprint(rgb, w, h, bar, m);
+        for (int c = 0; c < 3; ++c) {
+            const auto [cx, sum] = centroid_x(rgb, w, c);
+            EXPECT_NEAR(sum, c + 1.0, 1e-4 * (c + 1)) << "m " << m;
+            EXPECT_NEAR(cx - 60.0, m * 6.0, 0.75) << "m " << m;
+        }
+        // The spread: the bar's width scaled by |m| (at least the one pixel the light was).
+        int lit = 0;
+        for (int x = 0; x < w; ++x) lit += rgb[static_cast<std::size_t>(20 * w + x) * 3 + 1] > 1e-6f ? 1 : 0;
+        EXPECT_NEAR(lit, std::max(1.0, 12.0 * std::abs(m)), 2.0) << "m " << m;
+    }
+}
+
+TEST(Footprint, GroupsFollowEachGhostsBlurAndMagnification) {
+    // A 20 x 20 px footprint on 0.02 mm pixels. Ghosts: sharp at 1, sharp and inverted at -2, close to 1.1
+    // but blurred over 10 mm (500 px, more than 4 x 22 px), too small to show (0.01 x 20 px), and sharp at
+    // 3 but nearly dark: it joins the point group.
+    detect::Shape square;
+    square.width = square.height = 10;
+    square.cell = 2.0;
+    square.origin_x = square.origin_y = -10.0;
+    square.weights.assign(100, 0.01f);
+    std::vector<optics::Ghost> ghosts(5);
+    for (int g = 0; g < 5; ++g) ghosts[static_cast<std::size_t>(g)] = {g + 1, 0, {}, false};
+    const std::vector<optics::GhostImaging> imaging{{1.0, 0.0}, {-2.0, 0.01}, {1.1, 10.0}, {0.01, 0.0}, {3.0, 0.0}};
+    const std::vector<double> power{1.0, 1.0, 1.0, 1.0, 1e-5};
+    const auto groups = filter::footprint_groups(ghosts, imaging, power, square, 0.02);
+    ASSERT_EQ(groups.size(), 3u);
+    EXPECT_EQ(groups[0].magnification, 0.0);
+    EXPECT_EQ(groups[0].ghosts, (std::vector<std::pair<int, int>>{{3, 0}, {4, 0}, {5, 0}}));
+    std::map<double, std::vector<std::pair<int, int>>> sharp;
+    for (std::size_t k = 1; k < groups.size(); ++k) sharp[groups[k].magnification] = groups[k].ghosts;
+    EXPECT_EQ(sharp.at(1.0), (std::vector<std::pair<int, int>>{{1, 0}}));
+    EXPECT_EQ(sharp.at(-2.0), (std::vector<std::pair<int, int>>{{2, 0}}));
+}
+
+TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
+    // A 40 px square footprint at magnification -5 (a 200 px kernel): done at a quarter of the size.
+    detect::Shape square;
+    square.width = square.height = 10;
+    square.cell = 4.0;
+    square.origin_x = 0.0;
+    square.origin_y = -20.0;
+    square.weights.assign(100, 0.01f);
+    const int w = 640, h = 200;
+    std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
+    rgb[static_cast<std::size_t>(100 * w + 420) * 3 + 1] = 5.0f;
+    filter::convolve_footprint(rgb, w, h, square, -5.0);
+    const auto [cx, sum] = centroid_x(rgb, w, 1);
+    EXPECT_NEAR(sum, 5.0, 0.05);
+    EXPECT_NEAR(cx - 420.0, -5.0 * 20.0, 3.0);
+    float peak = 0.0f;
+    for (std::size_t i = 1; i < rgb.size(); i += 3) peak = std::max(peak, rgb[i]);
+    EXPECT_NEAR(peak, 5.0f / (200.0f * 200.0f), 0.15f * 5.0f / (200.0f * 200.0f)) << "spread over 200 x 200 px";
 }

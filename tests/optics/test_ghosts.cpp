@@ -2,9 +2,11 @@
 // along a ghost against hand-computed products.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include <optics/ghosts.h>
+#include <optics/paraxial.h>
 
 #include "physics_systems.h"
 
@@ -108,4 +110,44 @@ TEST(Ghosts, CoatingsDimGhosts) {
             EXPECT_LT(b, a) << g.first << "," << g.second;
         }
     }
+}
+
+TEST(Ghosts, ImagingOfAPlateGhostInAConvergingBeam) {
+    // The double Gauss (f/2, EFL 100) with a 3 mm plate 20 mm behind its last vertex, the sensor moved to
+    // the new focus. The ghost reflecting inside the plate crosses it three times: it keeps the direct
+    // image's scale but for the chief ray's extra sideways step in the glass, 2 t u / n for a chief ray at
+    // slope u = h / d from the exit pupil d before the sensor; and its extra 2 t of glass (2 t / n in air)
+    // bring its focus that much in front of the sensor, so at f/N its blur is 2 t / (n N).
+    auto specs = double_gauss_specs();
+    const double t = 3.0;
+    const Glass plate_glass = medium("N-BK7");
+    const double n = plate_glass.index(kLambdaD_nm);
+    const double back = specs.back().thickness;
+    specs.back().thickness = 20.0;
+    specs.push_back({0.0, t, "N-BK7"});
+    specs.push_back({0.0, back - 20.0 - t + t * (1.0 - 1.0 / n), ""});
+    const System system = build_system("double Gauss + plate", specs, 50.0, 14.0);
+    const std::vector<Ghost> ghosts = enumerate_ghosts(system);
+    const std::vector<GhostImaging> imaging = ghost_imaging(system, ghosts);
+    const int last = static_cast<int>(system.interfaces.size()) - 1;
+    bool found = false;
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        EXPECT_TRUE(std::isfinite(imaging[g].magnification) && std::isfinite(imaging[g].blur_mm));
+        EXPECT_GE(imaging[g].blur_mm, 0.0);
+        if (ghosts[g].first != last || ghosts[g].second != last - 1) continue;
+        found = true;
+        const Paraxial first_order = paraxial(system);
+        const double f_number = first_order.f_number;
+        const double exit_pupil_to_sensor = system.sensor_z_mm - system.interfaces.back().z_mm - first_order.exit_pupil_mm;
+        const double step = 2.0 * t / (n * exit_pupil_to_sensor);
+        EXPECT_NEAR(imaging[g].magnification, 1.0 + step, 0.05 * step);
+        EXPECT_NEAR(imaging[g].blur_mm, 2.0 * t / (n * f_number), 0.02 * 2.0 * t / (n * f_number));
+    }
+    EXPECT_TRUE(found);
+    // A ghost between the lens's own surfaces images the light elsewhere, blurred and scaled.
+    const auto lens_ghost = std::find_if(ghosts.begin(), ghosts.end(), [](const Ghost& g) { return g.first == 2 && g.second == 0; });
+    ASSERT_NE(lens_ghost, ghosts.end());
+    const GhostImaging& li = imaging[static_cast<std::size_t>(lens_ghost - ghosts.begin())];
+    EXPECT_GT(li.blur_mm, 1.0);
+    EXPECT_GT(std::abs(li.magnification - 1.0), 0.05);
 }

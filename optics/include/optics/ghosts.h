@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <optics/lens.h>
+#include <optics/system.h>
 #include <optics/tracer.h>
 
 namespace lensfx::optics {
@@ -38,5 +39,17 @@ std::size_t ghost_count(const System& system, const GhostOptions& options = {});
 // R_j * R_i * product of T at every other visit. A quick brightness estimate (intensity LOD, sorting);
 // the per-ray value at any angle is TraceResult::transmission.
 double ghost_axial_factor(const TraceSystem& system, const Ghost& ghost);
+
+// First-order imaging of a ghost, for drawing the ghosts of extended sources: magnification is how far the
+// ghost's centre moves on the sensor per unit movement of the light's direct image (negative: the other
+// way, an inverted image of the source; the direct path has 1), for a light near the axis; blur_mm is the
+// diameter of its defocused image of a point light with the whole entrance pupil open (unclipped).
+struct GhostImaging {
+    double magnification = 1.0;
+    double blur_mm = 0.0;
+};
+// Per ghost, from real rays traced close to the axis (both 1 and 0 where a ghost's rays fail).
+std::vector<GhostImaging> ghost_imaging(const System& system, const std::vector<Ghost>& ghosts,
+                                        double wavelength_nm = kLambdaD_nm);
 
 }  // namespace lensfx::optics

@@ -1,0 +1,38 @@
+// Extended sources (issue 6): the ghost of an extended source is the point light's ghost convolved with
+// the source's footprint as that ghost images it, scaled by the ghost's magnification. Which ghosts need the
+// footprint (and at which magnification), and the convolution itself.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include <detect/source.h>
+#include <optics/ghosts.h>
+
+namespace lensfx::filter {
+
+// A group of an extended light's ghosts drawn together.
+struct FootprintGroup {
+    double magnification = 1.0;  // the footprint's scale for these ghosts; 0: drawn as from a point
+    std::vector<std::pair<int, int>> ghosts;  // Ghost::first, Ghost::second
+};
+
+// Ghosts too blurred (blur over kBlurOverFootprint times the scaled footprint) or too small (under a pixel)
+// for the footprint to show are drawn as from a point; the others are grouped by magnification in steps of
+// sqrt 2, limited to 1/16..16. Groups carrying under kMinGroupShare of the lens's ghost power at normal
+// incidence (axial_power, per ghost) join the point group, which comes first when there is one.
+inline constexpr double kBlurOverFootprint = 4.0;
+inline constexpr double kMinGroupShare = 1e-3;
+std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,
+                                             const std::vector<optics::GhostImaging>& imaging,
+                                             const std::vector<double>& axial_power, const detect::Shape& shape,
+                                             double pixel_mm);
+
+// Convolves an RGB image (width x height, top row first) with a light's footprint scaled by magnification m
+// (negative: turned round), normalised to keep the image's sum. One DFT-based filter of the whole image, so
+// the cost follows the frame and kernel size, not the source's pixel count; kernels wider than
+// kMaxKernelRadius pixels are applied to the image reduced so that they are half that.
+inline constexpr int kMaxKernelRadius = 64;
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
+
+}  // namespace lensfx::filter

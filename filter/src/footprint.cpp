@@ -1,0 +1,109 @@
+// Extended sources: footprint groups and the footprint convolution.
+#include <filter/footprint.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace lensfx::filter {
+
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m) {
+    const double cell = std::max(1e-6, shape.cell);
+    const double x0 = shape.origin_x, y0 = shape.origin_y;
+    const double x1 = x0 + shape.width * cell, y1 = y0 + shape.height * cell;
+    const int rx = static_cast<int>(std::ceil(std::abs(m) * std::max(std::abs(x0), std::abs(x1)))) + 1;
+    const int ry = static_cast<int>(std::ceil(std::abs(m) * std::max(std::abs(y0), std::abs(y1)))) + 1;
+    if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
+        // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
+        // size (area averages), with the footprint in those pixels, and upsample bilinearly.
+        const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
+        cv::Mat image(height, width, CV_32FC3, rgb.data());
+        cv::Mat small;
+        cv::resize(image, small, cv::Size(sw, sh), 0.0, 0.0, cv::INTER_AREA);
+        std::vector<float> small_rgb;
+        small_rgb.assign(reinterpret_cast<const float*>(small.data),
+                         reinterpret_cast<const float*>(small.data) + static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
+        detect::Shape reduced = shape;
+        reduced.cell /= factor;
+        reduced.origin_x /= factor;
+        reduced.origin_y /= factor;
+        convolve_footprint(small_rgb, sw, sh, reduced, m);
+        cv::resize(cv::Mat(sh, sw, CV_32FC3, small_rgb.data()), image, cv::Size(width, height), 0.0, 0.0, cv::INTER_LINEAR);
+        return;
+    }
+    // The footprint's weight per pixel at an offset from the light (0 outside it).
+    auto weight_at = [&](double ox, double oy) {
+        const int i = static_cast<int>(std::floor((ox - x0) / cell));
+        const int j = static_cast<int>(std::floor((oy - y0) / cell));
+        if (i < 0 || j < 0 || i >= shape.width || j >= shape.height) return 0.0f;
+        return shape.weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(shape.width) + static_cast<std::size_t>(i)];
+    };
+    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
+    if (std::abs(m) >= 1.0) {  // enlarged: each kernel pixel looks up where it came from
+        for (int ky = -ry; ky <= ry; ++ky)
+            for (int kx = -rx; kx <= rx; ++kx) kernel.at<float>(ry + ky, rx + kx) = weight_at(kx / m, ky / m);
+    } else {  // shrunk: each footprint pixel is shared bilinearly where it lands
+        for (double oy = y0 + 0.5; oy < y1; oy += 1.0) {
+            for (double ox = x0 + 0.5; ox < x1; ox += 1.0) {
+                const float w = weight_at(ox, oy);
+                if (w == 0.0f) continue;
+                const double tx = rx + m * (ox - 0.5), ty = ry + m * (oy - 0.5);
+                const int ix = static_cast<int>(std::floor(tx)), iy = static_cast<int>(std::floor(ty));
+                const float fx = static_cast<float>(tx - ix), fy = static_cast<float>(ty - iy);
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx)
+                        if (ix + dx >= 0 && iy + dy >= 0 && ix + dx < kernel.cols && iy + dy < kernel.rows)
+                            kernel.at<float>(iy + dy, ix + dx) += w * (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
+            }
+        }
+    }
+    const double sum = cv::sum(kernel)[0];
+    if (!(sum > 0.0)) return;  // nothing of the footprint left: the ghost stays the point light's
+    kernel /= sum;
+    cv::Mat flipped;
+    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
+    cv::Mat image(height, width, CV_32FC3, rgb.data());
+    cv::Mat out;
+    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
+    out.copyTo(image);
+}
+
+std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,
+                                             const std::vector<optics::GhostImaging>& imaging,
+                                             const std::vector<double>& axial_power, const detect::Shape& shape,
+                                             double pixel_mm) {
+    const double footprint_px = std::max(shape.width, shape.height) * shape.cell;
+    double total = 0.0;
+    for (double p : axial_power) total += p;
+    std::map<int, FootprintGroup> by_step;  // key: signed sqrt(2) step of the magnification, 0 for points
+    std::map<int, double> power;
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        const double m = imaging[g].magnification;
+        const double size_px = std::abs(m) * footprint_px;
+        int key = 0;
+        if (size_px >= 1.0 && imaging[g].blur_mm / pixel_mm <= kBlurOverFootprint * size_px) {
+            const int step = std::clamp(static_cast<int>(std::lround(2.0 * std::log2(std::abs(m)))), -8, 8);
+            key = m < 0.0 ? -(step + 100) : step + 100;
+        }
+        FootprintGroup& group = by_step[key];
+        group.magnification = key == 0 ? 0.0 : std::copysign(std::pow(2.0, 0.5 * (std::abs(key) - 100)), m);
+        group.ghosts.emplace_back(ghosts[g].first, ghosts[g].second);
+        power[key] += axial_power[g];
+    }
+    // The point group first, then the sharp groups by increasing key.
+    std::vector<FootprintGroup> out(1, FootprintGroup{0.0, {}});
+    for (auto& [key, group] : by_step) {
+        if (key == 0 || !(power[key] >= kMinGroupShare * total)) {
+            out.front().ghosts.insert(out.front().ghosts.end(), group.ghosts.begin(), group.ghosts.end());
+        } else {
+            out.push_back(group);
+        }
+    }
+    if (out.front().ghosts.empty()) out.erase(out.begin());
+    return out;
+}
+
+}  // namespace lensfx::filter
