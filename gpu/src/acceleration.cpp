@@ -194,8 +194,8 @@ void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estim
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '1'};
-constexpr int kFieldsPerGhost = 7;
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '2'};
+constexpr int kFieldsPerGhost = 10;
 
 }  // namespace
 
@@ -226,7 +226,7 @@ int BoundsTable::load() {
         const double* v = values.data();
         for (auto& pass : entry) {
             for (GhostEstimate& g : pass) {
-                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6]};
+                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9]};
                 v += kFieldsPerGhost;
             }
         }
@@ -256,7 +256,7 @@ void BoundsTable::save() const {
             for (const auto& pass : entry) {
                 for (const GhostEstimate& g : pass) {
                     const double v[kFieldsPerGhost] = {g.rect.x0, g.rect.y0, g.rect.x1, g.rect.y1, g.power, g.area_cv,
-                                                       g.extent_mm};
+                                                       g.extent_mm, g.fill, g.failed_edge, g.iris_edge};
                     out.write(reinterpret_cast<const char*>(v), sizeof v);
                 }
             }
@@ -289,6 +289,9 @@ std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) 
         r.power = (1.0 - t) * p.power + t * q.power;
         r.area_cv = std::max(p.area_cv, q.area_cv);
         r.extent_mm = std::max(p.extent_mm, q.extent_mm);
+        r.fill = std::min(p.fill, q.fill);
+        r.failed_edge = std::max(p.failed_edge, q.failed_edge);
+        r.iris_edge = std::max(p.iris_edge, q.iris_edge);
     }
     return out;
 }

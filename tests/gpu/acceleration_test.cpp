@@ -79,8 +79,10 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     const auto dir = fresh_dir("table");
     BoundsTable table(0x1234, 2, 3, dir.string());
     std::vector<std::vector<GhostEstimate>> entry(2, std::vector<GhostEstimate>(3));
-    entry[1][2] = {{-1.5, -0.5, 2.0, 0.25}, 3e-4, 0.7, 5.5};
+    entry[1][2] = {{-1.5, -0.5, 2.0, 0.25}, 3e-4, 0.7, 5.5, 0.4, 1.5, 2.5};
     table.store(4, entry);
+    entry[1][2].fill = 0.3;
+    entry[1][2].iris_edge = 3.0;
     table.store(5, entry);
     table.save();
     BoundsTable again(0x1234, 2, 3, dir.string());
@@ -88,8 +90,12 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     ASSERT_NE(again.entry(5), nullptr);
     EXPECT_EQ((*again.entry(5))[1][2].rect.x1, 2.0);
     EXPECT_EQ((*again.entry(5))[1][2].extent_mm, 5.5);
+    EXPECT_EQ((*again.entry(5))[1][2].failed_edge, 1.5);
     const auto mid = again.interpolate(1, 4.5 * BoundsTable::step_deg);
     EXPECT_DOUBLE_EQ(mid[2].power, 3e-4);
+    EXPECT_EQ(mid[2].fill, 0.3);       // the smaller fill
+    EXPECT_EQ(mid[2].iris_edge, 3.0);  // the longer outline
+    EXPECT_EQ(mid[2].failed_edge, 1.5);
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
     std::ofstream(again.path(), std::ios::trunc) << "garbage";
