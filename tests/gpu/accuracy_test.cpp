@@ -103,7 +103,7 @@ INSTANTIATE_TEST_SUITE_P(NikonZoom, GhostAccuracy,
 // Ghosts that the cell-area rule alone drew far off at the fast default (docs/acceleration.md, outline
 // rule): the Nikon zoom's 4,9 at f/8 with the light on the axis (a thin ring cut by the iris, +21%) and the
 // fisheye's 2,4 at (8, 5) degrees (a sliver bounded by failed rays, -41%). At the default settings each
-// ghost's power is within 5% of a dense reference over its bounds (measured +1.6% and -1.5% against 1600^2
+// ghost's power is within 5% of a dense reference over its bounds (measured +1.6% and -1.4% against 1600^2
 // rays; the 800^2-ray reference used here is itself within about 1%).
 struct HardGhost {
     const char* lens;

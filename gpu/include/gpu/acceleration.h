@@ -24,7 +24,8 @@ const char* to_string(Bounding bounding);
 
 struct Acceleration {
     Bounding bounding = Bounding::Table;
-    bool adaptive = true;          // grid per ghost from the variance of its cell areas on the sensor
+    bool adaptive = true;          // grid per ghost from the variance of its cell areas on the sensor, its fill
+                                   // and its outlines (acceleration.cpp)
     bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
