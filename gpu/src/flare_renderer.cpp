@@ -182,34 +182,49 @@ GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghos
 
 // What a coarse pass over the entrance square learns of one ghost, from its vertices: where the rays
 // get through and land within sensor_radius_mm of the centre (the circle round the sensor, the same for
-// every azimuth of the light), their power, how uniform the unblocked cells' sensor areas are and the sensor extent.
+// every azimuth of the light), their power, how uniform the unblocked cells' sensor areas are, the sensor
+// extent, how much of the rectangle passes, and how long the outlines are that the renderer resolves only
+// at its grid's cells: by failed rays and by the iris.
 GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& square, int stop_crossings,
                               const Aperture& aperture, double cos_angle, double sensor_radius_mm) {
     const double dx = (square.x1 - square.x0) / res;
     const double dy = (square.y1 - square.y0) / res;
     const std::size_t stride = static_cast<std::size_t>(res + 1);
-    std::vector<char> passes(stride * stride, 0);
+    enum : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3 };
+    std::vector<char> state(stride * stride, kBlocked);
     GhostEstimate out;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
     PupilRect sensor{1e300, 1e300, -1e300, -1e300};
+    int ix0 = res, iy0 = res, ix1 = 0, iy1 = 0;
     bool any = false;
     for (int iy = 0; iy <= res; ++iy) {
         for (int ix = 0; ix <= res; ++ix) {
             const std::size_t index = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
             const float* v = vertices + index * 12;
-            if (v[10] < 0.5f || v[2] > 1.0f) continue;
+            if (v[10] < 0.5f) {
+                state[index] = kFailed;
+                continue;
+            }
+            if (v[2] > 1.0f) continue;
             if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) continue;
             bool inside = true;
             for (int k = 0; k < std::min(stop_crossings, 3) && inside; ++k) {
                 inside = aperture_sdf(aperture, static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
             }
-            if (!inside) continue;
-            passes[index] = 1;
+            if (!inside) {
+                state[index] = kIrisBlocked;
+                continue;
+            }
+            state[index] = kPasses;
             any = true;
             out.power += static_cast<double>(v[3]) * dx * dy * cos_angle;
             const double x = square.x0 + dx * ix;
             const double y = square.y0 + dy * iy;
             box = {std::min(box.x0, x), std::min(box.y0, y), std::max(box.x1, x), std::max(box.y1, y)};
+            ix0 = std::min(ix0, ix);
+            iy0 = std::min(iy0, iy);
+            ix1 = std::max(ix1, ix);
+            iy1 = std::max(iy1, iy);
             const double sx = v[0];
             const double sy = v[1];
             sensor = {std::min(sensor.x0, sx), std::min(sensor.y0, sy), std::max(sensor.x1, sx), std::max(sensor.y1, sy)};
@@ -219,15 +234,43 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy), std::min(square.x1, box.x1 + dx),
                 std::min(square.y1, box.y1 + dy)};
     out.extent_mm = std::max(sensor.x1 - sensor.x0, sensor.y1 - sensor.y0);
-    // Sensor areas of the cells whose four corners all get through (shoelace over the quadrilateral).
+    // Fill: the passing share of the coarse vertices within the rectangle (the passing box grown by a cell).
+    ix0 = std::max(0, ix0 - 1);
+    iy0 = std::max(0, iy0 - 1);
+    ix1 = std::min(res, ix1 + 1);
+    iy1 = std::min(res, iy1 + 1);
+    int passing = 0;
+    for (int iy = iy0; iy <= iy1; ++iy)
+        for (int ix = ix0; ix <= ix1; ++ix)
+            passing += state[static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix)] == kPasses;
+    out.fill = static_cast<double>(passing) / ((ix1 - ix0 + 1) * (iy1 - iy0 + 1));
+    // Sensor areas of the cells whose four corners all get through (shoelace over the quadrilateral), and
+    // the cells the outline cuts (some corners pass) with a corner whose ray failed or the iris blocked.
     double sum = 0.0;
     double sum2 = 0.0;
     int cells = 0;
+    int touched = 0;
+    int iris_cut = 0;
+    int failed_cut = 0;
     for (int iy = 0; iy < res; ++iy) {
         for (int ix = 0; ix < res; ++ix) {
             const std::size_t a = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
             const std::size_t corner[4] = {a, a + 1, a + stride + 1, a + stride};
-            if (!(passes[corner[0]] && passes[corner[1]] && passes[corner[2]] && passes[corner[3]])) continue;
+            int pass = 0;
+            bool iris = false;
+            bool failed = false;
+            for (std::size_t c : corner) {
+                pass += state[c] == kPasses;
+                iris = iris || state[c] == kIrisBlocked;
+                failed = failed || state[c] == kFailed;
+            }
+            if (pass == 0) continue;
+            ++touched;
+            if (pass < 4) {
+                iris_cut += iris;
+                failed_cut += failed;
+                continue;
+            }
             double twice = 0.0;
             for (int k = 0; k < 4; ++k) {
                 const float* p = vertices + corner[k] * 12;
@@ -239,6 +282,10 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
             sum2 += area * area;
             ++cells;
         }
+    }
+    if (touched > 0) {
+        out.failed_edge = failed_cut / std::sqrt(static_cast<double>(touched));
+        out.iris_edge = iris_cut / std::sqrt(static_cast<double>(touched));
     }
     if (cells > 1 && sum > 0.0) {
         const double mean = sum / cells;

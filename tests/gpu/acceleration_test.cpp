@@ -75,12 +75,50 @@ TEST(PlanGhosts, ThresholdBudgetAndAdaptiveGrid) {
     for (const GhostPlan& p : plans) EXPECT_TRUE(p.draw && p.grid == 32);
 }
 
+// The outline rule: a small passing share of the rectangle, or a long outline of failed rays or of the
+// iris, refines the grid (in proportion to the base, capped at 8 times it); such a ghost is never halved
+// as smooth; the level of detail still thins dim ones.
+TEST(PlanGhosts, OutlineRuleRefinesThinAndClippedGhosts) {
+    std::vector<GhostEstimate> e(5);
+    for (GhostEstimate& g : e) {
+        g.rect = {-1, -1, 1, 1};
+        g.power = 1.0;
+        g.area_cv = 0.01;  // smooth by the cell areas
+    }
+    e[1].fill = 0.0625;    // a quarter of the base's cells across: twice the base
+    e[2].fill = 0.077;     // the Nikon 4,9 ring at f/8 (docs/acceleration.md)
+    e[2].iris_edge = 10.1;
+    e[3].fill = 0.217;     // the fisheye's 2,4 sliver
+    e[3].failed_edge = 4.52;
+    e[4].fill = 0.01;      // capped
+    e[4].failed_edge = 50.0;
+    Acceleration a;
+    auto plans = plan_ghosts(e, a, 16, 0.1, true);
+    EXPECT_EQ(plans[0].grid, 16);
+    EXPECT_EQ(plans[1].grid, 32);
+    EXPECT_EQ(plans[2].grid, 61);
+    EXPECT_EQ(plans[3].grid, 122);
+    EXPECT_EQ(plans[4].grid, 128);
+    plans = plan_ghosts(e, a, 32, 0.1, true);
+    EXPECT_EQ(plans[0].grid, 16);  // smooth and whole: halved
+    EXPECT_EQ(plans[2].grid, 122);
+    EXPECT_EQ(plans[4].grid, 256);
+    e[0].iris_edge = 6.0;  // a ring whose outline at 16 cells would be over the iris share: not halved
+    EXPECT_GT(plan_ghosts(e, a, 32, 0.1, true)[0].grid, 16);
+    e[2].power = 1e-3;  // dim: the level of detail scales the refined grid down
+    EXPECT_LT(plan_ghosts(e, a, 16, 0.1, true)[2].grid, 61);
+    a.adaptive = false;
+    for (const GhostPlan& p : plan_ghosts(e, a, 16, 0.1, true)) EXPECT_LE(p.grid, 16);
+}
+
 TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     const auto dir = fresh_dir("table");
     BoundsTable table(0x1234, 2, 3, dir.string());
     std::vector<std::vector<GhostEstimate>> entry(2, std::vector<GhostEstimate>(3));
-    entry[1][2] = {{-1.5, -0.5, 2.0, 0.25}, 3e-4, 0.7, 5.5};
+    entry[1][2] = {{-1.5, -0.5, 2.0, 0.25}, 3e-4, 0.7, 5.5, 0.4, 1.5, 2.5};
     table.store(4, entry);
+    entry[1][2].fill = 0.3;
+    entry[1][2].iris_edge = 3.0;
     table.store(5, entry);
     table.save();
     BoundsTable again(0x1234, 2, 3, dir.string());
@@ -88,8 +126,12 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     ASSERT_NE(again.entry(5), nullptr);
     EXPECT_EQ((*again.entry(5))[1][2].rect.x1, 2.0);
     EXPECT_EQ((*again.entry(5))[1][2].extent_mm, 5.5);
+    EXPECT_EQ((*again.entry(5))[1][2].failed_edge, 1.5);
     const auto mid = again.interpolate(1, 4.5 * BoundsTable::step_deg);
     EXPECT_DOUBLE_EQ(mid[2].power, 3e-4);
+    EXPECT_EQ(mid[2].fill, 0.3);       // the smaller fill
+    EXPECT_EQ(mid[2].iris_edge, 3.0);  // the longer outline
+    EXPECT_EQ(mid[2].failed_edge, 1.5);
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
     std::ofstream(again.path(), std::ios::trunc) << "garbage";

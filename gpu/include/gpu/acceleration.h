@@ -24,7 +24,8 @@ const char* to_string(Bounding bounding);
 
 struct Acceleration {
     Bounding bounding = Bounding::Table;
-    bool adaptive = true;          // grid per ghost from the variance of its cell areas on the sensor
+    bool adaptive = true;          // grid per ghost from the variance of its cell areas on the sensor, its fill
+                                   // and its outlines (acceleration.cpp)
     bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
@@ -58,6 +59,14 @@ struct GhostEstimate {
     double power = 0.0;       // their power, mm^2 per unit irradiance
     double area_cv = 0.0;     // coefficient of variation of the unblocked coarse cells' sensor areas
     double extent_mm = 0.0;   // larger side of the ghost's bounding box on the sensor
+    double fill = 1.0;        // share of the coarse vertices within rect whose rays get through
+    // The outline, as coarse cells with some corners passing and some not, per square root of the coarse
+    // cells with a passing corner (so outline / (sqrt(fill) * grid) is roughly the outline's share of a
+    // grid's cells on the passing part): where a corner's ray fails (misses a surface, total internal
+    // reflection; the renderer drops such cells whole) and where a corner is blocked by the iris (clipped
+    // on interpolated stop coordinates).
+    double failed_edge = 0.0;
+    double iris_edge = 0.0;
 };
 
 // Per-ghost drawing decisions from the estimates of one pass.
@@ -96,8 +105,8 @@ public:
     int load();
     void save() const;  // writes atomically (temporary file, then rename); throws naming the file
 
-    // For a field angle between two entries: the union of their rectangles, the larger cv and extent,
-    // the interpolated power. Both entries must be present.
+    // For a field angle between two entries: the union of their rectangles, the larger cv, extent and
+    // outlines, the smaller fill, the interpolated power. Both entries must be present.
     std::vector<GhostEstimate> interpolate(int pass, double theta_deg) const;
 
 private:
