@@ -527,9 +527,18 @@ void FlareStage::process(Frame& frame) {
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
                                     (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
+            // An extended light's diffraction is every point's pattern over its footprint: drawn apart, then
+            // spread over it (the direct image, magnification 1).
+            const bool spread = light.shape && !light.shape->weights.empty();
+            std::vector<float> own;
+            if (spread) own.assign(display_px * 3, 0.0f);
             optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x, light.y, energy,
                                     geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height,
-                                    flare_rgb.data(), geo.width, geo.height, core_texels);
+                                    spread ? own.data() : flare_rgb.data(), geo.width, geo.height, core_texels);
+            if (spread) {
+                convolve_footprint(own, geo.width, geo.height, *light.shape, 1.0);
+                for (std::size_t i = 0; i < own.size(); ++i) flare_rgb[i] += own[i];
+            }
             starburst_ms += ms_since(t);
         }
         if (!parts.ghosts) continue;

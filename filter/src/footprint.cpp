@@ -14,8 +14,8 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     const double cell = std::max(1e-6, shape.cell);
     const double x0 = shape.origin_x, y0 = shape.origin_y;
     const double x1 = x0 + shape.width * cell, y1 = y0 + shape.height * cell;
-    const int rx = static_cast<int>(std::ceil(std::abs(m) * std::max(std::abs(x0), std::abs(x1)))) + 1;
-    const int ry = static_cast<int>(std::ceil(std::abs(m) * std::max(std::abs(y0), std::abs(y1)))) + 1;
+    const int rx = static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(x0), std::abs(x1)) + 0.5 * cell))) + 1;
+    const int ry = static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(y0), std::abs(y1)) + 0.5 * cell))) + 1;
     if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and upsample bilinearly.
@@ -34,20 +34,26 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
         cv::resize(cv::Mat(sh, sw, CV_32FC3, small_rgb.data()), image, cv::Size(width, height), 0.0, 0.0, cv::INTER_LINEAR);
         return;
     }
-    // The footprint's weight per pixel at an offset from the light (0 outside it).
-    auto weight_at = [&](double ox, double oy) {
-        const int i = static_cast<int>(std::floor((ox - x0) / cell));
-        const int j = static_cast<int>(std::floor((oy - y0) / cell));
+    // The footprint's weight at an offset from the light, interpolated bilinearly between cell centres (cells
+    // of many pixels would otherwise print their squares), 0 beyond half a cell outside it.
+    auto cell_weight = [&](int i, int j) {
         if (i < 0 || j < 0 || i >= shape.width || j >= shape.height) return 0.0f;
         return shape.weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(shape.width) + static_cast<std::size_t>(i)];
+    };
+    auto weight_at = [&](double ox, double oy) {
+        const double u = (ox - x0) / cell - 0.5, v = (oy - y0) / cell - 0.5;
+        const int i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
+        const float fu = static_cast<float>(u - i), fv = static_cast<float>(v - j);
+        return (1.0f - fv) * ((1.0f - fu) * cell_weight(i, j) + fu * cell_weight(i + 1, j)) +
+               fv * ((1.0f - fu) * cell_weight(i, j + 1) + fu * cell_weight(i + 1, j + 1));
     };
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
     if (std::abs(m) >= 1.0) {  // enlarged: each kernel pixel looks up where it came from
         for (int ky = -ry; ky <= ry; ++ky)
             for (int kx = -rx; kx <= rx; ++kx) kernel.at<float>(ry + ky, rx + kx) = weight_at(kx / m, ky / m);
     } else {  // shrunk: each footprint pixel is shared bilinearly where it lands
-        for (double oy = y0 + 0.5; oy < y1; oy += 1.0) {
-            for (double ox = x0 + 0.5; ox < x1; ox += 1.0) {
+        for (double oy = y0 - 0.5 * cell + 0.5; oy < y1 + 0.5 * cell; oy += 1.0) {
+            for (double ox = x0 - 0.5 * cell + 0.5; ox < x1 + 0.5 * cell; ox += 1.0) {
                 const float w = weight_at(ox, oy);
                 if (w == 0.0f) continue;
                 const double tx = rx + m * (ox - 0.5), ty = ry + m * (oy - 0.5);

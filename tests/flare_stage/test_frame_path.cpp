@@ -165,6 +165,26 @@ TEST(FramePath, MinLightSkipsLightsTooDimAgainstTheBrightest) {
     EXPECT_GT(c.sum(1), b.sum(1));
 }
 
+TEST(FramePath, ExtendedSourceSpreadsItsStarburstOverItsFootprint) {
+    // The same flux as a small light and as a disc of radius 24 px: the disc's diffraction is every point's
+    // pattern over the disc, the same energy, no longer piled on its centre.
+    const fs::path dir = temp_dir("extended_starburst");
+    write_frame(dir / "small.exr", {{230.3, 60.6, 2.0, 20000.0}});
+    write_frame(dir / "big.exr", {{230.3, 60.6, 24.0, 20000.0 * 4.0 / 576.0}});
+    const std::string opts = " --flare-only --parts starburst --threshold 5";
+    ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "s.exr").string() + kLensOnly + opts), 0);
+    ASSERT_EQ(run("-i " + (dir / "big.exr").string() + " -o " + (dir / "b.exr").string() + kLensOnly + opts), 0);
+    const Image s = read(dir / "s.exr"), b = read(dir / "b.exr");
+    float s_max = 0.0f, b_max = 0.0f;
+    for (std::size_t i = 1; i < s.px.size(); i += 3) {
+        s_max = std::max(s_max, s.px[i]);
+        b_max = std::max(b_max, b.px[i]);
+    }
+    std::printf("starburst energy disc/small %.4f, peak disc/small %.4f\n", b.sum(1) / s.sum(1), static_cast<double>(b_max / s_max));
+    EXPECT_NEAR(b.sum(1) / s.sum(1), 1.0, 0.03);
+    EXPECT_LT(b_max, 0.01f * s_max) << "spread over the disc";
+}
+
 TEST(FramePath, ExtendedSourceSpreadsItsGhostsWithoutLosingEnergy) {
     const fs::path dir = temp_dir("extended");
     // The same flux as a small light and as a disc of radius 24 px (a window): the ghosts of the disc are
