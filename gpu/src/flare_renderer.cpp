@@ -73,9 +73,20 @@ struct FlareRenderer::State {
     // Render targets at full, 1/2, 1/4 and 1/8 of the image size, kept while the image size stays.
     std::optional<FloatTarget> targets[4];
 
+    // Which of targets[] holds 1/reduce of the image.
+    static std::size_t slot(int reduce) {
+        switch (reduce) {
+            case 1: return 0;
+            case 2: return 1;
+            case 4: return 2;
+            case 8: return 3;
+            default: throw std::logic_error(fmt::format("no render target at 1/{} of the image", reduce));
+        }
+    }
+
     // The target at 1/reduce (1, 2, 4 or 8) of width x height, made (or remade for a new size) on demand.
     FloatTarget& target(int reduce, int width, int height) {
-        std::optional<FloatTarget>& t = targets[std::countr_zero(static_cast<unsigned>(reduce))];
+        std::optional<FloatTarget>& t = targets[slot(reduce)];
         const int w = (width + reduce - 1) / reduce;
         const int h = (height + reduce - 1) / reduce;
         if (!t || t->width() != w || t->height() != h) t.emplace(w, h);
@@ -420,7 +431,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         const std::pair<std::uint64_t, double> id{key, passes[p].wavelength_nm};
         auto it = s.sequences.find(id);
         if (it == s.sequences.end()) {
-            if (s.sequences.size() >= 24) s.sequences.clear();
+            if (s.sequences.size() >= 96) s.sequences.clear();  // room for an extended light's ghost groups
             State::Sequences built{build_sequences(traced[p], ghosts), GlObject::buffer(), GlObject::buffer()};
             glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
                                  built.seq.steps.data(), 0);
@@ -638,7 +649,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         const GhostPlan& plan = plans[g];
                         if (plan.reduce != reduce) continue;
                         if (!bound) {
-                            const int slot = std::countr_zero(static_cast<unsigned>(reduce));
+                            const std::size_t slot = State::slot(reduce);
                             FloatTarget& t = s.target(reduce, view.width, view.height);
                             t.bind();
                             if (slot > 0 && !drawn_into[slot]) t.clear();
