@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <chrono>
 #include <map>
 #include <cmath>
 #include <numbers>
@@ -711,8 +710,6 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     target.bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    glFinish();
-    const auto read_start = std::chrono::steady_clock::now();
     if (options.per_ghost_power) {
         for (int y = 0; y < view.height; ++y) {
             const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
@@ -729,7 +726,6 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             add_target(small.read_rgba(), small.width(), small.height(), rgb, view.width, view.height);
         }
     }
-    s.stats.readback_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - read_start).count();
     glUseProgram(0);
     glBindVertexArray(0);
 }

@@ -133,7 +133,6 @@ struct RenderStats {
     long long rays = 0;         // grid vertices traced for drawing
     int table_computed = 0;     // bounds-table entries computed by this render
     int table_loaded = 0;       // entries read from disk by this render
-    double readback_ms = 0.0;   // reading the targets back and upsampling into the image (after the GL finished)
 };
 
 }  // namespace lensfx::gpu
