@@ -40,19 +40,6 @@ struct Errors {
     double l1 = 0.0, shape_l1 = 0.0, edges = 0.0;
 };
 
-double edges(const gpu::FlareImage& image) {
-    double tv = 0.0, total = 0.0;
-    for (int y = 0; y < image.height; ++y)
-        for (int x = 0; x < image.width; ++x)
-            for (int c = 0; c < 3; ++c) {
-                const double v = image.at(x, y, c);
-                total += std::abs(v);
-                if (x + 1 < image.width) tv += std::abs(static_cast<double>(image.at(x + 1, y, c)) - v);
-                if (y + 1 < image.height) tv += std::abs(static_cast<double>(image.at(x, y + 1, c)) - v);
-            }
-    return total > 0.0 ? tv / total : 0.0;
-}
-
 Errors compare(const gpu::FlareImage& a, const gpu::FlareImage& ref, const gpu::FlareView& view) {
     Errors e;
     const auto pa = a.total_power(view), pr = ref.total_power(view);
@@ -68,7 +55,7 @@ Errors compare(const gpu::FlareImage& a, const gpu::FlareImage& ref, const gpu::
         e.l1 = std::max(e.l1, diff / total);
         e.shape_l1 = std::max(e.shape_l1, shape / total);
     }
-    e.edges = edges(a);
+    e.edges = a.edge_measure();
     return e;
 }
 
@@ -119,7 +106,7 @@ int main(int argc, char** argv) try {
     fmt::print("{:<22} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}\n", "quality", "ms", "power R", "power G", "power B", "L1",
                "shape L1", "edges");
     fmt::print("{:<22} {:>10.0f} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9.4f}\n", fmt::format("{} bands (reference)", reference_bands),
-               ms, "-", "-", "-", "-", "-", edges(reference));
+               ms, "-", "-", "-", "-", "-", reference.edge_measure());
     const auto row = [&](const std::string& name, const gpu::FlareView& v, bool filter) {
         const gpu::FlareImage image = render(v, filter, ms);
         const Errors e = compare(image, reference, view);

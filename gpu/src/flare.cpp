@@ -67,6 +67,19 @@ std::array<double, 3> FlareImage::total_power(const FlareView& view) const {
     return sum;
 }
 
+double FlareImage::edge_measure() const {
+    double tv = 0.0, total = 0.0;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const double v = at(x, y, c);
+                total += std::abs(v);
+                if (x + 1 < width) tv += std::abs(static_cast<double>(at(x + 1, y, c)) - v);
+                if (y + 1 < height) tv += std::abs(static_cast<double>(at(x, y + 1, c)) - v);
+            }
+    return total > 0.0 ? tv / total : 0.0;
+}
+
 System without_coatings(System system) {
     for (System::Interface& surface : system.interfaces) surface.coating = Coating{};
     return system;

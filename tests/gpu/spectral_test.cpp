@@ -56,21 +56,6 @@ double shape_l1(const FlareImage& a, const FlareImage& b, const FlareView& view)
     return relative_l1(scaled, b);
 }
 
-// Total variation (sum of |horizontal| + |vertical| pixel differences, all channels) over the total: the
-// edges an image has; separate copies of a ghost per band add edges that a continuous spectrum has not.
-double edges(const FlareImage& image) {
-    double tv = 0.0, total = 0.0;
-    for (int y = 0; y < image.height; ++y)
-        for (int x = 0; x < image.width; ++x)
-            for (int c = 0; c < 3; ++c) {
-                const double v = image.at(x, y, c);
-                total += std::abs(v);
-                if (x + 1 < image.width) tv += std::abs(static_cast<double>(image.at(x + 1, y, c)) - v);
-                if (y + 1 < image.height) tv += std::abs(static_cast<double>(image.at(x, y + 1, c)) - v);
-            }
-    return tv / total;
-}
-
 // Largest over channels of |total power - reference's| / reference's.
 double power_error(const FlareImage& a, const FlareImage& b, const FlareView& view) {
     const auto pa = a.total_power(view), pb = b.total_power(view);
@@ -149,7 +134,7 @@ TEST_F(Spectral, BandFilterSmearsTheBandCopiesAndKeepsThePower) {
     fmt::print("7 bands against 40: L1 {:.4f} plain, {:.4f} band-filtered; shape L1 {:.4f} plain, {:.4f} band-filtered; "
                "power {:.4f} vs {:.4f}\n", relative_l1(plain, b40), relative_l1(filtered, b40), l1_plain, l1_filtered,
                power_error(plain, b40, view), power_error(filtered, b40, view));
-    const double e_plain = edges(plain), e_filtered = edges(filtered), e_40 = edges(b40);
+    const double e_plain = plain.edge_measure(), e_filtered = filtered.edge_measure(), e_40 = b40.edge_measure();
     fmt::print("edge content (total variation / total): 7 bands {:.4f}, band-filtered {:.4f}, 40 bands {:.4f}\n", e_plain,
                e_filtered, e_40);
     // Measured with the splatted rasteriser: 7 bands already hold the 40 bands' edge content (0.0996 vs

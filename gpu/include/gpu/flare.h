@@ -86,6 +86,10 @@ struct FlareImage {
     }
     // Sum of irradiance x pixel area over the image, per channel.
     std::array<double, 3> total_power(const FlareView& view) const;
+    // Total variation (|horizontal| + |vertical| neighbour differences, all channels) over the sum of |values|:
+    // how much edge an image has (separate copies of a ghost per band add edges a smooth spectrum has not).
+    // 0 for an empty image.
+    double edge_measure() const;
 };
 
 // The iris shape (optics/aperture.h): negative inside, in stop radii, the upright frame.
