@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <map>
 #include <numbers>
 #include <stdexcept>
 
@@ -482,6 +481,7 @@ void FlareStage::process(Frame& frame) {
     for (const detect::Light& light : lights) {
         t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
+        const bool extended = light.shape && !light.shape->weights.empty();
         if (s.direct.empty()) {
             const auto [cx, cy] = geo.angles_at(0.0, 0.0);
             const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
@@ -529,13 +529,12 @@ void FlareStage::process(Frame& frame) {
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
             // An extended light's diffraction is every point's pattern over its footprint: drawn apart, then
             // spread over it (the direct image, magnification 1).
-            const bool spread = light.shape && !light.shape->weights.empty();
             std::vector<float> own;
-            if (spread) own.assign(display_px * 3, 0.0f);
+            if (extended) own.assign(display_px * 3, 0.0f);
             optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x, light.y, energy,
                                     geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height,
-                                    spread ? own.data() : flare_rgb.data(), geo.width, geo.height, core_texels);
-            if (spread) {
+                                    extended ? own.data() : flare_rgb.data(), geo.width, geo.height, core_texels);
+            if (extended) {
                 convolve_footprint(own, geo.width, geo.height, *light.shape, 1.0);
                 for (std::size_t i = 0; i < own.size(); ++i) flare_rgb[i] += own[i];
             }
@@ -545,8 +544,8 @@ void FlareStage::process(Frame& frame) {
 
         view.angle_x_deg = ax;
         view.angle_y_deg = ay;
-        std::vector<FootprintGroup> groups(1);  // a point light: all ghosts, no footprint
-        if (light.shape && !light.shape->weights.empty()) {
+        std::vector<FootprintGroup> groups(1);  // a point light: every ghost, no footprint
+        if (extended) {
             t = Clock::now();
             if (s.imaging.empty()) {
                 s.ghosts = optics::enumerate_ghosts(s.system);
@@ -555,10 +554,11 @@ void FlareStage::process(Frame& frame) {
                 for (const optics::Ghost& g : s.ghosts) s.axial_power.push_back(optics::ghost_axial_factor(traced, g));
             }
             groups = footprint_groups(s.ghosts, s.imaging, s.axial_power, *light.shape, geo.sensor_width_mm / geo.width);
-            if (groups.size() == 1 && groups[0].magnification == 0.0) groups[0].ghosts.clear();  // all of them
             extended_ms += ms_since(t);
         }
-        if (groups.size() == 1 && groups[0].ghosts.empty() && !s.settings.band_filter) {
+        const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
+        if (as_point) groups[0].ghosts.clear();  // every ghost: a point light's selection, and its caches
+        if (as_point && !s.settings.band_filter) {
             point_lights.push_back({ax, ay, {scale[0], scale[1], scale[2]}});  // drawn with the frame's others
             continue;
         }

@@ -165,6 +165,21 @@ TEST(FramePath, MinLightSkipsLightsTooDimAgainstTheBrightest) {
     EXPECT_GT(c.sum(1), b.sum(1));
 }
 
+TEST(FramePath, BandFilterDrawsAPointLightsGhostsUnspread) {
+    // --band-filter renders each light on its own (not with the frame's other point lights): a point light's
+    // ghosts keep their energy and are not spread over a footprint it has not got.
+    const fs::path dir = temp_dir("band_filter");
+    write_frame(dir / "small.exr", {{230.3, 60.6, 2.0, 20000.0}});
+    const std::string opts = " --flare-only --parts ghosts --threshold 5 --bands 7";
+    ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "p.exr").string() + kLensOnly + opts), 0);
+    ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "f.exr").string() + kLensOnly + opts +
+                  " --band-filter"),
+              0);
+    const Image plain = read(dir / "p.exr"), filtered = read(dir / "f.exr");
+    ASSERT_GT(plain.sum(1), 0.0);
+    EXPECT_NEAR(filtered.sum(1) / plain.sum(1), 1.0, 0.02);
+}
+
 TEST(FramePath, ExtendedSourceSpreadsItsStarburstOverItsFootprint) {
     // The same flux as a small light and as a disc of radius 24 px: the disc's diffraction is every point's
     // pattern over the disc, the same energy, no longer piled on its centre.

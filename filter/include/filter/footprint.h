@@ -13,7 +13,7 @@ namespace lensfx::filter {
 
 // A group of an extended light's ghosts drawn together.
 struct FootprintGroup {
-    double magnification = 1.0;  // the footprint's scale for these ghosts; 0: drawn as from a point
+    double magnification = 0.0;  // the footprint's scale for these ghosts; 0: drawn as from a point
     std::vector<std::pair<int, int>> ghosts;  // Ghost::first, Ghost::second
 };
 
