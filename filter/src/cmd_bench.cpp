@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
+#include <filter/image_io.h>
 #include <fmt/core.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
@@ -200,12 +200,9 @@ public:
         }
     }
     void write(const std::string& path) const {
-        auto out = OIIO::ImageOutput::create(path);
-        if (!out) throw std::runtime_error(fmt::format("{}: cannot create an image writer: {}", path, OIIO::geterror()));
-        const OIIO::ImageSpec spec(w_, h_, 3, OIIO::TypeDesc::UINT8);
-        if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, rgb_.data()) || !out->close()) {
-            throw std::runtime_error(fmt::format("{}: {}", path, out->geterror()));
-        }
+        WriteOptions options;
+        options.dither = colour::Dither::None;
+        write_image(image_frame(w_, h_, 3, PixelType::uint8, rgb_.data()), path, options);
     }
 
 private:

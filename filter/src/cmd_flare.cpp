@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <filter/colour.h>
 #include <filter/flare_stage.h>
+#include <filter/image_io.h>
 #include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
 #include <gpu/acceleration.h>
@@ -81,14 +81,9 @@ std::pair<double, double> parse_pair(const std::string& text, char sep, const ch
 }
 
 void write_exr(const gpu::FlareImage& image, const std::string& path) {
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) throw std::runtime_error(fmt::format("{}: cannot create an image writer: {}", path, OIIO::geterror()));
-    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::FLOAT);
-    spec.channelnames = {"R", "G", "B"};
-    spec.attribute("compression", "zip");
-    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.rgb.data()) || !out->close()) {
-        throw std::runtime_error(fmt::format("{}: {}", path, out->geterror()));
-    }
+    WriteOptions options;
+    options.compression = "zip";
+    write_image(image_frame(image.width, image.height, 3, PixelType::float32, image.rgb.data()), path, options);
 }
 
 // Ghosts are some 1e-3 .. 1e-6 of the light: without --preview-exposure the exposure puts the 99.5th
@@ -116,13 +111,9 @@ void write_preview(const gpu::FlareImage& image, const std::string& path, std::o
     const colour::ColourPipeline pipeline(colour::ColourConfig::builtin_config(), options, std::nullopt);
     colour::PixelSpan span{rgb.data(), static_cast<std::size_t>(image.width), static_cast<std::size_t>(image.height), 3, 0};
     pipeline.to_display().apply(span);
-    const std::vector<std::uint8_t> bytes = colour::quantise8(span, colour::Dither::Ordered);
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) throw std::runtime_error(fmt::format("{}: cannot create an image writer: {}", path, OIIO::geterror()));
-    const OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-    if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close()) {
-        throw std::runtime_error(fmt::format("{}: {}", path, out->geterror()));
-    }
+    WriteOptions write;
+    write.dither = colour::Dither::Ordered;
+    write_image(image_frame(image.width, image.height, 3, PixelType::float32, rgb.data()), path, write);
     fmt::print(stderr, "lensfx flare: preview {} at exposure {:+.2f} EV\n", path, ev);
 }
 

@@ -972,12 +972,6 @@ std::vector<std::uint16_t> quantise16(const PixelSpan& pixels, Dither dither, st
 // ---------------------------------------------------------------------------------------------------------
 // The colour stages
 
-std::optional<std::array<float, 8>> exr_chromaticities(const OIIO::ImageSpec& spec) {
-    std::array<float, 8> c{};
-    if (!spec.getattribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), c.data())) return std::nullopt;
-    return c;
-}
-
 Dither ColourArgs::dither_mode() const {
     if (dither == "none") return Dither::None;
     if (dither == "ordered") return Dither::Ordered;
@@ -1035,7 +1029,7 @@ ColourSession::ColourSession(const ColourArgs& args, const std::string& output)
 }
 
 const ColourPipeline& ColourSession::pipeline_for(const filter::Frame& frame) {
-    const auto chroma = exr_chromaticities(frame.spec);
+    const auto& chroma = frame.spec.chromaticities;
     if (!pipeline_) {
         pipeline_.emplace(config_, options_, chroma);
         first_chromaticities_ = chroma;
@@ -1051,7 +1045,7 @@ namespace {
 
 PixelSpan rgb_span(filter::Frame& frame) {
     return PixelSpan{frame.rgb.data(), static_cast<std::size_t>(frame.spec.width),
-                     static_cast<std::size_t>(frame.spec.height) * static_cast<std::size_t>(frame.spec.depth), 3, 0};
+                     static_cast<std::size_t>(frame.spec.height), 3, 0};
 }
 
 }  // namespace
@@ -1094,7 +1088,7 @@ void ColourOutputStage::apply(const ColourTransform& transform, std::unique_ptr<
 
 namespace {
 // Where the output transform ran, in the frame's metadata (EXR outputs keep it).
-void record_device(filter::Frame& frame, bool gpu) { frame.spec.attribute("lensfx:colourTransformOn", gpu ? "gpu" : "cpu"); }
+void record_device(filter::Frame& frame, bool gpu) { frame.spec.text["lensfx:colourTransformOn"] = gpu ? "gpu" : "cpu"; }
 }  // namespace
 
 void ColourOutputStage::process(filter::Frame& frame) {
@@ -1105,14 +1099,14 @@ void ColourOutputStage::process(filter::Frame& frame) {
         apply(p.to_display(), gpu_display_, px);
         record_device(frame, ran_on_gpu_);
         // The pixels are display code values now: the input's primaries no longer describe them.
-        frame.spec.erase_attribute("chromaticities");
+        frame.spec.chromaticities.reset();
         const std::string& display = p.display();
         if (display == builtin::display_srgb && session_->config().is_builtin())
-            frame.spec.attribute("oiio:ColorSpace", "sRGB");
+            frame.spec.text["oiio:ColorSpace"] = "sRGB";
         else if (display == builtin::display_rec709 && session_->config().is_builtin())
-            frame.spec.attribute("oiio:ColorSpace", "Rec709");
+            frame.spec.text["oiio:ColorSpace"] = "Rec709";
         else
-            frame.spec.attribute("oiio:ColorSpace", display);
+            frame.spec.text["oiio:ColorSpace"] = display;
         return;
     }
     const double ev = session_->options().exposure_ev;

@@ -411,7 +411,7 @@ struct FlareStage::State {
         g.width = frame.spec.full_width;
         g.height = frame.spec.full_height;
         g.sensor_width_mm = sensor[0];
-        const double aspect = frame.spec.get_float_attribute("PixelAspectRatio", 1.0f);
+        const double aspect = frame.spec.pixel_aspect;
         g.sensor_height_mm = sensor[1] > 0.0 ? sensor[1] : sensor[0] * g.height / (g.width * aspect);
         g.focal_mm = settings.fov_deg ? 0.5 * g.sensor_width_mm / std::tan(0.5 * *settings.fov_deg / kDegrees) : efl_mm;
         return g;

@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
+#include <type_traits>
+
+#include <Imath/half.h>
 
 #include <fmt/core.h>
 
@@ -42,54 +46,76 @@ void find_rgb_channels(Frame& frame) {
     frame.rgb_channels = {-1, -1, -1};
 }
 
-std::vector<std::size_t> channel_offsets(const OIIO::ImageSpec& spec) {
-    std::vector<std::size_t> offsets(static_cast<std::size_t>(spec.nchannels));
+std::vector<std::size_t> channel_offsets(const ImageSpec& spec) {
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(spec.nchannels()));
     std::size_t offset = 0;
-    for (int c = 0; c < spec.nchannels; ++c) {
+    for (int c = 0; c < spec.nchannels(); ++c) {
         offsets[static_cast<std::size_t>(c)] = offset;
-        offset += spec.channel_bytes(c, true);
+        offset += pixel_type_bytes(spec.channel_type(c));
     }
     return offsets;
 }
 
 namespace {
 
-// Where one channel lies in `pixels`, and the strides of it and of an interleaved float buffer.
-struct ChannelLayout {
-    std::size_t offset;
-    OIIO::TypeDesc type;
-    OIIO::stride_t native_x, native_y, float_x, float_y;
-    int width, rows;
-};
-
-ChannelLayout layout(const OIIO::ImageSpec& spec, int channel, std::size_t float_stride) {
-    const auto native_x = static_cast<OIIO::stride_t>(spec.pixel_bytes(true));
-    const auto float_x = static_cast<OIIO::stride_t>(float_stride * sizeof(float));
-    return {channel_offsets(spec)[static_cast<std::size_t>(channel)], spec.channelformat(channel), native_x,
-            native_x * spec.width, float_x, float_x * spec.width, spec.width, spec.height * spec.depth};
+// Integer channels hold display values over their whole range: 0..max is 0..1 in float.
+template <typename T>
+float int_to_float(T t) {
+    return static_cast<float>(static_cast<double>(t) / static_cast<double>(std::numeric_limits<T>::max()));
 }
 
-void check(bool ok, const OIIO::ImageSpec& spec, int channel, const char* direction) {
-    if (!ok) {
-        throw std::runtime_error(fmt::format("cannot convert channel {} ({}) {} float", spec.channel_name(channel),
-                                             spec.channelformat(channel).c_str(), direction));
+template <typename T>
+T float_to_int(float v) {
+    if (!(v > 0.0f)) return T{0};  // NaN and negatives
+    const double q = std::round(static_cast<double>(v) * static_cast<double>(std::numeric_limits<T>::max()));
+    return q >= static_cast<double>(std::numeric_limits<T>::max()) ? std::numeric_limits<T>::max() : static_cast<T>(q);
+}
+
+float load(float t) { return t; }
+float load(Imath::half t) { return static_cast<float>(t); }
+template <typename T>
+float load(T t) { return int_to_float(t); }
+
+template <typename T>
+T store(float v) {
+    if constexpr (std::is_same_v<T, float>) return v;
+    else if constexpr (std::is_same_v<T, Imath::half>) return Imath::half(v);
+    else return float_to_int<T>(v);
+}
+
+// Calls f with a null pointer of the channel's C++ type.
+template <typename F>
+void with_type(PixelType type, F&& f) {
+    switch (type) {
+    case PixelType::float32: f(static_cast<float*>(nullptr)); break;
+    case PixelType::half: f(static_cast<Imath::half*>(nullptr)); break;
+    case PixelType::uint8: f(static_cast<std::uint8_t*>(nullptr)); break;
+    case PixelType::uint16: f(static_cast<std::uint16_t*>(nullptr)); break;
+    case PixelType::uint32: f(static_cast<std::uint32_t*>(nullptr)); break;
     }
 }
 
 void channel_to_float(const Frame& frame, int channel, float* dst, std::size_t float_stride) {
-    const auto l = layout(frame.spec, channel, float_stride);
-    check(OIIO::convert_image(1, l.width, l.rows, 1, frame.pixels.data() + l.offset, l.type, l.native_x,
-                              l.native_y, OIIO::AutoStride, dst, OIIO::TypeFloat, l.float_x, l.float_y,
-                              OIIO::AutoStride),
-          frame.spec, channel, "to");
+    const std::size_t count = frame.spec.pixel_count(), stride = frame.spec.pixel_bytes();
+    const std::byte* base = frame.pixels.data() + channel_offsets(frame.spec)[static_cast<std::size_t>(channel)];
+    with_type(frame.spec.channel_type(channel), [&]<typename T>(T*) {
+        for (std::size_t i = 0; i < count; ++i) {
+            T t;
+            std::memcpy(&t, base + i * stride, sizeof(T));
+            dst[i * float_stride] = load(t);
+        }
+    });
 }
 
 void channel_from_float(Frame& frame, int channel, const float* src, std::size_t float_stride) {
-    const auto l = layout(frame.spec, channel, float_stride);
-    check(OIIO::convert_image(1, l.width, l.rows, 1, src, OIIO::TypeFloat, l.float_x, l.float_y,
-                              OIIO::AutoStride, frame.pixels.data() + l.offset, l.type, l.native_x, l.native_y,
-                              OIIO::AutoStride),
-          frame.spec, channel, "from");
+    const std::size_t count = frame.spec.pixel_count(), stride = frame.spec.pixel_bytes();
+    std::byte* base = frame.pixels.data() + channel_offsets(frame.spec)[static_cast<std::size_t>(channel)];
+    with_type(frame.spec.channel_type(channel), [&]<typename T>(T*) {
+        for (std::size_t i = 0; i < count; ++i) {
+            const T t = store<T>(src[i * float_stride]);
+            std::memcpy(base + i * stride, &t, sizeof(T));
+        }
+    });
 }
 
 }  // namespace
@@ -119,7 +145,7 @@ void store_rgb(Frame& frame) {
     // A finite value beyond half's range would become Inf: an effect's bright result is kept at the largest
     // finite half instead (what it would saturate to on any display), never turned into a non-number.
     bool any_half = false;
-    for (int c : frame.rgb_channels) any_half = any_half || frame.spec.channelformat(c) == OIIO::TypeDesc::HALF;
+    for (int c : frame.rgb_channels) any_half = any_half || frame.spec.channel_type(c) == PixelType::half;
     if (any_half) {
         constexpr float kHalfMax = 65504.0f;
         for (float& v : frame.rgb)
@@ -135,12 +161,11 @@ std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>&
 }
 
 void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1) {
-    OIIO::ImageSpec& spec = frame.spec;
+    ImageSpec& spec = frame.spec;
     const int nx0 = std::min(spec.x, x0), ny0 = std::min(spec.y, y0);
     const int nx1 = std::max(spec.x + spec.width, x1), ny1 = std::max(spec.y + spec.height, y1);
     if (nx0 == spec.x && ny0 == spec.y && nx1 == spec.x + spec.width && ny1 == spec.y + spec.height) return;
-    if (spec.depth != 1) throw std::runtime_error("cannot grow the data window of a volume image");
-    const std::size_t px_bytes = spec.pixel_bytes(true);
+    const std::size_t px_bytes = spec.pixel_bytes();
     const auto new_w = static_cast<std::size_t>(nx1 - nx0), new_h = static_cast<std::size_t>(ny1 - ny0);
     const auto old_w = static_cast<std::size_t>(spec.width);
     const auto dx = static_cast<std::size_t>(spec.x - nx0), dy = static_cast<std::size_t>(spec.y - ny0);
@@ -165,24 +190,22 @@ void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<flo
     if (rgb.size() != frame.pixel_count() * 3)
         throw std::invalid_argument(fmt::format("layer {}: {} values for a data window of {} pixels", layer, rgb.size(),
                                                 frame.pixel_count()));
-    OIIO::ImageSpec spec = frame.spec;
-    const OIIO::TypeDesc type = frame.rgb_channels[0] >= 0 ? spec.channelformat(frame.rgb_channels[0]) : OIIO::TypeDesc(OIIO::TypeDesc::HALF);
-    if (spec.channelformats.empty()) spec.channelformats.assign(static_cast<std::size_t>(spec.nchannels), spec.format);
+    ImageSpec spec = frame.spec;
+    const PixelType type = frame.rgb_channels[0] >= 0 ? spec.channel_type(frame.rgb_channels[0]) : PixelType::half;
     for (const char* c : {".R", ".G", ".B"}) {
         const std::string name = layer + c;
         if (std::find(spec.channelnames.begin(), spec.channelnames.end(), name) != spec.channelnames.end())
             throw std::invalid_argument(fmt::format("layer {}: the image already has a channel {}", layer, name));
         spec.channelnames.push_back(name);
-        spec.channelformats.push_back(type);
+        spec.channeltypes.push_back(type);
     }
-    spec.nchannels += 3;
-    const std::size_t old_px = frame.spec.pixel_bytes(true), new_px = spec.pixel_bytes(true);
+    const std::size_t old_px = frame.spec.pixel_bytes(), new_px = spec.pixel_bytes();
     const std::size_t n = frame.pixel_count();
     PixelBuffer pixels(n * new_px);
     for (std::size_t i = 0; i < n; ++i) std::memcpy(pixels.data() + i * new_px, frame.pixels.data() + i * old_px, old_px);
     frame.spec = std::move(spec);
     frame.pixels = std::move(pixels);
-    for (int k = 0; k < 3; ++k) channel_from_float(frame, frame.spec.nchannels - 3 + k, rgb.data() + k, 3);
+    for (int k = 0; k < 3; ++k) channel_from_float(frame, frame.spec.nchannels() - 3 + k, rgb.data() + k, 3);
 }
 
 }  // namespace lensfx::filter

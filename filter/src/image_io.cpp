@@ -1,14 +1,20 @@
-// Single image files through OpenImageIO, PFM through our own code (see filter/image_io.h).
+// Single image files: EXR through OpenEXR, PFM through our own code, the rest through the OpenImageIO
+// module (see filter/image_io.h).
 #include <filter/image_io.h>
 
 #include <algorithm>
+#include <functional>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
 
 #include <fmt/core.h>
 #include <unistd.h>
+
+#include "exr_io.h"
+#include "oiio_module.h"
 
 namespace lensfx::filter {
 
@@ -20,9 +26,6 @@ struct FileCloser {
     void operator()(std::FILE* f) const { std::fclose(f); }
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
-
-// Largest frame we agree to allocate: a damaged header must not ask for terabytes.
-constexpr OIIO::imagesize_t max_frame_bytes = OIIO::imagesize_t{16} << 30;
 
 bool is_pfm_file(const std::string& path) {
     File f(std::fopen(path.c_str(), "rb"));
@@ -78,6 +81,17 @@ void write_pfm_file(const Frame& frame, const std::string& path, const WriteOpti
     tmp.commit();
 }
 
+bool is_exr_extension(const std::string& ext) { return ext == ".exr" || ext == ".sxr" || ext == ".mxr"; }
+
+// The EXR compression of an output: --compression, else the input's own when it is lossless (re-encoding
+// DWA or B44 would change the pixels of a pass-through), else piz.
+std::string output_compression(const Frame& frame, const WriteOptions& options) {
+    if (!options.compression.empty()) return options.compression;
+    const std::string& kept = frame.spec.compression;
+    const bool lossy = kept.rfind("dwa", 0) == 0 || kept.rfind("b44", 0) == 0;
+    return frame.format != "openexr" || kept.empty() || lossy ? "piz" : kept;
+}
+
 }  // namespace
 
 Frame read_image(const std::string& path, PfmOrder pfm_order) {
@@ -90,134 +104,90 @@ Frame read_image(const std::string& path, PfmOrder pfm_order) {
         frame->source = path;
         return std::move(*frame);
     }
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-        std::string message = OIIO::geterror();
-        throw std::runtime_error(message.empty() ? "cannot open (unknown format?)" : message);
-    }
+    if (is_exr_file(path)) return read_exr(path);
+    Frame frame = oiio_module().read(path);
+    find_rgb_channels(frame);
+    return frame;
+}
+
+Frame image_frame(int width, int height, int channels, PixelType type, const void* data) {
     Frame frame;
-    frame.source = path;
-    frame.format = in->format_name();
-    frame.spec = in->spec(0, 0);
-    if (frame.spec.deep) throw std::runtime_error("deep images are not supported");
-    if (frame.spec.nchannels < 1 || frame.spec.width < 1 || frame.spec.height < 1 || frame.spec.depth != 1) {
-        throw std::runtime_error(fmt::format("unsupported image shape {}x{}x{}, {} channels", frame.spec.width,
-                                             frame.spec.height, frame.spec.depth, frame.spec.nchannels));
-    }
-    const OIIO::imagesize_t bytes = frame.spec.image_bytes(true);
-    if (bytes == 0 || bytes > max_frame_bytes) {
-        throw std::runtime_error(fmt::format("implausible image size {}x{} with {} channels", frame.spec.width,
-                                             frame.spec.height, frame.spec.nchannels));
-    }
-    frame.pixels = PixelBuffer(bytes);
-    if (!in->read_image(0, 0, 0, frame.spec.nchannels, OIIO::TypeUnknown, frame.pixels.data())) {
-        std::string message = in->geterror();
-        throw std::runtime_error(message.empty() ? "cannot read the pixels" : message);
-    }
-    in->close();
-    // The file's tiling and mip levels are not part of the frame: it is written back as scanlines.
-    frame.spec.tile_width = frame.spec.tile_height = 0;
-    frame.spec.tile_depth = 1;
-    frame.spec.erase_attribute("openexr:levelmode");
-    frame.spec.erase_attribute("openexr:roundingmode");
+    frame.spec = ImageSpec(width, height, channels, type);
+    frame.pixels = PixelBuffer(frame.spec.image_bytes());
+    std::memcpy(frame.pixels.data(), data, frame.pixels.size());
     find_rgb_channels(frame);
     return frame;
 }
 
 bool is_known_output_format(const std::string& path) {
-    if (lower_extension(path) == ".pfm") return true;
-    const bool known = OIIO::ImageOutput::create(path) != nullptr;
-    if (!known) (void)OIIO::geterror();
-    return known;
+    const std::string ext = lower_extension(path);
+    return ext == ".pfm" || is_exr_extension(ext) || !oiio_module().output_format(path).empty();
 }
 
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options) {
-    if (lower_extension(path) == ".pfm") {
+    const std::string ext = lower_extension(path);
+    if (ext == ".pfm") {
         write_pfm_file(frame, path, options);
         return;
     }
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) {
-        (void)OIIO::geterror();
-        throw std::runtime_error(fmt::format("unknown output format \"{}\"", fs::path(path).extension().string()));
+    if (is_exr_extension(ext)) {
+        const std::string compression = output_compression(frame, options);
+        TempFile tmp(path);
+        write_exr(frame, tmp.path(), compression);
+        tmp.commit();
+        return;
     }
-    const std::string format = out->format_name();
-    OIIO::ImageSpec spec = frame.spec;
+    const OiioModule& oiio = oiio_module();
+    const std::string format = oiio.output_format(path);
+    if (format.empty()) throw std::runtime_error(fmt::format("unknown output format \"{}\"", fs::path(path).extension().string()));
+
+    ImageSpec spec = frame.spec;
     const void* data = frame.pixels.data();
-    OIIO::TypeDesc data_type = OIIO::TypeUnknown;  // native, channel by channel
     std::vector<float> converted;
     std::vector<std::uint8_t> quantised8;
     std::vector<std::uint16_t> quantised16;
-
-    auto select = [&](std::vector<int> channels, OIIO::TypeDesc file_type) {
+    // Only these channels, as float; `type` is what `data` holds when the writer gets it.
+    auto select = [&](const std::vector<int>& channels, PixelType type) {
         std::vector<std::string> names;
         for (int c : channels) names.push_back(frame.spec.channel_name(c));
         converted = channels_as_float(frame, channels);
-        spec.nchannels = static_cast<int>(channels.size());
         spec.channelnames = names;
-        spec.channelformats.clear();
-        spec.format = file_type;
-        spec.alpha_channel = static_cast<int>(std::find(names.begin(), names.end(), "A") - names.begin());
-        if (spec.alpha_channel >= spec.nchannels) spec.alpha_channel = -1;
-        spec.z_channel = -1;
+        spec.channeltypes.assign(channels.size(), type);
         data = converted.data();
-        data_type = OIIO::TypeFloat;
     };
     auto rgb = [&](bool with_alpha) {
         if (!frame.has_rgb()) throw std::runtime_error(fmt::format("{} output needs R, G, B channels", format));
         std::vector<int> channels(frame.rgb_channels.begin(), frame.rgb_channels.end());
-        const auto& names = frame.spec.channelnames;
-        if (auto a = std::find(names.begin(), names.end(), "A"); with_alpha && a != names.end())
-            channels.push_back(static_cast<int>(a - names.begin()));
+        if (const int a = frame.spec.channel_index("A"); with_alpha && a >= 0) channels.push_back(a);
         return channels;
     };
 
-    if (format == "openexr") {
-        if (!options.compression.empty()) {
-            spec.attribute("compression", options.compression);
-        } else {
-            // Keep the input's compression when it is lossless; re-encoding DWA or B44 would change the
-            // pixels of a pass-through, so those become PIZ unless --compression asks for them.
-            const std::string kept = spec.get_string_attribute("compression");
-            const bool lossy = kept.rfind("dwa", 0) == 0 || kept.rfind("b44", 0) == 0;
-            if (frame.format != "openexr" || kept.empty() || lossy) spec.attribute("compression", "piz");
-        }
-    } else if (format == "tiff") {
-        spec.erase_attribute("compression");
-        if (!spec.channelformats.empty()) {
-            std::vector<int> all(static_cast<std::size_t>(frame.spec.nchannels));
-            for (int c = 0; c < frame.spec.nchannels; ++c) all[static_cast<std::size_t>(c)] = c;
-            select(all, OIIO::TypeFloat);
+    if (format == "tiff") {
+        const bool mixed = std::adjacent_find(spec.channeltypes.begin(), spec.channeltypes.end(), std::not_equal_to<>()) !=
+                           spec.channeltypes.end();
+        if (mixed) {
+            std::vector<int> all(static_cast<std::size_t>(frame.spec.nchannels()));
+            for (int c = 0; c < frame.spec.nchannels(); ++c) all[static_cast<std::size_t>(c)] = c;
+            select(all, PixelType::float32);
         }
     } else if (format == "hdr") {
-        spec.erase_attribute("compression");
-        select(rgb(false), OIIO::TypeFloat);
+        select(rgb(false), PixelType::float32);
     } else {
-        spec.erase_attribute("compression");
         const bool wide = options.display_bits == 16 && (format == "png" || format == "pnm" || format == "dpx");
-        select(rgb(true), wide ? OIIO::TypeUInt16 : OIIO::TypeUInt8);
+        select(rgb(true), wide ? PixelType::uint16 : PixelType::uint8);
         const colour::PixelSpan span{converted.data(), static_cast<std::size_t>(spec.width),
-                                     static_cast<std::size_t>(spec.height), spec.nchannels, 0};
+                                     static_cast<std::size_t>(spec.height), spec.nchannels(), 0};
         if (wide) {
             quantised16 = colour::quantise16(span, options.dither, frame.index);
             data = quantised16.data();
-            data_type = OIIO::TypeUInt16;
         } else {
             quantised8 = colour::quantise8(span, options.dither, frame.index);
             data = quantised8.data();
-            data_type = OIIO::TypeUInt8;
         }
     }
 
     TempFile tmp(path);
-    if (!out->open(tmp.path(), spec)) {
-        std::string message = out->geterror();
-        throw std::runtime_error(message.empty() ? fmt::format("cannot create {}", tmp.path()) : message);
-    }
-    if (!out->write_image(data_type, data) || !out->close()) {
-        std::string message = out->geterror();
-        throw std::runtime_error(message.empty() ? fmt::format("cannot write {}", tmp.path()) : message);
-    }
+    oiio.write(tmp.path(), spec, data);
     tmp.commit();
 }
 

@@ -18,6 +18,9 @@
 #include <filter/bounded_queue.h>
 #include <filter/sequence.h>
 
+#include "exr_io.h"
+#include "oiio_module.h"
+
 namespace lensfx::filter {
 
 namespace fs = std::filesystem;
@@ -148,7 +151,7 @@ Plan make_plan(const PipelineOptions& o) {
     return plan;
 }
 
-bool same_display_window(const OIIO::ImageSpec& a, const OIIO::ImageSpec& b) {
+bool same_display_window(const ImageSpec& a, const ImageSpec& b) {
     return a.full_x == b.full_x && a.full_y == b.full_y && a.full_width == b.full_width && a.full_height == b.full_height;
 }
 
@@ -192,8 +195,8 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     report.input = o.input;
     report.output = o.output;
     report.threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    OIIO::attribute("threads", report.threads);
-    OIIO::attribute("exr_threads", report.threads);
+    set_oiio_threads(report.threads);
+    set_exr_threads(report.threads);
 
     const Plan plan = make_plan(o);
     const bool sequence = plan.stream_in || plan.numbers.size() > 1;
@@ -302,7 +305,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
         progress.finish();
     });
 
-    std::optional<OIIO::ImageSpec> first;
+    std::optional<ImageSpec> first;
     while (auto item = read_queue.pop()) {
         FrameRecord& rec = item->record;
         if (item->frame) {

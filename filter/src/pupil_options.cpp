@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
+#include <filter/image_io.h>
 #include <fmt/core.h>
 
 namespace lensfx::filter {
@@ -41,16 +41,17 @@ optics::StarburstOptions starburst_options(const PupilSettings& s) {
 }
 
 optics::ApertureImage read_aperture_image(const std::string& path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw std::runtime_error(fmt::format("--aperture-image {}: {}", path, OIIO::geterror()));
-    const OIIO::ImageSpec spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-        throw std::runtime_error(fmt::format("--aperture-image {}: the image is empty", path));
-    std::vector<float> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
-                              static_cast<std::size_t>(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
-        throw std::runtime_error(fmt::format("--aperture-image {}: {}", path, in->geterror()));
-    const int colours = std::clamp(spec.nchannels - (spec.alpha_channel >= 0 ? 1 : 0), 1, 3);
+    Frame frame;
+    try {
+        frame = read_image(path);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("--aperture-image {}: {}", path, e.what()));
+    }
+    const ImageSpec& spec = frame.spec;
+    std::vector<int> all(static_cast<std::size_t>(spec.nchannels()));
+    for (int c = 0; c < spec.nchannels(); ++c) all[static_cast<std::size_t>(c)] = c;
+    const std::vector<float> pixels = channels_as_float(frame, all);
+    const int colours = std::clamp(spec.nchannels() - (spec.channel_index("A") >= 0 ? 1 : 0), 1, 3);
 
     optics::ApertureImage image;
     const int side = std::max(spec.width, spec.height);
@@ -61,7 +62,7 @@ optics::ApertureImage read_aperture_image(const std::string& path) {
     for (int y = 0; y < spec.height; ++y) {
         for (int x = 0; x < spec.width; ++x) {
             const float* p = &pixels[(static_cast<std::size_t>(y) * static_cast<std::size_t>(spec.width) +
-                                      static_cast<std::size_t>(x)) * static_cast<std::size_t>(spec.nchannels)];
+                                      static_cast<std::size_t>(x)) * static_cast<std::size_t>(spec.nchannels())];
             float sum = 0.0f;
             for (int c = 0; c < colours; ++c) sum += p[c];
             const float v = sum / static_cast<float>(colours);

@@ -66,10 +66,10 @@ int header_int(std::FILE* in, std::string_view what) {
 
 Frame float_frame(int width, int height, int channels, std::string_view format) {
     Frame frame;
-    frame.spec = OIIO::ImageSpec(width, height, channels, OIIO::TypeFloat);
+    frame.spec = ImageSpec(width, height, channels, PixelType::float32);
     if (channels == 1) frame.spec.channelnames = {"Y"};
     frame.format = std::string(format);
-    frame.pixels = PixelBuffer(frame.spec.image_bytes(true));
+    frame.pixels = PixelBuffer(frame.spec.image_bytes());
     find_rgb_channels(frame);
     return frame;
 }
@@ -111,7 +111,7 @@ std::vector<float> output_channels(const Frame& frame, int& channels) {
         channels = 3;
         return display_window_float(frame, {frame.rgb_channels[0], frame.rgb_channels[1], frame.rgb_channels[2]}, {0.0f, 0.0f, 0.0f});
     }
-    if (frame.spec.nchannels == 1) {
+    if (frame.spec.nchannels() == 1) {
         channels = 1;
         return display_window_float(frame, {0}, {0.0f});
     }

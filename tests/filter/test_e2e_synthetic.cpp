@@ -72,6 +72,36 @@ TEST(FilterEndToEnd, PassThroughKeepsTypesWindowsAndMetadata) {
     fs::remove_all(dir);
 }
 
+TEST(FilterEndToEnd, CompressionLevelsAndUnknownNames) {
+    const auto dir = scratch_dir("compression");
+    make_exr(dir / "in.exr", 0);
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/dwa.exr --compression dwaa:45", dir.string())).exit_code, 0);
+    auto in = OIIO::ImageInput::open((dir / "dwa.exr").string());
+    ASSERT_TRUE(in);
+    EXPECT_EQ(in->spec().get_string_attribute("compression"), "dwaa");
+    EXPECT_EQ(in->spec().get_float_attribute("openexr:dwaCompressionLevel"), 45.0f);
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/bad.exr --compression lzw", dir.string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.stderr_text.find("unknown EXR compression \"lzw\""), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(fs::exists(dir / "bad.exr"));
+    fs::remove_all(dir);
+}
+
+// EXR in, EXR out must not load OpenImageIO (its plug-in libraries cost a quarter second per start);
+// another format loads it through liblensfx_oiio.
+TEST(FilterEndToEnd, ExrJobsLoadNoOpenImageIO) {
+    const auto dir = scratch_dir("startup");
+    make_exr(dir / "in.exr", 0);
+    auto r = run("LD_DEBUG=files " + lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.exr", dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(r.stderr_text.find("libOpenImageIO"), std::string::npos);
+    r = run("LD_DEBUG=files " + lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.tif", dir.string()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find("liblensfx_oiio"), std::string::npos);
+    EXPECT_NE(r.stderr_text.find("libOpenImageIO"), std::string::npos);
+    fs::remove_all(dir);
+}
+
 TEST(FilterEndToEnd, SequencesFrameListsAndReport) {
     const auto dir = scratch_dir("sequence");
     fs::create_directories(dir / "in");

@@ -3,21 +3,22 @@
 
 #include <cstring>
 
-#include <OpenImageIO/half.h>
+#include <Imath/half.h>
 #include <gtest/gtest.h>
 
 using namespace lensfx::filter;
+using Imath::half;
 
 namespace {
 
 // 3x2 pixels: Z (float), R, G, B (half), id (uint32): per-channel types, RGB not first.
 Frame mixed_frame() {
     Frame f;
-    f.spec = OIIO::ImageSpec(3, 2, 5, OIIO::TypeHalf);
+    f.spec = ImageSpec(3, 2, 5, PixelType::half);
     f.spec.channelnames = {"Z", "R", "G", "B", "id"};
-    f.spec.channelformats = {OIIO::TypeFloat, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeHalf, OIIO::TypeUInt32};
-    f.pixels = PixelBuffer(f.spec.image_bytes(true));
-    EXPECT_EQ(f.spec.pixel_bytes(true), 4u + 6u + 4u);
+    f.spec.channeltypes = {PixelType::float32, PixelType::half, PixelType::half, PixelType::half, PixelType::uint32};
+    f.pixels = PixelBuffer(f.spec.image_bytes());
+    EXPECT_EQ(f.spec.pixel_bytes(), 4u + 6u + 4u);
     for (std::size_t i = 0; i < 6; ++i) {
         std::byte* p = f.pixels.data() + i * 14;
         const float z = 100.0f + static_cast<float>(i);

@@ -251,9 +251,6 @@ float dither_offset(Dither dither, std::size_t x, std::size_t y, int channel, st
 // ---------------------------------------------------------------------------------------------------------
 // The colour stages of `lensfx -i IN -o OUT`.
 
-// The EXR chromaticities attribute of a frame, when it has one.
-std::optional<std::array<float, 8>> exr_chromaticities(const OIIO::ImageSpec& spec);
-
 struct ColourArgs {
     ColourOptions options;
     int bits = 8;                       // --bits: 8 or 16 for display-referred files (PNG, TIFF; JPEG is 8)

@@ -13,9 +13,8 @@
 #include <utility>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
-
 #include <detect/image_view.h>
+#include <filter/image_spec.h>
 
 namespace lensfx::filter {
 
@@ -44,13 +43,13 @@ struct Frame {
     std::int64_t number = 0;  // frame number from the input pattern; 1, 2, ... for a stream or a single file
     std::size_t index = 0;    // 0-based position in this run
     std::string source;       // the input file, or "-" for stdin
-    std::string format;       // the input's format: OpenImageIO's name ("openexr", "tiff", "hdr"), "pfm" or "raw"
+    std::string format;       // the input's format: "openexr", "pfm", "raw", or OpenImageIO's name ("tiff", "hdr"...)
 
     // Channel names, per-channel types and order, data window (x, y, width, height), display window
-    // (full_*), and every metadata attribute of the input (compression, chromaticities, timecode...).
-    OIIO::ImageSpec spec;
+    // (full_*), and the input's metadata (compression, chromaticities, an EXR's whole header).
+    ImageSpec spec;
     // Every channel over the data window, interleaved, each channel in its native type
-    // (spec.channelformats when they differ, else spec.format); rows top first. Size spec.image_bytes(true).
+    // (spec.channeltypes); rows top first. Size spec.image_bytes().
     PixelBuffer pixels;
 
     // Indices in spec of the channels an effect works on (R, G, B); -1 where the image has none.
@@ -61,17 +60,14 @@ struct Frame {
     std::vector<float> rgb;
 
     bool has_rgb() const { return rgb_channels[0] >= 0 && rgb_channels[1] >= 0 && rgb_channels[2] >= 0; }
-    std::size_t pixel_count() const {
-        return static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height) *
-               static_cast<std::size_t>(spec.depth);
-    }
+    std::size_t pixel_count() const { return spec.pixel_count(); }
 };
 
 // Finds R, G and B among the spec's channel names (exact names first, then a "layer.R" suffix on the
 // first layer that has all three) and stores their indices in frame.rgb_channels.
 void find_rgb_channels(Frame& frame);
 // Byte offset of each channel inside one pixel of `pixels`.
-std::vector<std::size_t> channel_offsets(const OIIO::ImageSpec& spec);
+std::vector<std::size_t> channel_offsets(const ImageSpec& spec);
 // The RGB working buffer as the detector's input; positions come out in display-window pixels.
 detect::ImageView rgb_view(const Frame& frame);
 // Copies the R, G, B channels of `pixels` into `rgb` as float. Throws if the frame has no R, G, B.

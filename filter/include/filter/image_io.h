@@ -1,5 +1,5 @@
-// Reading and writing single image files: OpenImageIO for EXR, TIFF, Radiance HDR and the display
-// formats, our own PFM code (filter/stream.h) for PFM. Writes go to a temporary name in the target's
+// Reading and writing single image files: OpenEXR for EXR, our own PFM code (filter/stream.h) for PFM,
+// OpenImageIO (a module loaded on first use) for TIFF, Radiance HDR and the display formats. Writes go to a temporary name in the target's
 // directory and are renamed into place only when complete, so a failure never leaves a partial file.
 #pragma once
 
@@ -29,9 +29,13 @@ struct WriteOptions {
 
 // Writes a frame; the format follows the extension. EXR: every channel, type, window and attribute as
 // in the frame, scanline. TIFF: every channel (float when the types differ). HDR, PFM: R, G, B as float.
-// Other formats (PNG, JPEG...): R, G, B and A if present, converted by OpenImageIO to 8 bits.
+// Other formats (PNG, JPEG...): R, G, B and A if present, quantised to 8 or 16 bits.
 // Throws std::runtime_error (unknown format, unwritable directory, failed write); leaves no file then.
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options = {});
+
+// A frame holding `channels` interleaved values of one type over width x height at the origin (channels
+// R, G, B, A...), for writing images lensfx makes: flare renders, previews, plots.
+Frame image_frame(int width, int height, int channels, PixelType type, const void* data);
 
 // Whether write_image() knows the format of this path's extension.
 bool is_known_output_format(const std::string& path);

@@ -1,0 +1,135 @@
+// liblensfx_oiio: TIFF, Radiance HDR, PNG, JPEG and OpenImageIO's other formats for lensfx (see
+// filter/src/oiio_module.h for why this is a module of its own).
+#include "../src/oiio_module.h"
+
+#include <stdexcept>
+
+#include <fmt/core.h>
+#include <OpenImageIO/imageio.h>
+
+namespace lensfx::filter {
+
+namespace {
+
+// Largest frame we agree to allocate: a damaged header must not ask for terabytes.
+constexpr OIIO::imagesize_t kMaxFrameBytes = OIIO::imagesize_t{16} << 30;
+
+bool native_type(OIIO::TypeDesc t, PixelType& out) {
+    if (t == OIIO::TypeDesc::UINT8) out = PixelType::uint8;
+    else if (t == OIIO::TypeDesc::UINT16) out = PixelType::uint16;
+    else if (t == OIIO::TypeDesc::UINT32) out = PixelType::uint32;
+    else if (t == OIIO::TypeDesc::HALF) out = PixelType::half;
+    else if (t == OIIO::TypeDesc::FLOAT) out = PixelType::float32;
+    else return false;
+    return true;
+}
+
+OIIO::TypeDesc oiio_type(PixelType t) {
+    switch (t) {
+    case PixelType::uint8: return OIIO::TypeDesc::UINT8;
+    case PixelType::uint16: return OIIO::TypeDesc::UINT16;
+    case PixelType::uint32: return OIIO::TypeDesc::UINT32;
+    case PixelType::half: return OIIO::TypeDesc::HALF;
+    case PixelType::float32: return OIIO::TypeDesc::FLOAT;
+    }
+    return OIIO::TypeDesc::FLOAT;
+}
+
+Frame read(const std::string& path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        std::string message = OIIO::geterror();
+        throw std::runtime_error(message.empty() ? "cannot open (unknown format?)" : message);
+    }
+    const OIIO::ImageSpec& s = in->spec(0, 0);
+    if (s.deep) throw std::runtime_error("deep images are not supported");
+    if (s.nchannels < 1 || s.width < 1 || s.height < 1 || s.depth != 1)
+        throw std::runtime_error(fmt::format("unsupported image shape {}x{}x{}, {} channels", s.width, s.height, s.depth, s.nchannels));
+    const OIIO::imagesize_t bytes = s.image_bytes(true);
+    if (bytes == 0 || bytes > kMaxFrameBytes)
+        throw std::runtime_error(fmt::format("implausible image size {}x{} with {} channels", s.width, s.height, s.nchannels));
+
+    Frame frame;
+    frame.source = path;
+    frame.format = in->format_name();
+    ImageSpec& spec = frame.spec;
+    spec.x = s.x;
+    spec.y = s.y;
+    spec.width = s.width;
+    spec.height = s.height;
+    spec.full_x = s.full_x;
+    spec.full_y = s.full_y;
+    spec.full_width = s.full_width;
+    spec.full_height = s.full_height;
+    bool all_native = true;
+    for (int c = 0; c < s.nchannels; ++c) {
+        PixelType t = PixelType::float32;
+        all_native = native_type(s.channelformat(c), t) && all_native;
+        spec.channelnames.push_back(s.channel_name(c));
+        spec.channeltypes.push_back(t);
+    }
+    // Types lensfx does not keep (signed, double) make the whole image float.
+    if (!all_native) spec.channeltypes.assign(spec.channeltypes.size(), PixelType::float32);
+    spec.pixel_aspect = s.get_float_attribute("PixelAspectRatio", 1.0f);
+    std::array<float, 8> chroma{};
+    if (s.getattribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), chroma.data())) spec.chromaticities = chroma;
+
+    frame.pixels = PixelBuffer(spec.image_bytes());
+    const bool ok = all_native ? in->read_image(0, 0, 0, s.nchannels, OIIO::TypeUnknown, frame.pixels.data())
+                               : in->read_image(0, 0, 0, s.nchannels, OIIO::TypeFloat, frame.pixels.data());
+    if (!ok) {
+        std::string message = in->geterror();
+        throw std::runtime_error(message.empty() ? "cannot read the pixels" : message);
+    }
+    in->close();
+    return frame;
+}
+
+void write(const std::string& path, const ImageSpec& spec, const void* data) {
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) {
+        (void)OIIO::geterror();
+        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", path));
+    }
+    const OIIO::TypeDesc type = oiio_type(spec.channeltypes.empty() ? PixelType::float32 : spec.channeltypes[0]);
+    OIIO::ImageSpec s(spec.width, spec.height, spec.nchannels(), type);
+    s.x = spec.x;
+    s.y = spec.y;
+    s.full_x = spec.full_x;
+    s.full_y = spec.full_y;
+    s.full_width = spec.full_width;
+    s.full_height = spec.full_height;
+    s.channelnames = spec.channelnames;
+    s.alpha_channel = spec.channel_index("A");
+    if (spec.pixel_aspect != 1.0f) s.attribute("PixelAspectRatio", spec.pixel_aspect);
+    for (const auto& [name, value] : spec.text) s.attribute(name, value);
+    if (!out->open(path, s)) {
+        std::string message = out->geterror();
+        throw std::runtime_error(message.empty() ? fmt::format("cannot create {}", path) : message);
+    }
+    if (!out->write_image(type, data) || !out->close()) {
+        std::string message = out->geterror();
+        throw std::runtime_error(message.empty() ? fmt::format("cannot write {}", path) : message);
+    }
+}
+
+std::string output_format(const std::string& path) {
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) {
+        (void)OIIO::geterror();
+        return {};
+    }
+    return out->format_name();
+}
+
+void set_threads(int threads) { OIIO::attribute("threads", threads); }
+
+constexpr OiioModule kModule{&read, &write, &output_format, &set_threads};
+
+}  // namespace
+
+}  // namespace lensfx::filter
+
+extern "C" __attribute__((visibility("default"))) const lensfx::filter::OiioModule* lensfx_oiio_module() {
+    return &lensfx::filter::kModule;
+}

@@ -1,0 +1,250 @@
+// EXR reading and writing with OpenEXR (see exr_io.h).
+#include "exr_io.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+
+#include <fmt/core.h>
+#include <Imath/half.h>
+#include <OpenEXR/IlmThreadPool.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfChromaticitiesAttribute.h>
+#include <OpenEXR/ImfFloatAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfPartType.h>
+#include <OpenEXR/ImfStandardAttributes.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
+
+namespace lensfx::filter {
+
+namespace {
+
+// Largest frame we agree to allocate: a damaged header must not ask for terabytes.
+constexpr std::size_t kMaxFrameBytes = std::size_t{16} << 30;
+
+constexpr std::array<std::pair<Imf::Compression, const char*>, 10> kCompressions{{
+    {Imf::NO_COMPRESSION, "none"},
+    {Imf::RLE_COMPRESSION, "rle"},
+    {Imf::ZIPS_COMPRESSION, "zips"},
+    {Imf::ZIP_COMPRESSION, "zip"},
+    {Imf::PIZ_COMPRESSION, "piz"},
+    {Imf::PXR24_COMPRESSION, "pxr24"},
+    {Imf::B44_COMPRESSION, "b44"},
+    {Imf::B44A_COMPRESSION, "b44a"},
+    {Imf::DWAA_COMPRESSION, "dwaa"},
+    {Imf::DWAB_COMPRESSION, "dwab"},
+}};
+
+std::string compression_name(Imf::Compression c) {
+    for (const auto& [value, name] : kCompressions)
+        if (value == c) return name;
+    return "unknown";
+}
+
+// "name" or "name:level" (zip and dwa levels) into the header.
+void set_compression(Imf::Header& header, const std::string& text) {
+    const auto colon = text.find(':');
+    const std::string name = text.substr(0, colon);
+    if (header.find("dwaCompressionLevel") != header.end()) header.erase("dwaCompressionLevel");  // the input's
+    for (const auto& [value, known] : kCompressions) {
+        if (name != known) continue;
+        header.compression() = value;
+        if (colon == std::string::npos) return;
+        const std::string level = text.substr(colon + 1);
+        try {
+            std::size_t used = 0;
+            if (value == Imf::DWAA_COMPRESSION || value == Imf::DWAB_COMPRESSION) {
+                header.dwaCompressionLevel() = std::stof(level, &used);
+                // Also as an attribute, for readers (OpenImageIO shows it as openexr:dwaCompressionLevel).
+                header.insert("dwaCompressionLevel", Imf::FloatAttribute(header.dwaCompressionLevel()));
+            } else if (value == Imf::ZIP_COMPRESSION || value == Imf::ZIPS_COMPRESSION) {
+                header.zipCompressionLevel() = std::stoi(level, &used);
+            } else {
+                throw std::invalid_argument("no level");
+            }
+            if (used != level.size()) throw std::invalid_argument("trailing characters");
+        } catch (const std::exception&) {
+            throw std::runtime_error(fmt::format("EXR compression \"{}\": bad level \"{}\"", text, level));
+        }
+        return;
+    }
+    throw std::runtime_error(fmt::format("unknown EXR compression \"{}\" (none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)", text));
+}
+
+PixelType from_exr(Imf::PixelType t) {
+    switch (t) {
+    case Imf::HALF: return PixelType::half;
+    case Imf::FLOAT: return PixelType::float32;
+    case Imf::UINT: return PixelType::uint32;
+    default: throw std::runtime_error("unknown EXR channel type");
+    }
+}
+
+// R, G, B, A first within each layer (the text before the last '.'), the rest in the file's order.
+int channel_rank(const std::string& name) {
+    const auto dot = name.rfind('.');
+    std::string base = dot == std::string::npos ? name : name.substr(dot + 1);
+    std::transform(base.begin(), base.end(), base.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    static constexpr std::array<std::array<const char*, 2>, 4> kOrder{{{"r", "red"}, {"g", "green"}, {"b", "blue"}, {"a", "alpha"}}};
+    for (std::size_t k = 0; k < kOrder.size(); ++k)
+        if (base == kOrder[k][0] || base == kOrder[k][1]) return static_cast<int>(k);
+    return static_cast<int>(kOrder.size());
+}
+
+std::string layer_of(const std::string& name) {
+    const auto dot = name.rfind('.');
+    return dot == std::string::npos ? std::string() : name.substr(0, dot);
+}
+
+}  // namespace
+
+bool is_exr_file(const std::string& path) {
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    unsigned char magic[4] = {};
+    return f && std::fread(magic, 1, 4, f.get()) == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 &&
+           magic[3] == 0x01;
+}
+
+Frame read_exr(const std::string& path) {
+    try {
+        Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
+        const Imf::Header& header = file.header(0);
+        if (header.hasType() && Imf::isDeepData(header.type())) throw std::runtime_error("deep images are not supported");
+        Frame frame;
+        frame.source = path;
+        frame.format = "openexr";
+        ImageSpec& spec = frame.spec;
+        const Imath::Box2i dw = header.dataWindow(), disp = header.displayWindow();
+        spec.x = dw.min.x;
+        spec.y = dw.min.y;
+        spec.width = dw.max.x - dw.min.x + 1;
+        spec.height = dw.max.y - dw.min.y + 1;
+        spec.full_x = disp.min.x;
+        spec.full_y = disp.min.y;
+        spec.full_width = disp.max.x - disp.min.x + 1;
+        spec.full_height = disp.max.y - disp.min.y + 1;
+        if (spec.width < 1 || spec.height < 1 || spec.full_width < 1 || spec.full_height < 1)
+            throw std::runtime_error(fmt::format("empty window {}x{}", spec.width, spec.height));
+
+        struct Channel {
+            std::string name;
+            PixelType type;
+        };
+        std::vector<Channel> channels;
+        for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
+            if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+                throw std::runtime_error(fmt::format("channel {} is subsampled, which is not supported", it.name()));
+            channels.push_back({it.name(), from_exr(it.channel().type)});
+        }
+        if (channels.empty()) throw std::runtime_error("the image has no channels");
+        std::stable_sort(channels.begin(), channels.end(), [](const Channel& a, const Channel& b) {
+            const std::string la = layer_of(a.name), lb = layer_of(b.name);
+            return la != lb ? la < lb : channel_rank(a.name) < channel_rank(b.name);
+        });
+        for (const Channel& c : channels) {
+            spec.channelnames.push_back(c.name);
+            spec.channeltypes.push_back(c.type);
+        }
+        const double bytes = static_cast<double>(spec.width) * static_cast<double>(spec.height) * static_cast<double>(spec.pixel_bytes());
+        if (bytes > static_cast<double>(kMaxFrameBytes))
+            throw std::runtime_error(fmt::format("implausible image size {}x{} with {} channels", spec.width, spec.height,
+                                                 spec.nchannels()));
+
+        spec.compression = compression_name(header.compression());
+        if (Imf::hasChromaticities(header)) {
+            const Imf::Chromaticities& c = Imf::chromaticities(header);
+            spec.chromaticities = std::array<float, 8>{c.red.x, c.red.y, c.green.x, c.green.y, c.blue.x, c.blue.y, c.white.x, c.white.y};
+        }
+        spec.pixel_aspect = header.pixelAspectRatio();
+        spec.exr = std::make_shared<const ExrHeader>(header);
+
+        frame.pixels = PixelBuffer(spec.image_bytes());
+        const std::vector<std::size_t> offsets = channel_offsets(spec);
+        const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
+        Imf::FrameBuffer fb;
+        for (int c = 0; c < spec.nchannels(); ++c) {
+            const Imf::PixelType t = header.channels().findChannel(spec.channel_name(c))->type;
+            fb.insert(spec.channel_name(c),
+                      Imf::Slice::Make(t, frame.pixels.data() + offsets[static_cast<std::size_t>(c)], dw, xs, ys));
+        }
+        Imf::InputPart part(file, 0);
+        part.setFrameBuffer(fb);
+        part.readPixels(dw.min.y, dw.max.y);
+        find_rgb_channels(frame);
+        return frame;
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    }
+}
+
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression) {
+    const ImageSpec& spec = frame.spec;
+    Imf::Header header = spec.exr ? spec.exr->header : Imf::Header();
+    // What described the input's file layout, not its image: the output is one scanline part.
+    for (const char* name : {"tiles", "type", "chunkCount", "version", "maxSamplesPerPixel"})
+        if (header.find(name) != header.end()) header.erase(name);
+    header.dataWindow() = Imath::Box2i({spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1});
+    header.displayWindow() = Imath::Box2i({spec.full_x, spec.full_y}, {spec.full_x + spec.full_width - 1, spec.full_y + spec.full_height - 1});
+    header.lineOrder() = Imf::INCREASING_Y;
+    header.pixelAspectRatio() = spec.pixel_aspect;
+    set_compression(header, compression);
+    if (spec.chromaticities) {
+        const auto& c = *spec.chromaticities;
+        Imf::addChromaticities(header, Imf::Chromaticities({c[0], c[1]}, {c[2], c[3]}, {c[4], c[5]}, {c[6], c[7]}));
+    } else if (header.find("chromaticities") != header.end()) {
+        header.erase("chromaticities");
+    }
+    for (const auto& [name, value] : spec.text) header.insert(name, Imf::StringAttribute(value));
+
+    const std::vector<std::size_t> offsets = channel_offsets(spec);
+    const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
+    const Imath::Box2i dw = header.dataWindow();
+    Imf::ChannelList list;
+    Imf::FrameBuffer fb;
+    std::vector<std::vector<Imath::half>> widened;  // 8- and 16-bit channels, which EXR lacks
+    for (int c = 0; c < spec.nchannels(); ++c) {
+        const std::string& name = spec.channel_name(c);
+        const std::byte* base = frame.pixels.data() + offsets[static_cast<std::size_t>(c)];
+        switch (spec.channel_type(c)) {
+        case PixelType::half:
+        case PixelType::float32:
+        case PixelType::uint32: {
+            const Imf::PixelType t = spec.channel_type(c) == PixelType::half      ? Imf::HALF
+                                     : spec.channel_type(c) == PixelType::float32 ? Imf::FLOAT
+                                                                                  : Imf::UINT;
+            list.insert(name, Imf::Channel(t));
+            fb.insert(name, Imf::Slice::Make(t, base, dw, xs, ys));
+            break;
+        }
+        case PixelType::uint8:
+        case PixelType::uint16: {
+            const std::vector<float> values = channels_as_float(frame, {c});
+            widened.emplace_back(values.begin(), values.end());
+            list.insert(name, Imf::Channel(Imf::HALF));
+            fb.insert(name, Imf::Slice::Make(Imf::HALF, widened.back().data(), dw, sizeof(Imath::half),
+                                             sizeof(Imath::half) * static_cast<std::size_t>(spec.width)));
+            break;
+        }
+        }
+    }
+    header.channels() = list;
+    try {
+        Imf::OutputFile out(path.c_str(), header, Imf::globalThreadCount());
+        out.setFrameBuffer(fb);
+        out.writePixels(spec.height);
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    }
+}
+
+void set_exr_threads(int threads) { Imf::setGlobalThreadCount(threads); }
+
+}  // namespace lensfx::filter

@@ -1,0 +1,36 @@
+// EXR files through OpenEXR itself: the pipeline's own format, read and written without OpenImageIO,
+// whose Debian build loads some 260 plug-in libraries and costs a quarter second at every process start.
+#pragma once
+
+#include <string>
+
+#include <OpenEXR/ImfHeader.h>
+
+#include <filter/frame.h>
+
+namespace lensfx::filter {
+
+// An EXR input's header as read: what an EXR output starts from, so every attribute passes through.
+class ExrHeader {
+public:
+    explicit ExrHeader(Imf::Header h) : header(std::move(h)) {}
+    Imf::Header header;
+};
+
+// Whether the file starts with the EXR magic number.
+bool is_exr_file(const std::string& path);
+
+// Reads the first part of an EXR at its full resolution (tiles and mip levels: level 0 as scanlines).
+// Channels keep their types (half, float, uint) and come R, G, B, A first within each layer, as
+// OpenImageIO orders them. Throws std::runtime_error for damaged, deep or subsampled files.
+Frame read_exr(const std::string& path);
+
+// Writes every channel (8- and 16-bit ones as half) as a scanline EXR with the frame's windows and the
+// given compression ("piz", "zip", "dwaa:45"...). Attributes: the input's header when it was an EXR,
+// then the spec's chromaticities, pixel aspect and text attributes.
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression);
+
+// OpenEXR's worker threads for decoding and encoding (0: none).
+void set_exr_threads(int threads);
+
+}  // namespace lensfx::filter
