@@ -9,6 +9,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 #include <epoxy/gl.h>
 #include <fmt/core.h>
@@ -129,12 +130,13 @@ struct FlareRenderer::State {
     void upload_iris(const Aperture& aperture) {
         if (iris_for && same_iris(*iris_for, aperture)) return;
         std::vector<float> sdf(static_cast<std::size_t>(kIrisSize) * kIrisSize);
+        const optics::IrisSdf iris_sdf(aperture);
         for (int j = 0; j < kIrisSize; ++j) {
             for (int i = 0; i < kIrisSize; ++i) {
                 const double u = kIrisExtent * (2.0 * (i + 0.5) / kIrisSize - 1.0);
                 const double v = kIrisExtent * (2.0 * (j + 0.5) / kIrisSize - 1.0);
                 sdf[static_cast<std::size_t>(j) * kIrisSize + static_cast<std::size_t>(i)] =
-                    static_cast<float>(aperture_sdf(aperture, u, v));
+                    static_cast<float>(iris_sdf(u, v));
             }
         }
         iris = GlObject::texture();
@@ -160,6 +162,8 @@ namespace {
 
 GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
     GhostSequences out;
+    // Ghosts share their surfaces: each (interface, direction, reflect or transmit) table is computed once.
+    std::map<std::tuple<int, bool, bool>, std::size_t> computed;  // -> its offset in out.tables
     for (const Ghost& ghost : ghosts) {
         out.offset.push_back(static_cast<int>(out.steps.size()));
         out.count.push_back(static_cast<int>(ghost.path.size()));
@@ -178,6 +182,14 @@ GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghos
                 out.tables.insert(out.tables.end(), kTableSize, 1.0f);
                 continue;
             }
+            const auto key = std::make_tuple(step.interface, step.forward, step.reflect);
+            if (const auto it = computed.find(key); it != computed.end()) {
+                const auto from = out.tables.begin() + static_cast<std::ptrdiff_t>(it->second);
+                const std::vector<float> table(from, from + kTableSize);  // copied out: the insert may reallocate
+                out.tables.insert(out.tables.end(), table.begin(), table.end());
+                continue;
+            }
+            computed.emplace(key, out.tables.size());
             for (int i = 0; i < kTableSize; ++i) {
                 const double cos_i = static_cast<double>(i) / (kTableSize - 1);
                 const optics::Reflectance rt =
@@ -202,6 +214,7 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     const std::size_t stride = static_cast<std::size_t>(res + 1);
     enum : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3 };
     std::vector<char> state(stride * stride, kBlocked);
+    const optics::IrisSdf iris_sdf(aperture);
     GhostEstimate out;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
     PupilRect sensor{1e300, 1e300, -1e300, -1e300};
@@ -219,7 +232,7 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
             if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) continue;
             bool inside = true;
             for (int k = 0; k < std::min(stop_crossings, 3) && inside; ++k) {
-                inside = aperture_sdf(aperture, static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
+                inside = iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
             }
             if (!inside) {
                 state[index] = kIrisBlocked;
