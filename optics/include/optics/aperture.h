@@ -2,6 +2,8 @@
 // aperture texture, the CPU reference and the starburst's transmission function.
 #pragma once
 
+#include <array>
+
 #include <optics/lens.h>
 
 namespace lensfx::optics {
@@ -12,6 +14,24 @@ namespace lensfx::optics {
 // rotation_deg = 0, then turned counter-clockwise; each edge is an arc of radius 1 / blade_curvature
 // through its two corners (curvature 0: straight, 1: the circle itself).
 double aperture_sdf(const Aperture& aperture, double u, double v);
+
+// aperture_sdf with the blades' edges worked out once, for evaluating many points of one iris.
+class IrisSdf {
+public:
+    explicit IrisSdf(const Aperture& aperture);
+    double operator()(double u, double v) const;
+
+private:
+    static constexpr int kMaxBlades = 64;
+    struct Edge {
+        double nx, ny;  // outward normal
+        double cx, cy;  // centre of the edge's arc (curved blades)
+    };
+    std::array<Edge, kMaxBlades> edges_{};
+    int blades_ = 0;  // 0: round
+    double apothem_ = 0.0;
+    double arc_radius_ = 0.0;  // 0: straight edges
+};
 
 // Share of a texel of side `texel` centred at (u, v) inside the iris, 4 x 4 supersampled near the edge.
 double aperture_coverage(const Aperture& aperture, double u, double v, double texel);
