@@ -342,7 +342,7 @@ struct FlareStage::State {
     std::optional<detect::TrackFile> tracks;
     detect::Detector detector;
     detect::Tracker tracker;
-    std::shared_ptr<GpuSession> gpu_session;  // its context is created at the first frame that has a light
+    std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first frame with a light
     std::unique_ptr<gpu::FlareRenderer> renderer;
     FlareParts parts;
     double f_number = 0.0;
@@ -393,6 +393,7 @@ struct FlareStage::State {
         if (settings.bands != 0) gpu::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
+        if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
     }
 
     // The working space's primaries and the passes in them; asked once, at the first light.

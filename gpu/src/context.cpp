@@ -208,4 +208,8 @@ void Context::make_current() const {
     }
 }
 
+void Context::release() const {
+    if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)) fail(info_.platform, "eglMakeCurrent (release) failed");
+}
+
 }  // namespace lensfx::gpu

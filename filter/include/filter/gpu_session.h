@@ -1,8 +1,10 @@
 // The one headless GL context of a filter run, shared by the flare renderer and the GPU colour transform:
-// made by the first stage that needs it (the flare stage at its first light, or the colour output stage at
-// the first frame when --gpu was given), on the pipeline's effect thread, where it stays current.
+// taken by the first stage that needs it (the flare stage at its first light, or the colour output stage at
+// the first frame when --gpu was given) on the pipeline's effect thread, where it stays current. The flare
+// stage has it made ahead on a worker thread, so EGL's start-up overlaps reading the first frame.
 #pragma once
 
+#include <future>
 #include <memory>
 #include <string>
 
@@ -17,10 +19,26 @@ struct GpuSession {
 
     // The GPU path is active: a context exists (or is to be made because the user asked for it).
     bool active() const { return context != nullptr || requested; }
+    // Starts making the context on a worker thread; get() takes it over (and throws what making it threw).
+    void prepare() {
+        if (context || pending.valid()) return;
+        pending = std::async(std::launch::async, [p = gpu::parse_platform(platform)] {
+            auto made = std::make_unique<gpu::Context>(p);
+            made->release();
+            return made;
+        });
+    }
     gpu::Context& get() {
+        if (!context && pending.valid()) {
+            context = pending.get();
+            context->make_current();
+        }
         if (!context) context = std::make_unique<gpu::Context>(gpu::parse_platform(platform));
         return *context;
     }
+
+private:
+    std::future<std::unique_ptr<gpu::Context>> pending;  // a context being made by prepare()
 };
 
 }  // namespace lensfx::filter

@@ -40,6 +40,8 @@ public:
 
     const ContextInfo& info() const { return info_; }
     void make_current() const;
+    // Leaves the calling thread without a current context, so that another thread can make this one current.
+    void release() const;
 
 private:
     void* display_ = nullptr;  // EGLDisplay
