@@ -1,5 +1,7 @@
 // The frame side of the flare stage without the GPU: the --min-light fade, the starburst's disk cache,
 // and the frame operations the composite needs (growing the data window, adding a flare layer).
+#include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,7 +15,9 @@
 #include <filter/flare_stage.h>
 #include <filter/footprint.h>
 #include <filter/frame.h>
+#include <optics/aperture.h>
 #include <optics/lens_file.h>
+#include <optics/starburst.h>
 #include <optics/system.h>
 
 namespace fs = std::filesystem;
@@ -272,4 +276,54 @@ TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     float peak = 0.0f;
     for (std::size_t i = 1; i < rgb.size(); i += 3) peak = std::max(peak, rgb[i]);
     EXPECT_NEAR(peak, 5.0f / (200.0f * 200.0f), 0.15f * 5.0f / (200.0f * 200.0f)) << "spread over 200 x 200 px";
+}
+
+namespace {
+
+// A 22 x 14 px bar of 2 px cells round the light, brighter on its left.
+detect::Shape bar_footprint() {
+    detect::Shape bar;
+    bar.width = 11;
+    bar.height = 7;
+    bar.cell = 2.0;
+    bar.origin_x = -11.0;
+    bar.origin_y = -7.0;
+    double sum = 0.0;
+    for (int j = 0; j < bar.height; ++j)
+        for (int i = 0; i < bar.width; ++i) sum += static_cast<double>(bar.weights.emplace_back(static_cast<float>(2.0 - i / 10.0)));
+    for (float& w : bar.weights) w = static_cast<float>(static_cast<double>(w) / sum);
+    return bar;
+}
+
+}  // namespace
+
+TEST(Footprint, ExtendedStarburstOverItsRegionEqualsTheWholeFrames) {
+    // The pattern (texels a third of a pixel, ~43 px across) near the frame's right edge: drawn and spread
+    // over the region it reaches only, against drawn and spread over the whole frame.
+    optics::StarburstOptions options;
+    options.size = 128;
+    options.pupil_samples = 24;
+    const optics::Starburst sb = optics::make_starburst(optics::Aperture{6, 0.0, 0.0}, options);
+    const detect::Shape bar = bar_footprint();
+    const int w = 300, h = 200;
+    const double f_number = 8.0, pixel = 3.0 * sb.texel_per_fnumber_mm * f_number, core = 5.0;
+    const std::array<double, 3> power{2.0, 1.0, 0.5};
+    for (const double cx : {150.4, 290.7}) {
+        const double cy = 80.2;
+        std::vector<float> whole(static_cast<std::size_t>(w * h * 3), 0.0f);
+        optics::splat_starburst(sb, f_number, cx, cy, power, pixel, pixel, whole.data(), w, h, core);
+        filter::convolve_footprint(whole, w, h, bar, 1.0);
+        std::vector<float> region(whole.size(), 0.0f);
+        filter::add_extended_starburst(sb, f_number, cx, cy, power, pixel, pixel, core, bar, region.data(), w, h);
+        float peak = 0.0f;
+        double sum_whole = 0.0, sum_region = 0.0;
+        for (float v : whole) peak = std::max(peak, v);
+        ASSERT_GT(peak, 0.0f);
+        for (std::size_t i = 0; i < whole.size(); ++i) {
+            ASSERT_NEAR(region[i], whole[i], 1e-5f * peak) << "pixel " << i / 3 % w << "," << i / 3 / w;
+            sum_whole += static_cast<double>(whole[i]);
+            sum_region += static_cast<double>(region[i]);
+        }
+        EXPECT_NEAR(sum_region, sum_whole, 1e-5 * sum_whole) << "x " << cx;
+    }
 }
