@@ -527,7 +527,8 @@ void FlareStage::process(Frame& frame) {
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
                                     (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
-            // An extended light's diffraction is every point's pattern over its footprint (the direct image).
+            // An extended light's diffraction is every point's pattern over its footprint (the direct image),
+            // less what its recorded pixels hold (footprint.h).
             const double f_number = s.f_number * s.settings.starburst_scale;
             const double pixel_w_mm = geo.sensor_width_mm / geo.width, pixel_h_mm = geo.sensor_height_mm / geo.height;
             if (extended) {

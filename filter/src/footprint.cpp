@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -25,13 +26,21 @@ struct FootprintSampler {
         if (i < 0 || j < 0 || i >= shape.width || j >= shape.height) return 0.0f;
         return shape.weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(shape.width) + static_cast<std::size_t>(i)];
     }
-    float operator()(double ox, double oy) const {
+    template <class Of>
+    float interpolate(double ox, double oy, Of of) const {
         const double u = (ox - x0) / cell - 0.5, v = (oy - y0) / cell - 0.5;
         if (!(u > -1.0 && v > -1.0 && u < shape.width && v < shape.height)) return 0.0f;
         const int i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
         const float fu = static_cast<float>(u - i), fv = static_cast<float>(v - j);
-        return (1.0f - fv) * ((1.0f - fu) * cell_weight(i, j) + fu * cell_weight(i + 1, j)) +
-               fv * ((1.0f - fu) * cell_weight(i, j + 1) + fu * cell_weight(i + 1, j + 1));
+        return (1.0f - fv) * ((1.0f - fu) * of(cell_weight(i, j)) + fu * of(cell_weight(i + 1, j))) +
+               fv * ((1.0f - fu) * of(cell_weight(i, j + 1)) + fu * of(cell_weight(i + 1, j + 1)));
+    }
+    float operator()(double ox, double oy) const {
+        return interpolate(ox, oy, [](float w) { return w; });
+    }
+    // 1 where the light's own pixels are (its cells holding any of its light), 0 beyond, interpolated alike.
+    float inside(double ox, double oy) const {
+        return interpolate(ox, oy, [](float w) { return w > 0.0f ? 1.0f : 0.0f; });
     }
     // Half-widths in pixels of the kernel at magnification m.
     int reach_x(double m) const {
@@ -114,13 +123,27 @@ void add_extended_starburst(const optics::Starburst& sb, double f_number, double
     if (x1 <= x0 || y1 <= y0) return;
     const int w = x1 - x0, h = y1 - y0;
     std::vector<float> own(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
-    optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h,
-                            core_radius_texels);
+    // Each point's pattern within the source's radius (of the disc of its cells' area), spread over the
+    // source, would only blur it within its own size: the recording holds that. What reaches farther (the
+    // spikes) is new.
+    std::size_t cells = 0;
+    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
+    const double radius_px = std::sqrt(static_cast<double>(cells) / std::numbers::pi) * footprint.cell;
+    const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
+    if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
+    optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h, core);
     convolve_footprint(own, w, h, shape, 1.0);
+    // Over the light's own pixels the recording already holds its light, spread by the lens or not: the
+    // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
     for (int y = 0; y < h; ++y) {
         const float* from = own.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
         float* to = rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
-        for (std::size_t i = 0; i < static_cast<std::size_t>(w) * 3; ++i) to[i] += from[i];
+        for (int x = 0; x < w; ++x) {
+            const float beyond = 1.0f - footprint.inside(x0 + x + 0.5 - cx, y0 + y + 0.5 - cy);
+            if (beyond <= 0.0f) continue;
+            for (std::size_t c = 0; c < 3; ++c)
+                to[static_cast<std::size_t>(x) * 3 + c] += beyond * from[static_cast<std::size_t>(x) * 3 + c];
+        }
     }
 }
 
