@@ -528,16 +528,16 @@ void FlareStage::process(Frame& frame) {
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
                                     (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
-            // An extended light's diffraction is every point's pattern over its footprint: drawn apart, then
-            // spread over it (the direct image, magnification 1).
-            std::vector<float> own;
-            if (extended) own.assign(display_px * 3, 0.0f);
-            optics::splat_starburst(*s.starburst, s.f_number * s.settings.starburst_scale, light.x, light.y, energy,
-                                    geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height,
-                                    extended ? own.data() : flare_rgb.data(), geo.width, geo.height, core_texels);
+            // An extended light's diffraction is every point's pattern over its footprint (the direct image),
+            // less what its recorded pixels hold (footprint.h).
+            const double f_number = s.f_number * s.settings.starburst_scale;
+            const double pixel_w_mm = geo.sensor_width_mm / geo.width, pixel_h_mm = geo.sensor_height_mm / geo.height;
             if (extended) {
-                convolve_footprint(own, geo.width, geo.height, *light.shape, 1.0);
-                for (std::size_t i = 0; i < own.size(); ++i) flare_rgb[i] += own[i];
+                add_extended_starburst(*s.starburst, f_number, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
+                                       core_texels, *light.shape, flare_rgb.data(), geo.width, geo.height);
+            } else {
+                optics::splat_starburst(*s.starburst, f_number, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
+                                        flare_rgb.data(), geo.width, geo.height, core_texels);
             }
             starburst_ms += ms_since(t);
         }

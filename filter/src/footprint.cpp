@@ -4,18 +4,60 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace lensfx::filter {
 
+namespace {
+
+// A light's footprint as a function of the offset from the light in pixels: its weight interpolated
+// bilinearly between cell centres (cells of many pixels would otherwise print their squares), 0 beyond half
+// a cell outside it.
+struct FootprintSampler {
+    const detect::Shape& shape;
+    double cell = std::max(1e-6, shape.cell);
+    double x0 = shape.origin_x, y0 = shape.origin_y;
+    double x1 = x0 + shape.width * cell, y1 = y0 + shape.height * cell;
+
+    float cell_weight(int i, int j) const {
+        if (i < 0 || j < 0 || i >= shape.width || j >= shape.height) return 0.0f;
+        return shape.weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(shape.width) + static_cast<std::size_t>(i)];
+    }
+    template <class Of>
+    float interpolate(double ox, double oy, Of of) const {
+        const double u = (ox - x0) / cell - 0.5, v = (oy - y0) / cell - 0.5;
+        if (!(u > -1.0 && v > -1.0 && u < shape.width && v < shape.height)) return 0.0f;
+        const int i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
+        const float fu = static_cast<float>(u - i), fv = static_cast<float>(v - j);
+        return (1.0f - fv) * ((1.0f - fu) * of(cell_weight(i, j)) + fu * of(cell_weight(i + 1, j))) +
+               fv * ((1.0f - fu) * of(cell_weight(i, j + 1)) + fu * of(cell_weight(i + 1, j + 1)));
+    }
+    float operator()(double ox, double oy) const {
+        return interpolate(ox, oy, [](float w) { return w; });
+    }
+    // 1 where the light's own pixels are (its cells holding any of its light), 0 beyond, interpolated alike.
+    float inside(double ox, double oy) const {
+        return interpolate(ox, oy, [](float w) { return w > 0.0f ? 1.0f : 0.0f; });
+    }
+    // Half-widths in pixels of the kernel at magnification m.
+    int reach_x(double m) const {
+        return static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(x0), std::abs(x1)) + 0.5 * cell))) + 1;
+    }
+    int reach_y(double m) const {
+        return static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(y0), std::abs(y1)) + 0.5 * cell))) + 1;
+    }
+};
+
+}  // namespace
+
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m) {
-    const double cell = std::max(1e-6, shape.cell);
-    const double x0 = shape.origin_x, y0 = shape.origin_y;
-    const double x1 = x0 + shape.width * cell, y1 = y0 + shape.height * cell;
-    const int rx = static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(x0), std::abs(x1)) + 0.5 * cell))) + 1;
-    const int ry = static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(y0), std::abs(y1)) + 0.5 * cell))) + 1;
+    const FootprintSampler weight_at{shape};
+    const double cell = weight_at.cell;
+    const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
+    const int rx = weight_at.reach_x(m), ry = weight_at.reach_y(m);
     if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and upsample bilinearly.
@@ -34,19 +76,6 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
         cv::resize(cv::Mat(sh, sw, CV_32FC3, small_rgb.data()), image, cv::Size(width, height), 0.0, 0.0, cv::INTER_LINEAR);
         return;
     }
-    // The footprint's weight at an offset from the light, interpolated bilinearly between cell centres (cells
-    // of many pixels would otherwise print their squares), 0 beyond half a cell outside it.
-    auto cell_weight = [&](int i, int j) {
-        if (i < 0 || j < 0 || i >= shape.width || j >= shape.height) return 0.0f;
-        return shape.weights[static_cast<std::size_t>(j) * static_cast<std::size_t>(shape.width) + static_cast<std::size_t>(i)];
-    };
-    auto weight_at = [&](double ox, double oy) {
-        const double u = (ox - x0) / cell - 0.5, v = (oy - y0) / cell - 0.5;
-        const int i = static_cast<int>(std::floor(u)), j = static_cast<int>(std::floor(v));
-        const float fu = static_cast<float>(u - i), fv = static_cast<float>(v - j);
-        return (1.0f - fv) * ((1.0f - fu) * cell_weight(i, j) + fu * cell_weight(i + 1, j)) +
-               fv * ((1.0f - fu) * cell_weight(i, j + 1) + fu * cell_weight(i + 1, j + 1));
-    };
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
     if (std::abs(m) >= 1.0) {  // enlarged: each kernel pixel looks up where it came from
         for (int ky = -ry; ky <= ry; ++ky)
@@ -75,6 +104,47 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     cv::Mat out;
     cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
     out.copyTo(image);
+}
+
+void add_extended_starburst(const optics::Starburst& sb, double f_number, double cx, double cy,
+                            const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
+                            double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height) {
+    if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+    // The region the pattern and then the footprint can reach: the same sums as over the whole frame
+    // (nothing is drawn or spread beyond it), at the cost of the source and its pattern.
+    const FootprintSampler footprint{shape};
+    const double texel_mm = sb.texel_per_fnumber_mm * f_number;
+    const double reach_x = 0.5 * sb.size * texel_mm / pixel_w_mm + 2.0 + footprint.reach_x(1.0);
+    const double reach_y = 0.5 * sb.size * texel_mm / pixel_h_mm + 2.0 + footprint.reach_y(1.0);
+    const int x0 = static_cast<int>(std::clamp(std::floor(cx - reach_x), 0.0, static_cast<double>(width)));
+    const int x1 = static_cast<int>(std::clamp(std::ceil(cx + reach_x), 0.0, static_cast<double>(width)));
+    const int y0 = static_cast<int>(std::clamp(std::floor(cy - reach_y), 0.0, static_cast<double>(height)));
+    const int y1 = static_cast<int>(std::clamp(std::ceil(cy + reach_y), 0.0, static_cast<double>(height)));
+    if (x1 <= x0 || y1 <= y0) return;
+    const int w = x1 - x0, h = y1 - y0;
+    std::vector<float> own(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+    // Each point's pattern within the source's radius (of the disc of its cells' area), spread over the
+    // source, would only blur it within its own size: the recording holds that. What reaches farther (the
+    // spikes) is new.
+    std::size_t cells = 0;
+    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
+    const double radius_px = std::sqrt(static_cast<double>(cells) / std::numbers::pi) * footprint.cell;
+    const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
+    if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
+    optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h, core);
+    convolve_footprint(own, w, h, shape, 1.0);
+    // Over the light's own pixels the recording already holds its light, spread by the lens or not: the
+    // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
+    for (int y = 0; y < h; ++y) {
+        const float* from = own.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
+        float* to = rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
+        for (int x = 0; x < w; ++x) {
+            const float beyond = 1.0f - footprint.inside(x0 + x + 0.5 - cx, y0 + y + 0.5 - cy);
+            if (beyond <= 0.0f) continue;
+            for (std::size_t c = 0; c < 3; ++c)
+                to[static_cast<std::size_t>(x) * 3 + c] += beyond * from[static_cast<std::size_t>(x) * 3 + c];
+        }
+    }
 }
 
 std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,

@@ -194,29 +194,57 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
     const double pixel_area = pixel_w_mm * pixel_h_mm;
     const double half = sb.size / 2;
     const double core2 = core_radius_texels * core_radius_texels;
-    const auto in_core = [&](int texel) {
-        const double dx = texel % sb.size - half, dy = texel / sb.size - half;
+    const auto in_core = [&](int i, int j) {
+        const double dx = i - half, dy = j - half;
         return dx * dx + dy * dy < core2;
     };
-    const auto add = [&](int x, int y, double w, int texel) {
-        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0 || in_core(texel)) return;
+    const auto add = [&](int x, int y, double w, int i, int j) {
+        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0 || in_core(i, j)) return;
         float* px = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
+        const std::size_t texel = static_cast<std::size_t>(j) * static_cast<std::size_t>(sb.size) + static_cast<std::size_t>(i);
         for (std::size_t c = 0; c < 3; ++c)
-            px[c] += static_cast<float>(w * power[c] / pixel_area * static_cast<double>(sb.rgb[static_cast<std::size_t>(texel) * 3 + c]));
+            px[c] += static_cast<float>(w * power[c] / pixel_area * static_cast<double>(sb.rgb[texel * 3 + c]));
     };
     if (tx <= 1.0 && ty <= 1.0) {
         // Texels smaller than pixels: each texel's energy goes bilinearly into the pixels around its centre.
-        for (int j = 0; j < sb.size; ++j) {
-            for (int i = 0; i < sb.size; ++i) {
-                const double px = cx + (i - half) * tx - 0.5;
-                const double py = cy + (j - half) * ty - 0.5;
-                const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
-                const double ax = px - x0, ay = py - y0;
-                const int t = j * sb.size + i;
-                add(x0, y0, (1 - ax) * (1 - ay), t);
-                add(x0 + 1, y0, ax * (1 - ay), t);
-                add(x0, y0 + 1, (1 - ax) * ay, t);
-                add(x0 + 1, y0 + 1, ax * ay, t);
+        // The weights are separable: each texture row is gathered into pixel columns, then shared between
+        // two pixel rows (the texture is far larger than its image here, so this is most of the cost).
+        const int n = sb.size;
+        std::vector<int> column(static_cast<std::size_t>(n));
+        std::vector<double> right(static_cast<std::size_t>(n));  // share of the texel in column + 1
+        for (int i = 0; i < n; ++i) {
+            const double px = cx + (i - half) * tx - 0.5;
+            column[static_cast<std::size_t>(i)] = static_cast<int>(std::floor(px));
+            right[static_cast<std::size_t>(i)] = px - std::floor(px);
+        }
+        const int first = column.front(), columns = column.back() + 2 - first;
+        std::vector<double> row(static_cast<std::size_t>(columns) * 3);
+        for (int j = 0; j < n; ++j) {
+            const double py = cy + (j - half) * ty - 0.5;
+            const int y0 = static_cast<int>(std::floor(py));
+            if (y0 + 1 < 0 || y0 >= height) continue;
+            const double ay = py - y0;
+            std::fill(row.begin(), row.end(), 0.0);
+            const float* texels = sb.rgb.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(n) * 3;
+            for (int i = 0; i < n; ++i) {
+                if (in_core(i, j)) continue;
+                const std::size_t k = static_cast<std::size_t>(column[static_cast<std::size_t>(i)] - first) * 3;
+                const double a = right[static_cast<std::size_t>(i)];
+                for (std::size_t c = 0; c < 3; ++c) {
+                    const double v = texels[static_cast<std::size_t>(i) * 3 + c];
+                    row[k + c] += (1.0 - a) * v;
+                    row[k + 3 + c] += a * v;
+                }
+            }
+            for (int dy = 0; dy < 2; ++dy) {
+                const int y = y0 + dy;
+                const double wy = (dy ? ay : 1.0 - ay) / pixel_area;
+                if (y < 0 || y >= height || wy <= 0.0) continue;
+                for (int k = std::max(0, -first); k < columns && first + k < width; ++k) {
+                    float* px = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(first + k)) * 3;
+                    for (std::size_t c = 0; c < 3; ++c)
+                        px[c] += static_cast<float>(wy * power[c] * row[static_cast<std::size_t>(k) * 3 + c]);
+                }
             }
         }
         return;
@@ -238,7 +266,7 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
                 for (int di = 0; di < 2; ++di) {
                     const int i = i0 + di, j = j0 + dj;
                     if (i < 0 || j < 0 || i >= sb.size || j >= sb.size) continue;
-                    add(x, y, share * (di ? au : 1 - au) * (dj ? av : 1 - av), j * sb.size + i);
+                    add(x, y, share * (di ? au : 1 - au) * (dj ? av : 1 - av), i, j);
                 }
         }
     }

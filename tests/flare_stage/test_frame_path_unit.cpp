@@ -1,10 +1,14 @@
 // The frame side of the flare stage without the GPU: the --min-light fade, the starburst's disk cache,
 // and the frame operations the composite needs (growing the data window, adding a flare layer).
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,7 +19,9 @@
 #include <filter/flare_stage.h>
 #include <filter/footprint.h>
 #include <filter/frame.h>
+#include <optics/aperture.h>
 #include <optics/lens_file.h>
+#include <optics/starburst.h>
 #include <optics/system.h>
 
 namespace fs = std::filesystem;
@@ -278,4 +284,70 @@ TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     float peak = 0.0f;
     for (std::size_t i = 1; i < rgb.size(); i += 3) peak = std::max(peak, rgb[i]);
     EXPECT_NEAR(peak, 5.0f / (200.0f * 200.0f), 0.15f * 5.0f / (200.0f * 200.0f)) << "spread over 200 x 200 px";
+}
+
+namespace {
+
+// A 22 x 14 px bar of 2 px cells round the light, brighter on its left.
+detect::Shape bar_footprint() {
+    detect::Shape bar;
+    bar.width = 11;
+    bar.height = 7;
+    bar.cell = 2.0;
+    bar.origin_x = -11.0;
+    bar.origin_y = -7.0;
+    double sum = 0.0;
+    for (int j = 0; j < bar.height; ++j)
+        for (int i = 0; i < bar.width; ++i) sum += static_cast<double>(bar.weights.emplace_back(static_cast<float>(2.0 - i / 10.0)));
+    for (float& w : bar.weights) w = static_cast<float>(static_cast<double>(w) / sum);
+    return bar;
+}
+
+}  // namespace
+
+TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
+    // The pattern (texels half a pixel, ~64 px across) round a 22 x 14 px bar, in the frame and cut by its
+    // right edge, against the rule done over the whole frame: each point's pattern within the bar's radius
+    // (the disc of its area) left out, the rest spread over the bar, and nothing added on the bar's own
+    // pixels (1 at its cells' centres, falling to 0 half a cell outside them).
+    optics::StarburstOptions options;
+    options.size = 128;
+    options.pupil_samples = 24;
+    const optics::Starburst sb = optics::make_starburst(optics::Aperture{6, 0.0, 0.0}, options);
+    const detect::Shape bar = bar_footprint();
+    const int w = 300, h = 200;
+    const double f_number = 8.0, pixel = 2.0 * sb.texel_per_fnumber_mm * f_number, core = 5.0;
+    const double radius_px = std::sqrt(bar.width * bar.height / std::numbers::pi) * bar.cell;
+    const std::array<double, 3> power{2.0, 1.0, 0.5};
+    const auto inside = [&](double ox, double oy) {  // the bar's cells, interpolated between their centres
+        const double u = (ox - bar.origin_x) / bar.cell - 0.5, v = (oy - bar.origin_y) / bar.cell - 0.5;
+        return std::clamp(std::min(u + 1.0, bar.width - u), 0.0, 1.0) * std::clamp(std::min(v + 1.0, bar.height - v), 0.0, 1.0);
+    };
+    for (const double cx : {150.4, 290.7}) {
+        const double cy = 80.2;
+        std::vector<float> whole(static_cast<std::size_t>(w * h * 3), 0.0f);
+        optics::splat_starburst(sb, f_number, cx, cy, power, pixel, pixel, whole.data(), w, h, 2.0 * radius_px);
+        filter::convolve_footprint(whole, w, h, bar, 1.0);
+        std::vector<float> added(whole.size(), 0.0f);
+        filter::add_extended_starburst(sb, f_number, cx, cy, power, pixel, pixel, core, bar, added.data(), w, h);
+        float peak = 0.0f;
+        for (float v : whole) peak = std::max(peak, v);
+        ASSERT_GT(peak, 0.0f);
+        double sum_expected = 0.0, sum_added = 0.0, on_bar = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const double beyond = 1.0 - inside(x + 0.5 - cx, y + 0.5 - cy);
+                for (std::size_t c = 0; c < 3; ++c) {
+                    const std::size_t i = static_cast<std::size_t>(y * w + x) * 3 + c;
+                    const double expected = beyond * static_cast<double>(whole[i]);
+                    ASSERT_NEAR(added[i], expected, 1e-5 * static_cast<double>(peak)) << "pixel " << x << "," << y;
+                    sum_expected += expected;
+                    sum_added += static_cast<double>(added[i]);
+                    if (beyond == 0.0) on_bar += static_cast<double>(added[i]);
+                }
+            }
+        EXPECT_NEAR(sum_added, sum_expected, 1e-5 * sum_expected) << "x " << cx;
+        EXPECT_EQ(on_bar, 0.0) << "x " << cx;
+        EXPECT_GT(sum_added * pixel * pixel, 0.005) << "the spikes beyond the bar, x " << cx;
+    }
 }

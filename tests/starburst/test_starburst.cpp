@@ -1,5 +1,7 @@
 // The diffraction starburst: energy, the Airy ring of a round iris, spikes across the blade edges, and
 // its scale with the f-number.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -119,4 +121,43 @@ TEST(Starburst, CoreLeftOutHoldsMostOfTheEnergy) {
     for (std::size_t i = 1; i < img.size(); i += 3) sum += static_cast<double>(img[i]) * pixel * pixel;
     EXPECT_GT(sum, 0.05);
     EXPECT_LT(sum, 0.13);
+}
+
+TEST(Starburst, SmallTexelSplatMatchesEachTexelBilinearlyAtTheFramesCorner) {
+    // Texels smaller than pixels (f/4), the light near the top-left corner so part of the pattern is cut
+    // off, a core left out: the row-by-row splat against each texel shared bilinearly on its own.
+    const Starburst s = make_starburst(Aperture{6, 0.0, 0.0}, small());
+    const int w = 40, h = 30;
+    const double f_number = 4.0, pixel = s.texel_per_fnumber_mm * f_number * 7.3, core = 9.0;
+    const std::array<double, 3> power{2.0, 1.0, 0.5};
+    const double cx = 4.3, cy = 6.8;
+    std::vector<float> img(static_cast<std::size_t>(w * h * 3), 0.0f);
+    splat_starburst(s, f_number, cx, cy, power, pixel, pixel, img.data(), w, h, core);
+    std::vector<double> ref(img.size(), 0.0);
+    const double t = 1.0 / 7.3, half = s.size / 2;
+    for (int j = 0; j < s.size; ++j)
+        for (int i = 0; i < s.size; ++i) {
+            if (std::hypot(i - half, j - half) < core) continue;
+            const double px = cx + (i - half) * t - 0.5, py = cy + (j - half) * t - 0.5;
+            const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+            for (int dy = 0; dy < 2; ++dy)
+                for (int dx = 0; dx < 2; ++dx) {
+                    const int x = x0 + dx, y = y0 + dy;
+                    if (x < 0 || y < 0 || x >= w || y >= h) continue;
+                    const double wt = (dx ? px - x0 : 1.0 - (px - x0)) * (dy ? py - y0 : 1.0 - (py - y0));
+                    for (int c = 0; c < 3; ++c)
+                        ref[static_cast<std::size_t>((y * w + x) * 3 + c)] +=
+                            wt * power[static_cast<std::size_t>(c)] / (pixel * pixel) * static_cast<double>(s.at(i, j, c));
+                }
+        }
+    double peak = 0.0, sum = 0.0, ref_sum = 0.0;
+    for (double v : ref) peak = std::max(peak, v);
+    ASSERT_GT(peak, 0.0);
+    for (std::size_t k = 0; k < img.size(); ++k) {
+        EXPECT_NEAR(img[k], ref[k], 1e-5 * peak) << "pixel " << k / 3 % w << "," << k / 3 / w;
+        sum += static_cast<double>(img[k]);
+        ref_sum += ref[k];
+    }
+    EXPECT_NEAR(sum, ref_sum, 1e-5 * ref_sum);
+    EXPECT_LT(ref_sum * pixel * pixel, 0.9 * (power[0] + power[1] + power[2])) << "part of it is cut off";
 }
