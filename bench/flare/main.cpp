@@ -4,7 +4,7 @@
 //   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
 //               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1]
 // --ref-bounds 1: the reference's rays cover each ghost's pupil bounds (ReferenceOptions::ghost_bounds),
-// so small ghosts of big zooms get enough rays.
+// so small ghosts of big zooms get enough rays. --rays 0: times only, no reference (nor error figures).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -103,6 +103,12 @@ int main(int argc, char** argv) try {
                 const auto start = Clock::now();
                 renderer.render(system, view, options);
                 one_ms = std::min(one_ms, ms_since(start));
+            }
+            if (rays <= 0) {
+                fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f}\n", name, lensfx::optics::paraxial(system).f_number,
+                           ghosts, rgb_ms, one_ms);
+                std::fflush(stdout);
+                continue;
             }
             options.per_ghost_power = true;
             const lensfx::gpu::FlareImage gpu_image = renderer.render(system, view, options);
