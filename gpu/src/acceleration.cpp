@@ -66,12 +66,13 @@ constexpr int kMaxRefine = 8;
 constexpr double kFullShare = 0.01;
 // Reduced drawing: smooth ghosts (cells this uniform) at least this many pixels across at 1/2, 1/4, 1/8
 // of the image size (their edges soften by at most 2 % of their size); ghosts with caustics only when
-// they are so large that a 2-pixel softening is under 0.2 % of their size.
+// they are so large that the softening (2 pixels at 1/2, 4 at 1/4) is under 0.2 % of their size.
 constexpr double kHalfExtentPx = 96.0;
 constexpr double kQuarterExtentPx = 256.0;
 constexpr double kEighthExtentPx = 1024.0;
 constexpr double kReducedMaxCv = 0.3;
 constexpr double kSharpHalfExtentPx = 1024.0;
+constexpr double kSharpQuarterExtentPx = 2048.0;
 
 }  // namespace
 
@@ -124,7 +125,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
                               : extent_px >= kQuarterExtentPx ? 4
                               : extent_px >= kHalfExtentPx ? 2 : 1;
             } else {
-                plan.reduce = extent_px >= kSharpHalfExtentPx ? 2 : 1;
+                plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
             }
         }
     }
