@@ -69,8 +69,8 @@ struct FlareRenderer::State {
     };
     std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
     std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
-    // Render targets at full, 1/2, 1/4 and 1/8 of the image size, kept while the image size stays.
-    std::optional<FloatTarget> targets[4];
+    // Render targets at full, 1/2, 1/4, 1/8 and 1/16 of the image size, kept while the image size stays.
+    std::optional<FloatTarget> targets[5];
 
     // Which of targets[] holds 1/reduce of the image.
     static std::size_t slot(int reduce) {
@@ -79,11 +79,12 @@ struct FlareRenderer::State {
             case 2: return 1;
             case 4: return 2;
             case 8: return 3;
+            case 16: return 4;
             default: throw std::logic_error(fmt::format("no render target at 1/{} of the image", reduce));
         }
     }
 
-    // The target at 1/reduce (1, 2, 4 or 8) of width x height, made (or remade for a new size) on demand.
+    // The target at 1/reduce (1, 2, 4, 8 or 16) of width x height, made (or remade for a new size) on demand.
     FloatTarget& target(int reduce, int width, int height) {
         std::optional<FloatTarget>& t = targets[slot(reduce)];
         const int w = (width + reduce - 1) / reduce;
@@ -388,7 +389,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     FloatTarget& target = s.target(1, view.width, view.height);
     target.bind();
     target.clear();
-    bool drawn_into[4] = {options.per_ghost_power, false, false, false};  // targets drawn into (and cleared) by this render
+    bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
     const auto passes = view.passes();
@@ -667,7 +668,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
-                for (const int reduce : {8, 4, 2, 1}) {
+                for (const int reduce : {16, 8, 4, 2, 1}) {
                     bool bound = false;
                     for (const Job& job : batch) {
                         const std::size_t g = job.ghost;
@@ -746,7 +747,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
         std::vector<Readback> readbacks;
-        for (int slot : {0, 1, 2, 3}) {
+        for (int slot : {0, 1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
             readbacks.push_back({t.read_rgba(), t.width(), t.height()});
