@@ -64,14 +64,16 @@ constexpr double kIrisShare = 0.6;
 constexpr int kMaxRefine = 8;
 // Intensity LOD: ghosts under kFullShare of the estimated total get a grid scaled by sqrt(share/kFullShare).
 constexpr double kFullShare = 0.01;
-// Reduced drawing: smooth ghosts (cells this uniform) at least this many pixels across at 1/2, 1/4, 1/8
-// of the image size (their edges soften by at most 2 % of their size); ghosts with caustics only when
-// they are so large that a 2-pixel softening is under 0.2 % of their size.
+// Reduced drawing: smooth ghosts (cells this uniform) at least this many pixels across at 1/2, 1/4, 1/8,
+// 1/16 of the image size (their edges soften by at most 2 % of their size); ghosts with caustics only when
+// they are so large that the softening (2 pixels at 1/2, 4 at 1/4) is under 0.2 % of their size.
 constexpr double kHalfExtentPx = 96.0;
 constexpr double kQuarterExtentPx = 256.0;
 constexpr double kEighthExtentPx = 1024.0;
+constexpr double kSixteenthExtentPx = 2048.0;
 constexpr double kReducedMaxCv = 0.3;
 constexpr double kSharpHalfExtentPx = 1024.0;
+constexpr double kSharpQuarterExtentPx = 2048.0;
 
 }  // namespace
 
@@ -120,11 +122,12 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) {
             const double extent_px = e.extent_mm / pixel_mm;
             if (e.area_cv < kReducedMaxCv) {
-                plan.reduce = extent_px >= kEighthExtentPx ? 8
+                plan.reduce = extent_px >= kSixteenthExtentPx ? 16
+                              : extent_px >= kEighthExtentPx ? 8
                               : extent_px >= kQuarterExtentPx ? 4
                               : extent_px >= kHalfExtentPx ? 2 : 1;
             } else {
-                plan.reduce = extent_px >= kSharpHalfExtentPx ? 2 : 1;
+                plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
             }
         }
     }

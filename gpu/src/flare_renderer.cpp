@@ -70,8 +70,8 @@ struct FlareRenderer::State {
     };
     std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
     std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
-    // Render targets at full, 1/2, 1/4 and 1/8 of the image size, kept while the image size stays.
-    std::optional<FloatTarget> targets[4];
+    // Render targets at full, 1/2, 1/4, 1/8 and 1/16 of the image size, kept while the image size stays.
+    std::optional<FloatTarget> targets[5];
 
     // Which of targets[] holds 1/reduce of the image.
     static std::size_t slot(int reduce) {
@@ -80,11 +80,12 @@ struct FlareRenderer::State {
             case 2: return 1;
             case 4: return 2;
             case 8: return 3;
+            case 16: return 4;
             default: throw std::logic_error(fmt::format("no render target at 1/{} of the image", reduce));
         }
     }
 
-    // The target at 1/reduce (1, 2, 4 or 8) of width x height, made (or remade for a new size) on demand.
+    // The target at 1/reduce (1, 2, 4, 8 or 16) of width x height, made (or remade for a new size) on demand.
     FloatTarget& target(int reduce, int width, int height) {
         std::optional<FloatTarget>& t = targets[slot(reduce)];
         const int w = (width + reduce - 1) / reduce;
@@ -319,9 +320,18 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     return out;
 }
 
-// Adds a target's read-back (RGBA rows bottom to top, as GL stores them) into a top-down RGB image of
-// w x h covering the same sensor extent: copied at the same size, upsampled bilinearly from a reduced one.
-void add_target(const std::vector<float>& rgba, int sw, int sh, std::vector<float>& rgb, int w, int h) {
+// A render target's read-back: RGBA rows bottom to top, as GL stores them, covering the whole sensor.
+struct Readback {
+    std::vector<float> rgba;
+    int width = 0;
+    int height = 0;
+};
+
+// Adds read-backs into a top-down RGB image of w x h: copied where of the same size, upsampled bilinearly
+// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
+// source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
+// widened rows (a loop the compiler vectorises), so the image is read and written once.
+void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
         float f;
@@ -335,25 +345,42 @@ void add_target(const std::vector<float>& rgba, int sw, int sh, std::vector<floa
         }
         return out;
     };
-    const std::vector<Tap> xs = taps(w, sw);
-    const std::vector<Tap> ys = taps(h, sh);
-    for (int y = 0; y < h; ++y) {
-        const Tap ty = ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
-        const float* r0 = rgba.data() + static_cast<std::size_t>(ty.i0) * static_cast<std::size_t>(sw) * 4;
-        const float* r1 = rgba.data() + static_cast<std::size_t>(ty.i1) * static_cast<std::size_t>(sw) * 4;
-        float* out = rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
-        if (sw == w && sh == h) {
-            for (int x = 0; x < w; ++x)
-                for (int c = 0; c < 3; ++c) out[x * 3 + c] += r0[x * 4 + c];
-            continue;
+    const std::size_t row_values = static_cast<std::size_t>(w) * 3;
+    struct Source {
+        const Readback* readback;
+        std::vector<Tap> xs, ys;
+        std::vector<float> wide[2];  // two widened source rows
+        int held[2] = {-1, -1};      // which rows they hold
+    };
+    std::vector<Source> srcs;
+    for (const Readback& r : sources)
+        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(row_values), std::vector<float>(row_values)}});
+    auto widened = [&](Source& src, int row, int keep) -> const float* {
+        for (int k = 0; k < 2; ++k)
+            if (src.held[k] == row) return src.wide[k].data();
+        const int k = src.held[0] == keep ? 1 : 0;
+        const float* in = src.readback->rgba.data() + static_cast<std::size_t>(row) * static_cast<std::size_t>(src.readback->width) * 4;
+        float* out = src.wide[k].data();
+        for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
+            const Tap t = src.xs[x];
+            const float* a = in + static_cast<std::size_t>(t.i0) * 4;
+            const float* b = in + static_cast<std::size_t>(t.i1) * 4;
+            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] = a[c] + t.f * (b[c] - a[c]);
         }
-        for (int x = 0; x < w; ++x) {
-            const Tap tx = xs[static_cast<std::size_t>(x)];
-            for (int c = 0; c < 3; ++c) {
-                const float top = r0[tx.i0 * 4 + c] + tx.f * (r0[tx.i1 * 4 + c] - r0[tx.i0 * 4 + c]);
-                const float bottom = r1[tx.i0 * 4 + c] + tx.f * (r1[tx.i1 * 4 + c] - r1[tx.i0 * 4 + c]);
-                out[x * 3 + c] += top + ty.f * (bottom - top);
+        src.held[k] = row;
+        return out;
+    };
+    for (int y = 0; y < h; ++y) {
+        float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
+        for (Source& src : srcs) {
+            const Tap t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
+            const float* a = widened(src, t.i0, t.i1);
+            if (t.f == 0.0f) {
+                for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i];
+                continue;
             }
+            const float* b = widened(src, t.i1, t.i0);
+            for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i] + t.f * (b[i] - a[i]);
         }
     }
 }
@@ -375,7 +402,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     FloatTarget& target = s.target(1, view.width, view.height);
     target.bind();
     target.clear();
-    bool drawn_into[4] = {options.per_ghost_power, false, false, false};  // targets drawn into (and cleared) by this render
+    bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
     const auto passes = view.passes();
@@ -654,7 +681,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
-                for (const int reduce : {8, 4, 2, 1}) {
+                for (const int reduce : {16, 8, 4, 2, 1}) {
                     bool bound = false;
                     for (const Job& job : batch) {
                         const std::size_t g = job.ghost;
@@ -732,12 +759,13 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         }
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
-        if (drawn_into[0]) add_target(target.read_rgba(), view.width, view.height, rgb, view.width, view.height);
-        for (int slot : {1, 2, 3}) {
+        std::vector<Readback> readbacks;
+        for (int slot : {0, 1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
-            const FloatTarget& small = s.target(1 << slot, view.width, view.height);
-            add_target(small.read_rgba(), small.width(), small.height(), rgb, view.width, view.height);
+            const FloatTarget& t = s.target(1 << slot, view.width, view.height);
+            readbacks.push_back({t.read_rgba(), t.width(), t.height()});
         }
+        add_targets(readbacks, rgb, view.width, view.height);
     }
     glUseProgram(0);
     glBindVertexArray(0);

@@ -111,6 +111,26 @@ TEST(PlanGhosts, OutlineRuleRefinesThinAndClippedGhosts) {
     for (const GhostPlan& p : plan_ghosts(e, a, 16, 0.1, true)) EXPECT_LE(p.grid, 16);
 }
 
+// Reduced drawing: smooth ghosts at 1/2 from 96 pixels across, 1/4 from 256, 1/8 from 1024, 1/16 from
+// 2048; ghosts with caustics at 1/2 from 1024 and 1/4 from 2048; none with the per-ghost read-back.
+TEST(PlanGhosts, ReducedDrawingFollowsSizeAndSmoothness) {
+    const double pixel_mm = 0.01;
+    const std::vector<std::pair<double, double>> ghosts = {  // extent in pixels, cell-area cv
+        {50, 0.01}, {100, 0.01}, {300, 0.01}, {1100, 0.01}, {2100, 0.01}, {500, 0.5}, {1100, 0.5}, {2100, 0.5}};
+    const std::vector<int> expected = {1, 2, 4, 8, 16, 1, 2, 4};
+    std::vector<GhostEstimate> e(ghosts.size());
+    for (std::size_t g = 0; g < e.size(); ++g) {
+        e[g].rect = {-1, -1, 1, 1};
+        e[g].power = 1.0;
+        e[g].extent_mm = ghosts[g].first * pixel_mm;
+        e[g].area_cv = ghosts[g].second;
+    }
+    const Acceleration a;
+    const std::vector<GhostPlan> plans = plan_ghosts(e, a, 16, pixel_mm, false);
+    for (std::size_t g = 0; g < e.size(); ++g) EXPECT_EQ(plans[g].reduce, expected[g]) << "ghost " << g;
+    for (const GhostPlan& p : plan_ghosts(e, a, 16, pixel_mm, true)) EXPECT_EQ(p.reduce, 1);
+}
+
 TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     const auto dir = fresh_dir("table");
     BoundsTable table(0x1234, 2, 3, dir.string());
@@ -186,6 +206,31 @@ TEST(Acceleration, EachSwitchChangesTheImageLessThanDocumented) {
     }
     // Each switch does something on one of these lenses at least.
     for (std::size_t i = 0; i < switches.size(); ++i) EXPECT_GT(changed[i], 0.0) << switches[i].name;
+}
+
+// At 1080p the double Gauss's ghosts are larger than the frame: smooth ones are drawn at 1/16, those with
+// caustics at 1/4, and the image still differs from the one drawn at full size by less than documented.
+TEST(Acceleration, ReducedDrawingOfFrameFillingGhosts) {
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    const optics::System system = optics::realize(optics::load_lens("mld-double-gauss"));
+    FlareView view;
+    view.width = 1920;
+    view.height = 1080;
+    view.angle_x_deg = 8.0;
+    view.angle_y_deg = 4.0;
+    GpuFlareOptions on;
+    on.accel.cache_dir = "none";
+    const FlareImage with = renderer.render(system, view, on);
+    EXPECT_EQ(renderer.last_stats().ghosts_reduced, renderer.last_stats().ghosts_drawn);
+    GpuFlareOptions off = on;
+    off.accel.reduced = false;
+    const FlareImage without = renderer.render(system, view, off);
+    const FlareError e = compare_flare(with, without, view, 32);
+    RecordProperty("mld-double-gauss 1080p no reduced", fmt::format("l1 {:.5f} power {:.5f}", e.block_l1, e.total));
+    EXPECT_GT(e.block_l1, 0.0);
+    EXPECT_LT(e.block_l1, kReducedL1);
+    EXPECT_LT(e.total, kReducedPower);
 }
 
 // Aperture culling leaves out exactly the ghosts that cross the stop three times; well stopped down they

@@ -29,7 +29,7 @@ struct Acceleration {
     bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
-    bool reduced = true;           // draw large ghosts at 1/2, 1/4 or 1/8 resolution and upsample
+    bool reduced = true;           // draw large ghosts at 1/2, 1/4, 1/8 or 1/16 resolution and upsample
     // Aperture culling (section 4.2): leave out the ghosts that cross the stop three times (first reflection
     // behind the stop, second in front), mostly blocked when the iris is small. Off by default: the level
     // of detail already skips them when they are dim, and wide open they are not.
@@ -73,7 +73,7 @@ struct GhostEstimate {
 struct GhostPlan {
     bool draw = false;
     int grid = 0;    // cells per side
-    int reduce = 1;  // 1 full resolution, 2, 4 or 8: drawn at 1/reduce of the image size and upsampled
+    int reduce = 1;  // 1 full resolution, 2, 4, 8 or 16: drawn at 1/reduce of the image size and upsampled
 };
 // base_grid: the --grid option. pixel_mm: the sensor width of one pixel. per_ghost_power disables the
 // reduced drawing (the per-ghost read-back happens on the full-size target). total_power: what the level
