@@ -1,7 +1,11 @@
 // The Frame's RGB working buffer: loading and storing touches R, G, B only, in their native types.
 #include <filter/frame.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
+#include <vector>
 
 #include <Imath/half.h>
 #include <gtest/gtest.h>
@@ -77,4 +81,40 @@ TEST(Frame, ChannelsAsFloatInAnyOrder) {
     ASSERT_EQ(v.size(), 12u);
     EXPECT_EQ(v[1], 100.0f);
     EXPECT_EQ(v[3], 101.0f);
+}
+
+// Half conversions (F16C where the CPU has it, eight at a time plus a tail): every value as Imath rounds
+// it, finite values beyond half's range at the largest finite half, +-Inf kept, NaN still NaN.
+TEST(Frame, HalfConversionsRoundAsImathAndSaturate) {
+    const float inf = std::numeric_limits<float>::infinity();
+    std::vector<float> values{0.0f,   -0.0f,   0.1f,    1e-8f,   6.1e-5f, 1000.3f, 65504.0f, 65519.0f, 65520.0f,
+                              7e4f,   -7e4f,   1e30f,   inf,     -inf,    3.14159f, -2.5e-3f, 1.0f + 1.0f / 2048.0f,
+                              1.0f + 3.0f / 4096.0f, std::nanf(""), 12345.678f};
+    for (int i = 0; i < 23; ++i) values.push_back(std::ldexp(1.37f, i - 16));  // 43 values: 5 blocks and a tail
+    Frame f;
+    f.spec = ImageSpec(static_cast<int>(values.size()), 1, 3, PixelType::half);
+    f.pixels = PixelBuffer(f.spec.image_bytes());
+    find_rgb_channels(f);
+    f.rgb.resize(values.size() * 3);
+    for (std::size_t i = 0; i < values.size(); ++i)
+        for (std::size_t c = 0; c < 3; ++c) f.rgb[i * 3 + c] = c == 1 ? -values[i] : values[i];
+    store_rgb(f);
+    for (std::size_t i = 0; i < f.rgb.size(); ++i) {
+        half h;
+        std::memcpy(&h, f.pixels.data() + i * 2, 2);
+        const float v = f.rgb[i];
+        if (std::isnan(v)) {
+            EXPECT_TRUE(h.isNan()) << i;
+            continue;
+        }
+        const half expected(std::isfinite(v) ? std::clamp(v, -65504.0f, 65504.0f) : v);
+        EXPECT_EQ(h.bits(), expected.bits()) << "value " << v;
+    }
+    load_rgb(f);
+    for (std::size_t i = 0; i < f.rgb.size(); ++i) {
+        half h;
+        std::memcpy(&h, f.pixels.data() + i * 2, 2);
+        if (h.isNan()) EXPECT_TRUE(std::isnan(f.rgb[i])) << i;
+        else EXPECT_EQ(f.rgb[i], static_cast<float>(h)) << i;
+    }
 }
