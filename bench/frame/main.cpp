@@ -3,7 +3,8 @@
 // stage from the pipeline's report; then frames per second on a synthetic 1080p sequence of a light
 // moving in sub-pixel steps over a dim gradient. "process" is the whole `lensfx` program (the binary of this
 // build, started by the shell) with the warm cache: the best of three runs.
-//   bench_frame [--lens NAME] [--grid N] [--frames N (0: no sequence)] [--cold-only] [--gpu auto|device|surfaceless] [IMAGE...]
+//   bench_frame [--lens NAME] [--grid N] [--frames N (0: no sequence)] [--cold-only] [--gpu auto|device|surfaceless]
+//               [--sequence-dir DIR (write the sequence there and keep it, e.g. to profile)] [IMAGE...]
 // The starburst cache ($LENSFX_CACHE_DIR) is pointed at a fresh directory: each still runs cold (empty
 // cache) then warm (the texture on disk), so both start-up costs are printed.
 #include <chrono>
@@ -118,6 +119,7 @@ int main(int argc, char** argv) try {
     settings.lens = "mld-double-gauss";
     int frames = 24;
     bool cold_only = false;
+    std::string sequence_dir;
     std::vector<std::string> images;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -130,6 +132,7 @@ int main(int argc, char** argv) try {
         else if (a == "--frames") frames = std::stoi(next());
         else if (a == "--gpu") settings.gpu = next();
         else if (a == "--cold-only") cold_only = true;
+        else if (a == "--sequence-dir") sequence_dir = next();
         else images.push_back(a);
     }
     if (images.empty()) {
@@ -158,16 +161,17 @@ int main(int argc, char** argv) try {
         fs::remove_all(tmp);
         return 0;
     }
-    fs::create_directories(tmp / "seq");
-    write_sequence(tmp / "seq", frames, 1920, 1080);
-    const Run r = run((tmp / "seq" / "seq.####.exr").string(), (tmp / "seq" / "out.####.exr").string(), settings);
+    const fs::path seq = sequence_dir.empty() ? tmp / "seq" : fs::path(sequence_dir);
+    fs::create_directories(seq);
+    write_sequence(seq, frames, 1920, 1080);
+    const Run r = run((seq / "seq.####.exr").string(), (seq / "out.####.exr").string(), settings);
     double process = 0.0;
     for (std::size_t i = 1; i < r.report.frames.size(); ++i) process += r.report.frames[i].process_ms;
     const double n = static_cast<double>(r.report.frames.size());
     fmt::print("\n1080p sequence, {} frames, one moving light (warm cache): {:.3f} s in all, {:.2f} frames/s, "
                "{:.3f} s per frame; flare stage {:.3f} s per frame after the first\n",
                r.report.frames.size(), r.wall_s, n / r.wall_s, r.wall_s / n, process / (n - 1) / 1e3);
-    const double whole = process_seconds((tmp / "seq" / "seq.####.exr").string(), (tmp / "seq" / "out.####.exr").string(), settings, 1);
+    const double whole = process_seconds((seq / "seq.####.exr").string(), (seq / "out.####.exr").string(), settings, 1);
     fmt::print("the lensfx program on it: {:.3f} s in all, {:.3f} s per frame\n", whole, whole / n);
     print_header();
     print_frame("seq frame 2", "warm", 0.0, r.report.frames.at(1).process_ms / 1e3, r.report.frames.at(1));
