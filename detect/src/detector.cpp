@@ -237,16 +237,20 @@ Detection Detector::detect(const ImageView& image) {
         float* lum = luminance_.ptr<float>(y);
         float* pool = pooled_.ptr<float>(y / f);
         double row_sum = 0.0;
-        for (int x = 0; x < W; ++x) {
-            const float* p = src + static_cast<std::ptrdiff_t>(x) * image.channels;
-            const float r = sane(p[0]), g = sane(p[1]), b = sane(p[2]);
-            invalid += (invalid_value(p[0]) || invalid_value(p[1]) || invalid_value(p[2])) ? 1 : 0;
-            const float l = wr * r + wg * g + wb * b;
-            lum[x] = l;
-            row_sum += static_cast<double>(l);
-            float& m = pool[x / f];
-            m = std::max(m, l);
-            ++fine_histogram_[std::bit_cast<std::uint32_t>(l) >> kFineShift];
+        for (int x = 0, block = 0; x < W; ++block) {  // f pixels per block of the pooled map
+            const int end = std::min(W, x + f);
+            float m = pool[block];
+            for (; x < end; ++x) {
+                const float* p = src + static_cast<std::ptrdiff_t>(x) * image.channels;
+                const float r = sane(p[0]), g = sane(p[1]), b = sane(p[2]);
+                invalid += (invalid_value(p[0]) || invalid_value(p[1]) || invalid_value(p[2])) ? 1 : 0;
+                const float l = wr * r + wg * g + wb * b;
+                lum[x] = l;
+                row_sum += static_cast<double>(l);
+                m = std::max(m, l);
+                ++fine_histogram_[std::bit_cast<std::uint32_t>(l) >> kFineShift];
+            }
+            pool[block] = m;
         }
         total += row_sum;
     }
