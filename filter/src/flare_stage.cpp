@@ -360,6 +360,7 @@ struct FlareStage::State {
     std::vector<optics::GhostImaging> imaging;   // extended lights, made at the first one
     std::vector<double> axial_power;
     std::vector<std::pair<std::string, double>> times;  // of the last frame
+    std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(std::move(s)),
@@ -469,7 +470,8 @@ void FlareStage::process(Frame& frame) {
 
     // The flare over the display window, composited into the frame once every light is in.
     const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
-    std::vector<float> flare_rgb(display_px * 3, 0.0f);
+    std::vector<float>& flare_rgb = s.flare_rgb;
+    flare_rgb.assign(display_px * 3, 0.0f);
     double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     gpu::FlareView view;  // the frame as the lens sees it; each light sets the angles
     view.sensor_width_mm = geo.sensor_width_mm;
@@ -599,14 +601,12 @@ void FlareStage::process(Frame& frame) {
     int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
     for (int y = 0; y < geo.height; ++y) {
         const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
-        int first = -1, last = -1;
-        for (int x = 0; x < geo.width; ++x) {
-            if (row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f) {
-                if (first < 0) first = x;
-                last = x;
-            }
-        }
-        if (first < 0) continue;
+        auto lit = [&](int x) { return row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f; };
+        int first = 0;
+        while (first < geo.width && !lit(first)) ++first;
+        if (first == geo.width) continue;
+        int last = geo.width - 1;
+        while (!lit(last)) --last;
         bx0 = std::min(bx0, first);
         bx1 = std::max(bx1, last + 1);
         by0 = std::min(by0, y);
@@ -620,18 +620,16 @@ void FlareStage::process(Frame& frame) {
     std::vector<float> layer_rgb;
     if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
     float* target = layer ? layer_rgb.data() : frame.rgb.data();
-    for (int y = 0; y < frame.spec.height; ++y) {
+    // Where the data window and the display window overlap, row by row.
+    const int x0 = std::max(0, -dx0), x1 = std::min(frame.spec.width, geo.width - dx0);
+    for (int y = 0; y < frame.spec.height && x1 > x0; ++y) {
         const int fy = y + dy0;
         if (fy < 0 || fy >= geo.height) continue;
-        for (int x = 0; x < frame.spec.width; ++x) {
-            const int fx = x + dx0;
-            if (fx < 0 || fx >= geo.width) continue;
-            float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) +
-                                  static_cast<std::size_t>(x)) * 3;
-            const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
-                                                 static_cast<std::size_t>(fx)) * 3;
-            for (int c = 0; c < 3; ++c) px[c] += f[c];
-        }
+        float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) + static_cast<std::size_t>(x0)) * 3;
+        const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
+                                             static_cast<std::size_t>(x0 + dx0)) * 3;
+        const std::size_t n = static_cast<std::size_t>(x1 - x0) * 3;
+        for (std::size_t i = 0; i < n; ++i) px[i] += f[i];
     }
     if (layer) add_rgb_layer(frame, s.settings.layer, layer_rgb);
     s.times.emplace_back("composite", ms_since(t));
