@@ -2,6 +2,7 @@
 // filter/src/oiio_module.h for why this is a module of its own).
 #include "../src/oiio_module.h"
 
+#include <memory>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -71,6 +72,7 @@ Frame read(const std::string& path) {
     // Types lensfx does not keep (signed, double) make the whole image float.
     if (!all_native) spec.channeltypes.assign(spec.channeltypes.size(), PixelType::float32);
     spec.pixel_aspect = s.get_float_attribute("PixelAspectRatio", 1.0f);
+    spec.oiio_attributes = std::make_shared<const OIIO::ParamValueList>(s.extra_attribs);
     std::array<float, 8> chroma{};
     if (s.getattribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), chroma.data())) spec.chromaticities = chroma;
 
@@ -101,6 +103,11 @@ void write(const std::string& path, const ImageSpec& spec, const void* data) {
     s.full_height = spec.full_height;
     s.channelnames = spec.channelnames;
     s.alpha_channel = spec.channel_index("A");
+    if (spec.oiio_attributes) {
+        // The input's own, but its compression: the writer of this format picks its own.
+        for (const OIIO::ParamValue& p : *static_cast<const OIIO::ParamValueList*>(spec.oiio_attributes.get()))
+            if (p.name() != "compression") s.attribute(p.name(), p.type(), p.data());
+    }
     if (spec.pixel_aspect != 1.0f) s.attribute("PixelAspectRatio", spec.pixel_aspect);
     for (const auto& [name, value] : spec.text) s.attribute(name, value);
     if (!out->open(path, s)) {

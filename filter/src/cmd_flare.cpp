@@ -120,8 +120,8 @@ void write_preview(const gpu::FlareImage& image, const std::string& path, std::o
 void run_flare(const FlareArgs& args) {
     optics::Lens lens = optics::load_lens(args.lens);
     if (args.blades) {
-        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2) {
-            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 and more", *args.blades));
+        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2 || *args.blades > 64) {
+            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *args.blades));
         }
         lens.aperture.blades = *args.blades;
     }

@@ -46,7 +46,7 @@ constexpr std::array<std::pair<Imf::Compression, const char*>, 10> kCompressions
 std::string compression_name(Imf::Compression c) {
     for (const auto& [value, name] : kCompressions)
         if (value == c) return name;
-    return "unknown";
+    return {};  // a newer OpenEXR's method: outputs fall back to piz
 }
 
 // "name" or "name:level" (zip and dwa levels) into the header.
@@ -62,11 +62,15 @@ void set_compression(Imf::Header& header, const std::string& text) {
         try {
             std::size_t used = 0;
             if (value == Imf::DWAA_COMPRESSION || value == Imf::DWAB_COMPRESSION) {
-                header.dwaCompressionLevel() = std::stof(level, &used);
+                const float dwa = std::stof(level, &used);
+                if (!(dwa >= 0.0f && dwa <= 1e6f)) throw std::invalid_argument("out of range");
+                header.dwaCompressionLevel() = dwa;
                 // Also as an attribute, for readers (OpenImageIO shows it as openexr:dwaCompressionLevel).
                 header.insert("dwaCompressionLevel", Imf::FloatAttribute(header.dwaCompressionLevel()));
             } else if (value == Imf::ZIP_COMPRESSION || value == Imf::ZIPS_COMPRESSION) {
-                header.zipCompressionLevel() = std::stoi(level, &used);
+                const int zip = std::stoi(level, &used);
+                if (zip < -1 || zip > 9) throw std::invalid_argument("out of range");  // zlib's levels
+                header.zipCompressionLevel() = zip;
             } else {
                 throw std::invalid_argument("no level");
             }
@@ -185,10 +189,12 @@ Frame read_exr(const std::string& path) {
     }
 }
 
-void write_exr(const Frame& frame, const std::string& path, const std::string& compression) {
-    const ImageSpec& spec = frame.spec;
+namespace {
+
+// The header of an output: the input's when it was an EXR (every attribute passes through), less what
+// described its file layout, with the frame's windows, channels and metadata. Throws Iex exceptions.
+Imf::Header output_header(const ImageSpec& spec, const std::string& compression) {
     Imf::Header header = spec.exr ? spec.exr->header : Imf::Header();
-    // What described the input's file layout, not its image: the output is one scanline part.
     for (const char* name : {"tiles", "type", "chunkCount", "version", "maxSamplesPerPixel"})
         if (header.find(name) != header.end()) header.erase(name);
     header.dataWindow() = Imath::Box2i({spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1});
@@ -202,41 +208,48 @@ void write_exr(const Frame& frame, const std::string& path, const std::string& c
     } else if (header.find("chromaticities") != header.end()) {
         header.erase("chromaticities");
     }
-    for (const auto& [name, value] : spec.text) header.insert(name, Imf::StringAttribute(value));
-
-    const std::vector<std::size_t> offsets = channel_offsets(spec);
-    const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
-    const Imath::Box2i dw = header.dataWindow();
+    for (const auto& [name, value] : spec.text) {
+        if (header.find(name) != header.end()) header.erase(name);  // an input's of another type
+        header.insert(name, Imf::StringAttribute(value));
+    }
     Imf::ChannelList list;
-    Imf::FrameBuffer fb;
-    std::vector<std::vector<Imath::half>> widened;  // 8- and 16-bit channels, which EXR lacks
     for (int c = 0; c < spec.nchannels(); ++c) {
         const std::string& name = spec.channel_name(c);
-        const std::byte* base = frame.pixels.data() + offsets[static_cast<std::size_t>(c)];
-        switch (spec.channel_type(c)) {
-        case PixelType::half:
-        case PixelType::float32:
-        case PixelType::uint32: {
-            const Imf::PixelType t = spec.channel_type(c) == PixelType::half      ? Imf::HALF
-                                     : spec.channel_type(c) == PixelType::float32 ? Imf::FLOAT
-                                                                                  : Imf::UINT;
-            list.insert(name, Imf::Channel(t));
-            fb.insert(name, Imf::Slice::Make(t, base, dw, xs, ys));
-            break;
+        const PixelType type = spec.channel_type(c);
+        Imf::Channel channel(type == PixelType::float32 ? Imf::FLOAT : type == PixelType::uint32 ? Imf::UINT : Imf::HALF);
+        // B44's perceptual quantisation flag stays as the input had it.
+        if (spec.exr) {
+            if (const Imf::Channel* in = spec.exr->header.channels().findChannel(name)) channel.pLinear = in->pLinear;
         }
-        case PixelType::uint8:
-        case PixelType::uint16: {
-            const std::vector<float> values = channels_as_float(frame, {c});
-            widened.emplace_back(values.begin(), values.end());
-            list.insert(name, Imf::Channel(Imf::HALF));
-            fb.insert(name, Imf::Slice::Make(Imf::HALF, widened.back().data(), dw, sizeof(Imath::half),
-                                             sizeof(Imath::half) * static_cast<std::size_t>(spec.width)));
-            break;
-        }
-        }
+        list.insert(name, channel);
     }
     header.channels() = list;
+    return header;
+}
+
+}  // namespace
+
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression) {
+    const ImageSpec& spec = frame.spec;
+    const std::vector<std::size_t> offsets = channel_offsets(spec);
+    const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
     try {
+        const Imf::Header header = output_header(spec, compression);
+        const Imath::Box2i dw = header.dataWindow();
+        Imf::FrameBuffer fb;
+        std::vector<std::vector<Imath::half>> widened;  // 8- and 16-bit channels, which EXR lacks
+        for (int c = 0; c < spec.nchannels(); ++c) {
+            const std::string& name = spec.channel_name(c);
+            const Imf::PixelType t = header.channels().findChannel(name)->type;
+            if (spec.channel_type(c) == PixelType::uint8 || spec.channel_type(c) == PixelType::uint16) {
+                const std::vector<float> values = channels_as_float(frame, {c});
+                widened.emplace_back(values.begin(), values.end());
+                fb.insert(name, Imf::Slice::Make(Imf::HALF, widened.back().data(), dw, sizeof(Imath::half),
+                                                 sizeof(Imath::half) * static_cast<std::size_t>(spec.width)));
+            } else {
+                fb.insert(name, Imf::Slice::Make(t, frame.pixels.data() + offsets[static_cast<std::size_t>(c)], dw, xs, ys));
+            }
+        }
         Imf::OutputFile out(path.c_str(), header, Imf::globalThreadCount());
         out.setFrameBuffer(fb);
         out.writePixels(spec.height);

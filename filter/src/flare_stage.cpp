@@ -458,7 +458,7 @@ void FlareStage::process(Frame& frame) {
     });
 
     const bool layer = !s.settings.layer.empty();
-    if (lights.empty() || s.settings.gain == 0.0) {  // no light: the GPU is never touched
+    if (lights.empty() || s.settings.gain == 0.0) {  // no light: nothing is drawn (the context made ahead waits)
         if (layer) add_rgb_layer(frame, s.settings.layer, std::vector<float>(frame.pixel_count() * 3, 0.0f));
         return;
     }

@@ -84,6 +84,12 @@ TEST(FilterEndToEnd, CompressionLevelsAndUnknownNames) {
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_NE(r.stderr_text.find("unknown EXR compression \"lzw\""), std::string::npos) << r.stderr_text;
     EXPECT_FALSE(fs::exists(dir / "bad.exr"));
+    for (const char* level : {"zip:42", "dwaa:-5", "dwaa:nan", "piz:3"}) {
+        const auto bad = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/bad.exr --compression {1}", dir.string(), level));
+        EXPECT_EQ(bad.exit_code, 1) << level;
+        EXPECT_NE(bad.stderr_text.find("bad level"), std::string::npos) << level << ": " << bad.stderr_text;
+    }
+    EXPECT_FALSE(fs::exists(dir / "bad.exr"));
     fs::remove_all(dir);
 }
 
@@ -196,6 +202,20 @@ TEST(FilterEndToEnd, FormatsHdrTiffPfm) {
         ASSERT_EQ(back.exit_code, 0) << ext << ": " << back.stderr_text;
     }
     EXPECT_EQ(compare_images((dir / "in.exr").string(), (dir / "back.tif.exr").string(), false), "channel names differ");
+    // A TIFF's own metadata passes through a TIFF output.
+    {
+        OIIO::ImageSpec spec(8, 4, 3, OIIO::TypeFloat);
+        spec.attribute("ImageDescription", "plate 12, take 3");
+        spec.attribute("Artist", "lensfx test");
+        const std::vector<float> px(8 * 4 * 3, 0.25f);
+        auto out = OIIO::ImageOutput::create((dir / "meta.tif").string());
+        ASSERT_TRUE(out && out->open((dir / "meta.tif").string(), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/meta.tif -o {0}/meta.out.tif", dir.string())).exit_code, 0);
+    auto in = OIIO::ImageInput::open((dir / "meta.out.tif").string());
+    ASSERT_TRUE(in);
+    EXPECT_EQ(in->spec().get_string_attribute("ImageDescription"), "plate 12, take 3");
+    EXPECT_EQ(in->spec().get_string_attribute("Artist"), "lensfx test");
     fs::remove_all(dir);
 }
 

@@ -30,8 +30,9 @@ struct GpuSession {
     }
     gpu::Context& get() {
         if (!context && pending.valid()) {
-            context = pending.get();
-            context->make_current();
+            auto made = pending.get();
+            made->make_current();  // kept only once current here: a failure leaves nothing half taken
+            context = std::move(made);
         }
         if (!context) context = std::make_unique<gpu::Context>(gpu::parse_platform(platform));
         return *context;

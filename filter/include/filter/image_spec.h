@@ -56,6 +56,9 @@ struct ImageSpec {
     std::map<std::string, std::string> text;
     // Every other attribute of an EXR input, for EXR outputs; null for other inputs.
     std::shared_ptr<const ExrHeader> exr;
+    // Every other attribute of an input read through OpenImageIO (its ParamValueList, opaque outside
+    // liblensfx_oiio), for outputs written through it; null for EXR, PFM and raw inputs.
+    std::shared_ptr<const void> oiio_attributes;
 
     ImageSpec() = default;
     // Data and display window at the origin; channels R, G, B, A, then channel4... of one type.
