@@ -2,7 +2,9 @@
 #include <detect/track_file.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -71,13 +73,73 @@ T field_or(const json& j, const char* key, T fallback, const std::string& where)
     return j.contains(key) ? field<T>(j, key, where) : fallback;
 }
 
-void check_finite(double v, const std::string& where, const char* what) {
+// A number within [lo, hi], or an error naming the field.
+void check_range(double v, double lo, double hi, const std::string& where, const char* what) {
     if (!std::isfinite(v)) throw std::runtime_error(fmt::format("{}: \"{}\" is not a finite number", where, what));
+    if (v < lo || v > hi) throw std::runtime_error(fmt::format("{}: \"{}\" {:g} is outside [{:g}, {:g}]", where, what, v, lo, hi));
+}
+
+// A frame number: a whole JSON number in 64 bits (2^32 + 1 is not frame 1, 1.5 is not frame 1).
+std::int64_t frame_field(const json& j, const std::string& where) {
+    const auto it = j.find("frame");
+    if (it == j.end()) throw std::runtime_error(fmt::format("{}: missing \"frame\"", where));
+    if (it->is_number_unsigned() && it->get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX))
+        throw std::runtime_error(fmt::format("{}: \"frame\" {} is beyond 64-bit frame numbers", where, it->dump()));
+    if (!it->is_number_integer()) throw std::runtime_error(fmt::format("{}: \"frame\" {} is not a whole number", where, it->dump()));
+    return it->get<std::int64_t>();
+}
+
+// A whole number in [lo, hi], or an error naming the field (no silent truncation of 2^32 + 1 or 1.5).
+int whole_number(const json& v, const std::string& key, int lo, int hi, const std::string& where) {
+    if (!v.is_number_integer()) throw std::runtime_error(fmt::format("{}: \"{}\" {} is not a whole number", where, key, v.dump()));
+    const bool above = v.is_number_unsigned() ? v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi) : v.get<std::int64_t>() > hi;
+    if (above || (!v.is_number_unsigned() && v.get<std::int64_t>() < lo))
+        throw std::runtime_error(fmt::format("{}: \"{}\" {} is outside [{}, {}]", where, key, v.dump(), lo, hi));
+    return static_cast<int>(v.get<std::int64_t>());
+}
+
+int int_field(const json& j, const char* key, int lo, int hi, const std::string& where) {
+    const auto it = j.find(key);
+    if (it == j.end()) throw std::runtime_error(fmt::format("{}: missing \"{}\"", where, key));
+    return whole_number(*it, key, lo, hi, where);
+}
+
+// The key's values, each checked against the bounds of track_file.h.
+void check_key(const TrackKey& k, const std::string& where) {
+    check_range(k.x, -kMaxTrackCoordinate, kMaxTrackCoordinate, where, "position[0]");
+    check_range(k.y, -kMaxTrackCoordinate, kMaxTrackCoordinate, where, "position[1]");
+    for (const char* name : {"flux[0]", "flux[1]", "flux[2]"})
+        check_range(k.flux[static_cast<std::size_t>(name[5] - '0')], 0.0, kMaxTrackFlux, where, name);
+    check_range(k.extent.major, 0.0, kMaxTrackExtent, where, "extent[0]");
+    check_range(k.extent.minor, 0.0, kMaxTrackExtent, where, "extent[1]");
+    check_range(k.extent.angle_deg, -360.0, 360.0, where, "extent[2]");
+    check_range(k.weight, 0.0, 1.0, where, "weight");
+}
+
+// A footprint shape as stored, checked.
+Shape shape_field(const json& js, const std::string& where) {
+    Shape s;
+    const json size = field<json>(js, "size", where);
+    if (!size.is_array() || size.size() != 2) throw std::runtime_error(fmt::format("{}: \"size\" must be [width, height]", where));
+    s.width = whole_number(size[0], "size[0]", 1, kMaxShapeSide, where);
+    s.height = whole_number(size[1], "size[1]", 1, kMaxShapeSide, where);
+    s.cell = field<double>(js, "cell", where);
+    check_range(s.cell, 1e-6, kMaxShapeCell, where, "cell");
+    const auto origin = field<std::array<double, 2>>(js, "origin", where);
+    check_range(origin[0], -kMaxTrackCoordinate, kMaxTrackCoordinate, where, "origin[0]");
+    check_range(origin[1], -kMaxTrackCoordinate, kMaxTrackCoordinate, where, "origin[1]");
+    s.origin_x = origin[0];
+    s.origin_y = origin[1];
+    s.weights = field<std::vector<float>>(js, "weights", where);
+    if (s.weights.size() != static_cast<std::size_t>(s.width) * static_cast<std::size_t>(s.height))
+        throw std::runtime_error(fmt::format("{}: {} weights for {}x{} cells", where, s.weights.size(), s.width, s.height));
+    for (float w : s.weights) check_range(static_cast<double>(w), 0.0, 1e30, where, "weights");
+    return s;
 }
 
 }  // namespace
 
-void TrackFile::append(int frame, const std::vector<Light>& lights) {
+void TrackFile::append(std::int64_t frame, const std::vector<Light>& lights) {
     for (const Light& l : lights) {
         auto it = std::lower_bound(tracks.begin(), tracks.end(), l.id, [](const Track& t, int id) { return t.id < id; });
         if (it == tracks.end() || it->id != l.id) {
@@ -100,18 +162,20 @@ void TrackFile::append(int frame, const std::vector<Light>& lights) {
     }
 }
 
-std::vector<Light> TrackFile::lights_at(int frame) const {
+std::vector<Light> TrackFile::lights_at(std::int64_t frame) const {
     std::vector<Light> out;
     for (const Track& t : tracks) {
         if (t.keys.empty() || frame < t.keys.front().frame || frame > t.keys.back().frame) continue;
-        const auto hi = std::lower_bound(t.keys.begin(), t.keys.end(), frame, [](const TrackKey& k, int f) { return k.frame < f; });
+        const auto hi = std::lower_bound(t.keys.begin(), t.keys.end(), frame, [](const TrackKey& k, std::int64_t f) { return k.frame < f; });
         Light l;
         if (hi->frame == frame) {
             l = light_of(t.id, *hi);
         } else {
             const TrackKey& a = *(hi - 1);
             const TrackKey& b = *hi;
-            const double u = static_cast<double>(frame - a.frame) / static_cast<double>(b.frame - a.frame);
+            // Frame differences in unsigned 64 bits: exact for keys anywhere in the 64-bit range.
+            const double u = static_cast<double>(static_cast<std::uint64_t>(frame) - static_cast<std::uint64_t>(a.frame)) /
+                             static_cast<double>(static_cast<std::uint64_t>(b.frame) - static_cast<std::uint64_t>(a.frame));
             l = light_of(t.id, a);
             l.x = lerp(a.x, b.x, u);
             l.y = lerp(a.y, b.y, u);
@@ -128,8 +192,8 @@ std::vector<Light> TrackFile::lights_at(int frame) const {
     return out;
 }
 
-std::pair<int, int> TrackFile::frame_range() const {
-    int first = 0, last = -1;
+std::pair<std::int64_t, std::int64_t> TrackFile::frame_range() const {
+    std::int64_t first = 0, last = -1;
     bool any = false;
     for (const Track& t : tracks) {
         if (t.keys.empty()) continue;
@@ -182,15 +246,15 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
     if (version != kVersion) throw std::runtime_error(fmt::format("{}: track file version {} (this program reads {})", name, version, kVersion));
 
     TrackFile file;
-    file.width = field_or<int>(doc, "width", 0, name);
-    file.height = field_or<int>(doc, "height", 0, name);
+    file.width = doc.contains("width") ? int_field(doc, "width", 0, kMaxFrameSide, name) : 0;
+    file.height = doc.contains("height") ? int_field(doc, "height", 0, kMaxFrameSide, name) : 0;
     const json tracks = field<json>(doc, "tracks", name);
     if (!tracks.is_array()) throw std::runtime_error(fmt::format("{}: \"tracks\" must be an array", name));
     for (std::size_t ti = 0; ti < tracks.size(); ++ti) {
         const json& jt = tracks[ti];
         const std::string twhere = fmt::format("{}: track #{}", name, ti);
         Track t;
-        t.id = field<int>(jt, "id", twhere);
+        t.id = int_field(jt, "id", INT_MIN, INT_MAX, twhere);
         const std::string where = fmt::format("{}: track id {}", name, t.id);
         t.origin = field_or<std::string>(jt, "origin", "manual", where);
         const json keys = field<json>(jt, "keys", where);
@@ -200,7 +264,7 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
             const json& jk = keys[ki];
             const std::string kwhere = fmt::format("{} key {}", where, ki);
             TrackKey k;
-            k.frame = field<int>(jk, "frame", kwhere);
+            k.frame = frame_field(jk, kwhere);
             if (!t.keys.empty() && k.frame <= t.keys.back().frame)
                 throw std::runtime_error(fmt::format("{}: frame {} does not follow frame {}", kwhere, k.frame, t.keys.back().frame));
             const auto pos = field<std::array<double, 2>>(jk, "position", kwhere);
@@ -211,27 +275,14 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
             k.extent = {ext[0], ext[1], ext[2]};
             k.weight = field_or<double>(jk, "weight", 1.0, kwhere);
             k.clipped = field_or<bool>(jk, "clipped", false, kwhere);
-            for (double v : {k.x, k.y, k.flux[0], k.flux[1], k.flux[2], ext[0], ext[1], ext[2], k.weight}) check_finite(v, kwhere, "value");
-            if (k.flux[0] < 0.0 || k.flux[1] < 0.0 || k.flux[2] < 0.0) throw std::runtime_error(fmt::format("{}: negative flux", kwhere));
-            if (k.weight < 0.0 || k.weight > 1.0) throw std::runtime_error(fmt::format("{}: weight {} outside [0, 1]", kwhere, k.weight));
+            check_key(k, kwhere);
             if (jk.contains("shape")) {
                 const json& js = jk["shape"];
                 if (js.is_null()) {
                     carried.reset();
                 } else {
                     const std::string swhere = kwhere + " shape";
-                    Shape s;
-                    const auto size = field<std::array<int, 2>>(js, "size", swhere);
-                    s.width = size[0];
-                    s.height = size[1];
-                    s.cell = field<double>(js, "cell", swhere);
-                    const auto origin = field<std::array<double, 2>>(js, "origin", swhere);
-                    s.origin_x = origin[0];
-                    s.origin_y = origin[1];
-                    s.weights = field<std::vector<float>>(js, "weights", swhere);
-                    if (s.width <= 0 || s.height <= 0 || !(s.cell > 0.0) ||
-                        s.weights.size() != static_cast<std::size_t>(s.width) * static_cast<std::size_t>(s.height))
-                        throw std::runtime_error(fmt::format("{}: size, cell and weights do not agree", swhere));
+                    Shape s = shape_field(js, swhere);
                     carried = std::move(s);
                 }
             }

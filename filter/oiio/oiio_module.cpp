@@ -2,11 +2,20 @@
 // filter/src/oiio_module.h for why this is a module of its own).
 #include "../src/oiio_module.h"
 
+#include <cerrno>
+#include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
+#include <vector>
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <fmt/core.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <unistd.h>
 
 namespace lensfx::filter {
 
@@ -87,6 +96,52 @@ Frame read(const std::string& path) {
     return frame;
 }
 
+// An anonymous file in memory (memfd), named by its /proc/self/fd path for writers that want a name.
+class MemoryFile {
+public:
+    MemoryFile() : fd_(::memfd_create("lensfx-encode", MFD_CLOEXEC)) {
+        if (fd_ < 0) throw std::runtime_error(fmt::format("memfd_create: {}", std::strerror(errno)));
+    }
+    MemoryFile(const MemoryFile&) = delete;
+    MemoryFile& operator=(const MemoryFile&) = delete;
+    ~MemoryFile() { ::close(fd_); }
+    std::string path() const { return fmt::format("/proc/self/fd/{}", fd_); }
+    std::vector<unsigned char> contents() const {
+        struct stat st {};
+        if (::fstat(fd_, &st) != 0) throw std::runtime_error(fmt::format("memfd: {}", std::strerror(errno)));
+        std::vector<unsigned char> bytes(static_cast<std::size_t>(st.st_size));
+        std::size_t done = 0;
+        while (done < bytes.size()) {
+            const ssize_t n = ::pread(fd_, bytes.data() + done, bytes.size() - done, static_cast<off_t>(done));
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) throw std::runtime_error(fmt::format("memfd: {}", std::strerror(n < 0 ? errno : EIO)));
+            done += static_cast<std::size_t>(n);
+        }
+        return bytes;
+    }
+
+private:
+    int fd_;
+};
+
+// Writes `bytes` to `path`, every write checked (a full disk is an error naming the file).
+void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0) throw std::runtime_error(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
+    std::size_t done = 0;
+    while (done < bytes.size()) {
+        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            const int err = n < 0 ? errno : ENOSPC;
+            ::close(fd);
+            throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(err)));
+        }
+        done += static_cast<std::size_t>(n);
+    }
+    if (::close(fd) != 0) throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
+}
+
 void write(const std::string& path, const ImageSpec& spec, const void* data) {
     auto out = OIIO::ImageOutput::create(path);
     if (!out) {
@@ -110,7 +165,20 @@ void write(const std::string& path, const ImageSpec& spec, const void* data) {
     }
     if (spec.pixel_aspect != 1.0f) s.attribute("PixelAspectRatio", spec.pixel_aspect);
     for (const auto& [name, value] : spec.text) s.attribute(name, value);
-    if (!out->open(path, s)) {
+    // Encoded in memory, then written here with every write checked: some writers (PNG, TIFF) ignore a
+    // failed write, so a full disk gave a truncated file and a success. Writers that take an I/O proxy
+    // write into a vector; the others into a memory file (memfd) by its /proc path.
+    std::vector<unsigned char> encoded;
+    OIIO::Filesystem::IOVecOutput memory(encoded);
+    const bool proxy = out->supports("ioproxy");
+    std::optional<MemoryFile> memfile;
+    if (proxy) {
+        out->set_ioproxy(&memory);
+    } else {
+        memfile.emplace();
+    }
+    const std::string target = proxy ? path : memfile->path();
+    if (!out->open(target, s)) {
         std::string message = out->geterror();
         throw std::runtime_error(message.empty() ? fmt::format("cannot create {}", path) : message);
     }
@@ -118,6 +186,7 @@ void write(const std::string& path, const ImageSpec& spec, const void* data) {
         std::string message = out->geterror();
         throw std::runtime_error(message.empty() ? fmt::format("cannot write {}", path) : message);
     }
+    write_bytes(path, proxy ? encoded : memfile->contents());
 }
 
 std::string output_format(const std::string& path) {

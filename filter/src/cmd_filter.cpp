@@ -78,9 +78,15 @@ void run_filter(FilterArgs& args) {
     for (auto& s : owned) stages.push_back(s.get());
     const RunReport report = run_pipeline(o, stages);
     if (report.skipped() > 0 && !o.quiet) {
-        std::string numbers;
+        std::string numbers;  // the first few: a long run's list would fill the terminal
+        std::size_t listed = 0;
         for (const auto& f : report.frames) {
-            if (!f.written) numbers += fmt::format("{}{}", numbers.empty() ? "" : ", ", f.number);
+            if (f.written) continue;
+            if (++listed > 20) {
+                numbers += ", ...";
+                break;
+            }
+            numbers += fmt::format("{}{}", numbers.empty() ? "" : ", ", f.number);
         }
         fmt::print(stderr, "lensfx: {} frames written, {} skipped (frames {})\n", report.written(), report.skipped(), numbers);
     }
@@ -98,7 +104,7 @@ void register_filter(CLI::App& app) {
     app.add_option("-i,--input", o.input, "Input file, pattern or - (stdin)");
     app.add_option("-o,--output", o.output, "Output file, pattern or - (stdout)");
     app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2, 3,7,10-20 (default: those on disk)");
-    app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->check(CLI::Range(0, 1024));
     app.add_option("--queue-depth", o.queue_depth, "Frames held between reader, effects and writer")->check(CLI::PositiveNumber);
     app.add_option("--compression", o.write.compression, "EXR compression: piz, zip, zips, dwaa[:level], none... (default: the input's, else piz)");
     app.add_option("--pfm-order", args->pfm_order, "PFM row order: top (ffmpeg 5.1), bottom (the PFM spec), auto (top on pipes, bottom in files)")
@@ -107,6 +113,7 @@ void register_filter(CLI::App& app) {
         ->check(CLI::IsMember({"gbrpf32le", "gbrapf32le"}));
     app.add_option("--size", args->size, "Frame size of raw input, WIDTHxHEIGHT");
     app.add_flag("--skip-bad-frames", o.skip_bad_frames, "Leave out unreadable or mismatched input frames and report them");
+    app.add_flag("--allow-empty", o.allow_empty, "An input stream of no frames is a success (default: an error)");
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
     app.add_flag("--progress", args->progress, "Show progress even when stderr is not a terminal");
     app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");

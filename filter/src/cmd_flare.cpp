@@ -28,6 +28,7 @@
 #include <optics/starburst.h>
 #include <optics/system.h>
 
+#include "option_checks.h"
 #include "commands.h"
 
 namespace lensfx::filter {
@@ -234,7 +235,8 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--sensor", args->sensor, "Sensor WxH in mm")->capture_default_str();
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
     cmd->add_option("--blades", args->blades, "Iris blades (0 = round), replacing the lens's");
-    cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)");
+    cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
+        ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (default: RGB, 3 wavelengths)")
         ->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
@@ -259,7 +261,7 @@ void register_flare_command(CLI::App& app) {
     add_acceleration_options(*cmd, args->accel, "GPU accelerations");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
-    cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
     cmd->callback([args] {

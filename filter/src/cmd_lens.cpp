@@ -17,6 +17,8 @@
 #include <optics/system.h>
 #include <optics/tracer.h>
 
+#include <filter/output_files.h>
+
 #include "commands.h"
 
 namespace lensfx::filter {
@@ -176,9 +178,10 @@ void register_lens_commands(CLI::App& app) {
     cmd_convert->add_option("input", *in, "Preset name or lens file (.toml, pbrt .dat, lentil .fx)")->required();
     cmd_convert->add_option("-o,--output", *out, "Output .toml file, or - for stdout")->required();
     cmd_convert->callback([in, out] {
+        refuse_overwrite(*out, "-o", *in);
         const optics::Lens l = optics::load_lens(*in);
-        if (*out == "-") fmt::print("{}", optics::write_lens_toml(l));
-        else optics::write_lens_file(l, *out);
+        if (*out == "-") write_stdout(optics::write_lens_toml(l));
+        else write_file(*out, optics::write_lens_toml(l));
     });
 }
 

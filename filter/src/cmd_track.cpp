@@ -14,6 +14,7 @@
 #include <detect/tracker.h>
 #include <filter/frame.h>
 #include <filter/image_io.h>
+#include <filter/output_files.h>
 #include <filter/sequence.h>
 #include <filter/stream.h>
 
@@ -32,6 +33,7 @@ struct TrackSettings {
     detect::TrackerOptions tracker;
     int fade_frames = detect::TrackerOptions{}.fade_in_frames;
     bool quiet = false;
+    bool allow_empty = false;
 };
 
 class ShotTracker {
@@ -52,11 +54,15 @@ public:
         const auto lights = tracker_.update(detector_.detect(rgb_view(frame)));
         cuts_ += tracker_.last_was_cut() ? 1 : 0;
         ++frames_;
-        file_.append(static_cast<int>(frame.number), lights);
+        file_.append(frame.number, lights);
     }
 
     void finish() {
-        detect::write_track_file(settings_.tracks_out, file_);
+        if (frames_ == 0 && !settings_.allow_empty) {
+            throw std::runtime_error(fmt::format("{}: no frames read (an empty stream: did the program before lensfx fail?); "
+                                                 "--allow-empty accepts it", settings_.input == "-" ? "stdin" : settings_.input));
+        }
+        write_file(settings_.tracks_out, detect::to_json_text(file_));
         if (!settings_.quiet)
             fmt::print(stderr, "lensfx track: {} frames, {} tracks, {} cuts -> {}\n", frames_, file_.tracks.size(), cuts_, settings_.tracks_out);
     }
@@ -74,6 +80,7 @@ void run_track(TrackSettings& s) {
     s.detector.threshold = detect::Threshold::parse(s.threshold);
     s.tracker.fade_in_frames = s.fade_frames;
     s.tracker.fade_out_frames = s.fade_frames;
+    refuse_overwrite(s.tracks_out, "--tracks-out", s.input);
     ShotTracker shot(s);
     if (s.input == "-") {
         if (!s.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
@@ -85,14 +92,8 @@ void run_track(TrackSettings& s) {
         }
     } else {
         const FramePattern pattern = parse_pattern(s.input);
-        std::vector<std::int64_t> numbers{1};
-        if (pattern.is_sequence) {
-            numbers = s.frames.empty() ? scan_frames(pattern) : parse_frame_list(s.frames);
-            if (numbers.empty()) throw std::runtime_error(fmt::format("{}: no frames match the pattern", s.input));
-        } else if (!s.frames.empty()) {
-            throw std::runtime_error(fmt::format("{}: --frames needs a pattern (#, @ or %0Nd) in the input", s.input));
-        }
-        for (std::size_t i = 0; i < numbers.size(); ++i) {
+        const FrameList numbers = frames_to_read(s.input, s.frames, s.quiet);
+        for (std::uint64_t i = 0; i < numbers.size(); ++i) {
             const std::string path = pattern.path(numbers[i]);
             try {
                 Frame frame = read_image(path);
@@ -135,6 +136,7 @@ void register_track_command(CLI::App& app) {
     cmd->add_option("--fade", s->fade_frames, "Frames of the weight ramps at births and deaths")->check(CLI::NonNegativeNumber);
     cmd->add_option("--cut-threshold", s->tracker.cut_threshold, "Histogram change (L1, 0-2) between frames that is a cut")
         ->check(CLI::PositiveNumber);
+    cmd->add_flag("--allow-empty", s->allow_empty, "An input stream of no frames writes an empty track file (default: an error)");
     cmd->add_flag("-q,--quiet", s->quiet, "No summary line");
     cmd->callback([s] { run_track(*s); });
 }

@@ -1,4 +1,5 @@
 #include <filter/colour.h>
+#include <filter/float_range.h>
 
 #include <algorithm>
 #include <cctype>
@@ -11,6 +12,8 @@
 
 #include <fmt/core.h>
 #include <fmt/format.h>
+
+#include "option_checks.h"
 
 namespace lensfx::colour {
 
@@ -998,6 +1001,8 @@ void add_colour_options(CLI::App& app, ColourArgs& args) {
     app.add_option("--view", o.view, "View of the display (default: the display's first)")->group(group);
     app.add_option("--look", o.look, "OCIO look(s) applied before the view, replacing the view's own")->group(group);
     app.add_option("--exposure", o.exposure_ev, "Exposure in stops, applied in scene-linear before the display")
+        ->check(CLI::Range(-64.0, 64.0))
+        ->check(filter::finite_number())
         ->group(group);
     app.add_option("--bits", args.bits, "Bits per channel of display-referred files: 8 or 16 (JPEG: 8)")
         ->check(CLI::IsMember({8, 16}))
@@ -1112,7 +1117,7 @@ void ColourOutputStage::process(filter::Frame& frame) {
     const double ev = session_->options().exposure_ev;
     if (ev != 0.0) {
         const float s = static_cast<float>(std::exp2(ev));
-        for (float& v : frame.rgb) v *= s;
+        for (float& v : frame.rgb) v = filter::scaled_within_float(v, s);
     }
     apply(p.to_scene_output(), gpu_scene_, px);
     if (!p.to_scene_output().is_identity()) record_device(frame, ran_on_gpu_);

@@ -215,6 +215,8 @@ Imf::Header output_header(const ImageSpec& spec, const std::string& compression)
     Imf::ChannelList list;
     for (int c = 0; c < spec.nchannels(); ++c) {
         const std::string& name = spec.channel_name(c);
+        // OpenEXR keeps 255 bytes of a name: longer ones would be cut and two channels merge unseen.
+        if (name.size() > 255) throw std::runtime_error(fmt::format("channel name of {} characters (EXR holds 255): \"{}...\"", name.size(), name.substr(0, 32)));
         const PixelType type = spec.channel_type(c);
         Imf::Channel channel(type == PixelType::float32 ? Imf::FLOAT : type == PixelType::uint32 ? Imf::UINT : Imf::HALF);
         // B44's perceptual quantisation flag stays as the input had it.

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -34,6 +35,11 @@
 #include <optics/starburst.h>
 #include <optics/system.h>
 #include <optics/tracer.h>
+
+#include <filter/float_range.h>
+#include <filter/output_files.h>
+
+#include "option_checks.h"
 
 namespace lensfx::filter {
 
@@ -67,26 +73,26 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     const std::string group = "Flare";
     app.add_option("--lens", s.lens, "Lens preset (lensfx lens list) or lens file (.toml, pbrt .dat, lentil .fx)")->group(group);
     app.add_option("--zoom", s.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group);
-    app.add_option("--fstop", s.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--fstop", s.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--blades", s.blades, "Iris blade count (0 = round), overriding the lens's")->group(group)->check(CLI::Range(0, 64));
     app.add_option("--threshold", s.threshold, "Light-source threshold: luminance (20) or stops above the median (+6ev)")->capture_default_str()->group(group);
     app.add_option("--max-lights", s.max_lights, "The brightest lights rendered per frame")->capture_default_str()->group(group)->check(CLI::Range(0, 4096));
     app.add_option("--sensor", s.sensor, "Sensor width in mm, or WxH (the height follows the frame's aspect)")->capture_default_str()->group(group);
-    app.add_option("--fov", s.fov_deg, "Horizontal field of view in degrees (instead of the lens's focal length)")->group(group)->check(CLI::Range(0.1, 179.0));
-    app.add_option("--gain", s.gain, "Scale of the whole flare (1 = physical)")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
-    app.add_option("--source-gain", s.source_gain, "Strength multiplier for clipped sources")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
+    app.add_option("--fov", s.fov_deg, "Horizontal field of view in degrees (instead of the lens's focal length)")->group(group)->check(CLI::Range(0.1, 179.0))->check(finite_number());
+    app.add_option("--gain", s.gain, "Scale of the whole flare (1 = physical)")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
+    app.add_option("--source-gain", s.source_gain, "Strength multiplier for clipped sources")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
     app.add_flag("--flare-only", s.flare_only, "Write the flare alone, on black")->group(group);
     app.add_option("--tracks", s.tracks, "Render the lights of this track file (lensfx track) instead of detecting")->group(group);
     app.add_option("--gpu", s.gpu, "EGL platform: auto, device (a GPU driver), surfaceless (Mesa)")->capture_default_str()->group(group)
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
-    app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber);
-    app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
+    app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
         ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
     app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
-        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0));
+        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
     app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
     app.add_option("--grid", s.grid, "Base ray grid cells per side of each ghost (the adaptive grid scales it)")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
     app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
@@ -205,18 +211,19 @@ void write_cache_file(const std::filesystem::path& path, const std::function<voi
     std::error_code ec;
     std::filesystem::create_directories(path.parent_path(), ec);
     if (ec) return;
-    const std::filesystem::path tmp = path.string() + fmt::format(".{}.tmp", ::getpid());
+    TempFile tmp(path.string());  // removed on failure and on a signal; a dead run's by the next write
     {
-        std::ofstream out(tmp, std::ios::binary);
+        std::ofstream out(tmp.path(), std::ios::binary);
         write(out);
-        if (!out) {
-            out.close();
-            std::filesystem::remove(tmp, ec);
-            return;
-        }
+        out.close();
+        if (!out) return;
     }
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) std::filesystem::remove(tmp, ec);
+    try {
+        tmp.commit();
+    } catch (const std::exception&) {
+        return;
+    }
+    remove_stale_temporaries(path.parent_path().string());
 }
 
 }  // namespace
@@ -334,6 +341,48 @@ std::string passes_key(const std::vector<gpu::SpectralPass>& passes) {
     return key;
 }
 
+// The largest strength a light is given: with the ghosts' own peak values and many lights summed it
+// stays far inside float range, so a huge --gain or flux saturates the frame instead of making it NaN.
+constexpr double kMaxLightScale = 1e30;
+
+// The `count` brightest lights (luminance times weight), in their order; the rest are left out.
+void keep_brightest(std::vector<detect::Light>& lights, std::size_t count) {
+    if (lights.size() <= count) return;
+    auto strength = [](const detect::Light& l) {
+        return (detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2]) * l.weight;
+    };
+    if (count == 0) {
+        lights.clear();
+        return;
+    }
+    std::vector<double> strengths;
+    for (const auto& l : lights) strengths.push_back(strength(l));
+    std::nth_element(strengths.begin(), strengths.begin() + static_cast<std::ptrdiff_t>(count - 1), strengths.end(), std::greater<>());
+    const double cut = strengths[count - 1];
+    // Every light above the cut, and as many at it as fill the count (the first ones).
+    std::size_t ties = count - static_cast<std::size_t>(std::count_if(strengths.begin(), strengths.end(), [&](double v) { return v > cut; }));
+    std::erase_if(lights, [&](const detect::Light& l) {
+        const double v = strength(l);
+        if (v > cut) return false;
+        if (v == cut && ties > 0) {
+            --ties;
+            return false;
+        }
+        return true;
+    });
+}
+
+// The files the flare options name, refused when they are not regular files (a FIFO or /dev/zero would
+// hang the reader); --layer names that an EXR channel cannot hold; iris blade counts no iris has.
+void check_input_files(const FlareSettings& s) {
+    if (std::filesystem::exists(s.lens)) require_regular_file(s.lens, "--lens");
+    require_regular_file(s.tracks, "--tracks");
+    require_regular_file(s.flare_look, "--flare-look");
+    if (s.layer.size() > 253) throw std::invalid_argument(fmt::format("--layer: {} characters; EXR channel names hold 255 (the layer and \".R\")", s.layer.size()));
+    if (s.blades && (*s.blades == 1 || *s.blades == 2))
+        throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *s.blades));
+}
+
 struct FlareStage::State {
     FlareSettings settings;
     optics::System system;
@@ -372,6 +421,7 @@ struct FlareStage::State {
           }()) {
         gpu_session = g ? std::move(g) : std::make_shared<GpuSession>();
         primaries_source = std::move(primaries);
+        check_input_files(settings);
         const optics::Lens lens = optics::load_lens(settings.lens);
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
@@ -421,10 +471,11 @@ struct FlareStage::State {
 
     std::vector<detect::Light> lights(const Frame& frame) {
         if (tracks) {
-            std::vector<detect::Light> found = tracks->lights_at(static_cast<int>(frame.number));
+            std::vector<detect::Light> found = tracks->lights_at(frame.number);
             if (tracks->width > 0 && tracks->width != frame.spec.full_width)
                 throw std::runtime_error(fmt::format("track file {} is for {}x{} frames, this one is {}x{}", settings.tracks,
                                                      tracks->width, tracks->height, frame.spec.full_width, frame.spec.full_height));
+            keep_brightest(found, static_cast<std::size_t>(settings.max_lights));
             return found;
         }
         return tracker.update(detector.detect(rgb_view(frame)));
@@ -440,6 +491,15 @@ std::vector<std::pair<std::string, double>> FlareStage::part_times() const { ret
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
     s.times.clear();
+    if (!frame.has_rgb()) {
+        std::string names;
+        for (const auto& n : frame.spec.channelnames) names += (names.empty() ? "" : ", ") + n;
+        throw std::runtime_error(fmt::format("the flare needs R, G, B channels (or LAYER.R, .G, .B); this frame has {}", names.empty() ? "none" : names));
+    }
+    for (int c : frame.rgb_channels)
+        if (frame.spec.channel_type(c) == PixelType::uint32)
+            throw std::runtime_error(fmt::format("channel {} is uint32 (integers such as ids, not light): the flare needs half or float R, G, B",
+                                                 frame.spec.channel_name(c)));
     auto t = Clock::now();
     std::vector<detect::Light> lights = s.lights(frame);
     s.times.emplace_back("detect", ms_since(t));
@@ -507,7 +567,7 @@ void FlareStage::process(Frame& frame) {
             // Irradiance of the light at the lens: the energy its image recorded over what unit irradiance gives.
             if (direct[c] <= 0.0) continue;
             const double irradiance = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / direct[c];
-            scale[c] = static_cast<float>(irradiance * boost);
+            scale[c] = to_float_within(std::min(irradiance * boost, kMaxLightScale));
             any = any || scale[c] > 0.0f;
         }
         direct_ms += ms_since(t);
@@ -524,7 +584,7 @@ void FlareStage::process(Frame& frame) {
             // already in the recorded pixels, so only the spikes and rings are added.
             std::array<double, 3> energy{};
             for (std::size_t c = 0; c < 3; ++c)
-                energy[c] = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost;
+                energy[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost, kMaxLightScale);
             // An artistic --starburst-scale enlarges the core too; never leave out more than the light's
             // own pixel, or a small light would show a hole.
             const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
@@ -583,7 +643,8 @@ void FlareStage::process(Frame& frame) {
                 extended_ms += ms_since(t);
             }
             for (std::size_t i = 0; i < display_px; ++i)
-                for (std::size_t c = 0; c < 3; ++c) flare_rgb[i * 3 + c] += scale[c] * flare.rgb[i * 3 + c];
+                for (std::size_t c = 0; c < 3; ++c)
+                    flare_rgb[i * 3 + c] = added_within_float(flare_rgb[i * 3 + c], scaled_within_float(flare.rgb[i * 3 + c], scale[c]));
         }
     }
     if (!point_lights.empty()) {
@@ -629,7 +690,7 @@ void FlareStage::process(Frame& frame) {
         const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
                                              static_cast<std::size_t>(x0 + dx0)) * 3;
         const std::size_t n = static_cast<std::size_t>(x1 - x0) * 3;
-        for (std::size_t i = 0; i < n; ++i) px[i] += f[i];
+        for (std::size_t i = 0; i < n; ++i) px[i] = added_within_float(px[i], f[i]);
     }
     if (layer) add_rgb_layer(frame, s.settings.layer, layer_rgb);
     s.times.emplace_back("composite", ms_since(t));

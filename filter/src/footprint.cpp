@@ -42,13 +42,18 @@ struct FootprintSampler {
     float inside(double ox, double oy) const {
         return interpolate(ox, oy, [](float w) { return w > 0.0f ? 1.0f : 0.0f; });
     }
-    // Half-widths in pixels of the kernel at magnification m.
-    int reach_x(double m) const {
-        return static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(x0), std::abs(x1)) + 0.5 * cell))) + 1;
+    // Half-widths in pixels of the kernel at magnification m (computed in double, kept within int range).
+    int reach_x(double m) const { return reach(m, std::max(std::abs(x0), std::abs(x1))); }
+    int reach_y(double m) const { return reach(m, std::max(std::abs(y0), std::abs(y1))); }
+    int reach(double m, double extent) const {
+        const double r = std::ceil(std::abs(m) * (extent + 0.5 * cell)) + 1.0;
+        return r < kMaxReach ? static_cast<int>(r) : kMaxReach;
     }
-    int reach_y(double m) const {
-        return static_cast<int>(std::ceil(std::abs(m) * (std::max(std::abs(y0), std::abs(y1)) + 0.5 * cell))) + 1;
-    }
+    static constexpr int kMaxReach = 1 << 29;
+    // The spacing of the samples of the footprint in pixels: 1, or coarser for a footprint of more than
+    // kMaxSamples pixels a side, so a huge one costs no more than that (and never loops in place).
+    double sample_step() const { return std::max(1.0, std::max(x1 - x0, y1 - y0) / kMaxSamples); }
+    static constexpr double kMaxSamples = 2048.0;
 };
 
 }  // namespace
@@ -58,6 +63,11 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     const double cell = weight_at.cell;
     const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     const int rx = weight_at.reach_x(m), ry = weight_at.reach_y(m);
+    if (rx >= FootprintSampler::kMaxReach || ry >= FootprintSampler::kMaxReach) {
+        // Spread over half a billion pixels or more: no pixel keeps a float-visible share of the light.
+        std::fill(rgb.begin(), rgb.end(), 0.0f);
+        return;
+    }
     if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and upsample bilinearly.
@@ -81,8 +91,9 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
         for (int ky = -ry; ky <= ry; ++ky)
             for (int kx = -rx; kx <= rx; ++kx) kernel.at<float>(ry + ky, rx + kx) = weight_at(kx / m, ky / m);
     } else {  // shrunk: each footprint pixel is shared bilinearly where it lands
-        for (double oy = y0 - 0.5 * cell + 0.5; oy < y1 + 0.5 * cell; oy += 1.0) {
-            for (double ox = x0 - 0.5 * cell + 0.5; ox < x1 + 0.5 * cell; ox += 1.0) {
+        const double step = weight_at.sample_step();
+        for (double oy = y0 - 0.5 * cell + 0.5; oy < y1 + 0.5 * cell; oy += step) {
+            for (double ox = x0 - 0.5 * cell + 0.5; ox < x1 + 0.5 * cell; ox += step) {
                 const float w = weight_at(ox, oy);
                 if (w == 0.0f) continue;
                 const double tx = rx + m * (ox - 0.5), ty = ry + m * (oy - 0.5);

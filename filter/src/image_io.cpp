@@ -13,6 +13,8 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
+#include <filter/output_files.h>
+
 #include "exr_io.h"
 #include "oiio_module.h"
 
@@ -41,37 +43,6 @@ std::string lower_extension(const std::string& path) {
     return ext;
 }
 
-// A temporary file beside the target, removed unless commit() renamed it into place.
-class TempFile {
-public:
-    explicit TempFile(const std::string& target) : target_(target) {
-        const fs::path t(target);
-        // Keep the extension last: some writers check it.
-        const std::string name = fmt::format(".{}.lensfx-{}{}", t.stem().string(), ::getpid(), t.extension().string());
-        path_ = (t.parent_path() / name).string();
-    }
-    TempFile(const TempFile&) = delete;
-    TempFile& operator=(const TempFile&) = delete;
-    ~TempFile() {
-        if (!committed_) {
-            std::error_code ec;
-            fs::remove(path_, ec);
-        }
-    }
-    const std::string& path() const { return path_; }
-    void commit() {
-        std::error_code ec;
-        fs::rename(path_, target_, ec);
-        if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
-        committed_ = true;
-    }
-
-private:
-    std::string target_;
-    std::string path_;
-    bool committed_ = false;
-};
-
 void write_pfm_file(const Frame& frame, const std::string& path, const WriteOptions& options) {
     TempFile tmp(path);
     File f(std::fopen(tmp.path().c_str(), "wb"));
@@ -96,6 +67,7 @@ std::string output_compression(const Frame& frame, const WriteOptions& options) 
 
 Frame read_image(const std::string& path, PfmOrder pfm_order) {
     if (!fs::exists(path)) throw std::runtime_error("file does not exist");
+    require_regular_file(path, "");  // /dev/zero or a named pipe would never end
     if (is_pfm_file(path)) {
         File f(std::fopen(path.c_str(), "rb"));
         if (!f) throw std::runtime_error(fmt::format("cannot open: {}", std::strerror(errno)));

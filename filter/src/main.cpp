@@ -1,5 +1,7 @@
 // Entry point of the lensfx program: parses the command line and reports failures as one line on stderr.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 
 #include <CLI/CLI.hpp>
@@ -25,6 +27,11 @@ int main(int argc, char** argv) {
         return app.exit(e);
     } catch (const std::exception& e) {
         fmt::print(stderr, "lensfx: {}\n", e.what());
+        return 1;
+    }
+    // What a command printed is only written now: a full or closed stdout is a failure, not a success.
+    if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+        fmt::print(stderr, "lensfx: stdout: write failed: {}\n", std::strerror(errno));
         return 1;
     }
     return 0;

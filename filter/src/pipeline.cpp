@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include <filter/bounded_queue.h>
+#include <filter/output_files.h>
 #include <filter/sequence.h>
 
 #include "exr_io.h"
@@ -84,21 +85,52 @@ std::optional<FileId> file_id(const std::string& path) {
     return FileId{st.st_dev, st.st_ino};
 }
 
-// What to read and where to write, resolved before any thread starts.
+// What to read and where to write, resolved before any thread starts. The frames are a lazy list: a
+// range of any length is read one frame at a time.
 struct Plan {
     bool stream_in = false, stream_out = false;
-    FramePattern out_pattern;
-    std::vector<std::int64_t> numbers;  // file input: the frames to read
-    std::vector<std::string> inputs;    // their paths
-    std::set<FileId> input_ids;         // never written to
+    FramePattern in_pattern, out_pattern;
+    FrameList numbers;                  // file input: the frames to read
+    std::set<FileId> input_ids;         // the input files on disk: never written to
     PfmOrder in_order = PfmOrder::bottom_first, out_order = PfmOrder::bottom_first;
 
+    std::string input_path(std::int64_t number) const { return in_pattern.path(number); }
     std::string output_path(std::int64_t number) const { return stream_out ? "-" : out_pattern.path(number); }
 };
 
 PfmOrder resolve(PfmOrder order, bool stream) {
     if (order != PfmOrder::automatic) return order;
     return stream ? PfmOrder::top_first : PfmOrder::bottom_first;
+}
+
+// The ids of the files on disk that a pattern names (a directory's worth at most).
+std::set<FileId> files_of(const FramePattern& pattern) {
+    std::set<FileId> ids;
+    if (!pattern.is_sequence) {
+        if (auto id = file_id(pattern.prefix)) ids.insert(*id);
+        return ids;
+    }
+    for (std::int64_t n : scan_frames(pattern))
+        if (auto id = file_id(pattern.path(n))) ids.insert(*id);
+    return ids;
+}
+
+// Refuses, before anything is written, an output that is one of the inputs: the output files already on
+// disk (a directory's worth) are compared with the input files, so a list of any length costs the same.
+void refuse_overwriting_inputs(const Plan& plan) {
+    const std::int64_t first = plan.numbers[0];
+    if (plan.output_path(first) == plan.input_path(first)) {
+        throw std::runtime_error(fmt::format("{}: frame {}: refusing to overwrite an input file", plan.output_path(first), first));
+    }
+    const std::vector<std::int64_t> existing =
+        plan.out_pattern.is_sequence ? scan_frames(plan.out_pattern) : std::vector<std::int64_t>{first};
+    for (std::int64_t n : existing) {
+        if (!plan.numbers.contains(n)) continue;
+        const auto id = file_id(plan.output_path(n));
+        if (id && plan.input_ids.count(*id)) {
+            throw std::runtime_error(fmt::format("{}: frame {}: refusing to overwrite an input file", plan.output_path(n), n));
+        }
+    }
 }
 
 Plan make_plan(const PipelineOptions& o) {
@@ -124,30 +156,13 @@ Plan make_plan(const PipelineOptions& o) {
         if (!o.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
         return plan;
     }
-    const FramePattern in = parse_pattern(o.input);
-    if (in.is_sequence) {
-        plan.numbers = o.frames.empty() ? scan_frames(in) : parse_frame_list(o.frames);
-        if (plan.numbers.empty()) throw std::runtime_error(fmt::format("{}: no frames match the pattern", o.input));
-    } else {
-        if (!o.frames.empty()) throw std::runtime_error(fmt::format("{}: --frames needs a pattern (#, @ or %0Nd) in the input", o.input));
-        plan.numbers = {1};
-    }
+    plan.in_pattern = parse_pattern(o.input);
+    plan.numbers = frames_to_read(o.input, o.frames, o.quiet);
     if (!plan.stream_out && !plan.out_pattern.is_sequence && plan.numbers.size() > 1) {
         throw std::runtime_error(fmt::format("{}: the output has no frame-number token but the input has {} frames", o.output, plan.numbers.size()));
     }
-    for (auto n : plan.numbers) {
-        plan.inputs.push_back(in.path(n));
-        if (auto id = file_id(plan.inputs.back())) plan.input_ids.insert(*id);
-    }
-    if (!plan.stream_out) {
-        for (std::size_t i = 0; i < plan.numbers.size(); ++i) {
-            const std::string out = plan.output_path(plan.numbers[i]);
-            const auto id = file_id(out);
-            if (out == plan.inputs[i] || (id && plan.input_ids.count(*id))) {
-                throw std::runtime_error(fmt::format("{}: frame {}: refusing to overwrite an input file", out, plan.numbers[i]));
-            }
-        }
-    }
+    plan.input_ids = files_of(plan.in_pattern);
+    if (!plan.stream_out) refuse_overwriting_inputs(plan);
     return plan;
 }
 
@@ -199,6 +214,8 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     set_exr_threads(report.threads);
 
     const Plan plan = make_plan(o);
+    refuse_overwrite(o.report_path, "--report", o.input, o.output);
+    if (!plan.stream_out) remove_stale_temporaries(fs::path(plan.out_pattern.prefix).parent_path().string());
     const bool sequence = plan.stream_in || plan.numbers.size() > 1;
     const bool show_progress = !o.quiet && (o.progress == Progress::on ||
                                             (o.progress == Progress::automatic && sequence && ::isatty(STDERR_FILENO)));
@@ -241,17 +258,17 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 if (!read_queue.push(std::move(item)) || stop) break;
             }
         } else {
-            for (std::size_t i = 0; i < plan.numbers.size(); ++i) {
+            for (std::uint64_t i = 0; i < plan.numbers.size(); ++i) {
                 Item item;
                 item.record.index = i;
                 item.record.number = plan.numbers[i];
-                item.record.input = plan.inputs[i];
-                item.record.output = plan.output_path(plan.numbers[i]);
+                item.record.input = plan.input_path(item.record.number);
+                item.record.output = plan.output_path(item.record.number);
                 const auto t0 = Clock::now();
                 try {
-                    item.frame = read_image(plan.inputs[i], plan.in_order);
+                    item.frame = read_image(item.record.input, plan.in_order);
                     item.frame->index = i;
-                    item.frame->number = plan.numbers[i];
+                    item.frame->number = item.record.number;
                 } catch (const std::exception& e) {
                     item.frame.reset();
                     item.record.error = one_line(e.what());
@@ -352,6 +369,9 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
 
     report.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
     report.error = failure.get();
+    if (report.error.empty() && plan.stream_in && report.frames.empty() && !o.allow_empty) {
+        report.error = "stdin: no frames read (an empty stream: did the program before lensfx fail?); --allow-empty accepts it";
+    }
     if (!o.report_path.empty()) write_report(report, o.report_path);
     if (!report.error.empty()) throw std::runtime_error(report.error);
     return report;
@@ -379,10 +399,7 @@ void write_report(const RunReport& report, const std::string& path) {
                         {"frames_per_second", fps},
                         {"frames", std::move(frames)}};
     if (!report.error.empty()) j["error"] = report.error;
-    std::ofstream out(path);
-    out << j.dump(2) << '\n';
-    out.close();
-    if (!out) throw std::runtime_error(fmt::format("{}: cannot write the report", path));
+    write_file(path, j.dump(2) + "\n");
 }
 
 }  // namespace lensfx::filter

@@ -3,8 +3,9 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <filesystem>
-#include <set>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -33,7 +34,8 @@ bool all_digits(std::string_view text) {
 
 std::string FramePattern::path(std::int64_t frame) const {
     if (!is_sequence) return prefix;
-    const std::string digits = fmt::format("{:0{}}", frame < 0 ? -frame : frame, padding);
+    const std::uint64_t magnitude = frame < 0 ? 0 - static_cast<std::uint64_t>(frame) : static_cast<std::uint64_t>(frame);
+    const std::string digits = fmt::format("{:0{}}", magnitude, padding);
     return prefix + (frame < 0 ? "-" : "") + digits + suffix;
 }
 
@@ -100,13 +102,106 @@ FramePattern parse_pattern(std::string_view p) {
     return pattern;
 }
 
-std::vector<std::int64_t> parse_frame_list(std::string_view list) {
-    std::vector<std::int64_t> frames;
-    std::set<std::int64_t> seen;
-    auto add = [&](std::int64_t f) {
-        if (!seen.insert(f).second) throw std::invalid_argument(fmt::format("frame list \"{}\" names frame {} twice", list, f));
-        frames.push_back(f);
-    };
+namespace {
+
+__extension__ typedef __int128 Wide;
+
+// x, y with a*x + b*y = gcd(a, b), for a, b > 0.
+Wide extended_gcd(Wide a, Wide b, Wide& x, Wide& y) {
+    if (b == 0) {
+        x = 1;
+        y = 0;
+        return a;
+    }
+    Wide x1 = 0, y1 = 0;
+    const Wide g = extended_gcd(b, a % b, x1, y1);
+    x = y1;
+    y = x1 - (a / b) * y1;
+    return g;
+}
+
+// The smallest frame on both runs, or nothing (the two progressions solved together, in 128 bits).
+std::optional<std::int64_t> common_frame(const FrameRange& a, const FrameRange& b) {
+    const Wide lo = std::max(a.first, b.first), hi = std::min(a.last, b.last);
+    if (lo > hi) return std::nullopt;
+    Wide p = 0, q = 0;
+    const Wide g = extended_gcd(a.step, b.step, p, q);
+    const Wide diff = Wide(b.first) - Wide(a.first);
+    if (diff % g != 0) return std::nullopt;
+    const Wide period = Wide(a.step) / g * b.step;
+    const Wide mod = Wide(b.step) / g;
+    Wide k = (diff / g % mod) * (p % mod) % mod;
+    if (k < 0) k += mod;
+    Wide x = Wide(a.first) + Wide(a.step) * k;  // on both runs
+    if (x < lo) x += (lo - x + period - 1) / period * period;
+    if (x > hi) return std::nullopt;
+    return static_cast<std::int64_t>(x);
+}
+
+// Throws naming a frame that two runs share. Runs are swept by their first frame, each compared with
+// the earlier ones it may overlap, so a long list of single frames costs n log n.
+void refuse_duplicates(std::vector<FrameRange> runs, std::string_view list) {
+    std::sort(runs.begin(), runs.end(), [](const FrameRange& a, const FrameRange& b) { return a.first < b.first; });
+    std::vector<std::int64_t> reach(runs.size());  // the largest last frame of runs 0..k
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+        reach[i] = i == 0 ? runs[i].last : std::max(reach[i - 1], runs[i].last);
+        for (std::size_t j = i; j-- > 0 && reach[j] >= runs[i].first;) {
+            if (const auto f = common_frame(runs[j], runs[i])) {
+                throw std::invalid_argument(fmt::format("frame list \"{}\" names frame {} twice", list, *f));
+            }
+        }
+    }
+}
+
+constexpr std::uint64_t kMaxFrames = std::uint64_t{1} << 62;
+
+}  // namespace
+
+FrameList::FrameList(std::vector<FrameRange> ranges) : ranges_(std::move(ranges)) {
+    std::uint64_t total = 0;
+    for (const FrameRange& r : ranges_) {
+        if (r.step < 1 || r.last < r.first || (r.last - r.first) % r.step != 0) throw std::invalid_argument("malformed frame range");
+        // count() - 1 cannot overflow (count() itself does for the whole 64-bit range).
+        const std::uint64_t after_first = (static_cast<std::uint64_t>(r.last) - static_cast<std::uint64_t>(r.first)) / static_cast<std::uint64_t>(r.step);
+        if (after_first >= kMaxFrames - total) throw std::invalid_argument("a frame list of more than 2^62 frames");
+        total += r.count();
+        ends_.push_back(total);
+    }
+}
+
+FrameList FrameList::of_numbers(const std::vector<std::int64_t>& sorted) {
+    std::vector<FrameRange> runs;
+    for (std::int64_t f : sorted) {
+        if (!runs.empty() && runs.back().last != std::numeric_limits<std::int64_t>::max() && runs.back().last + 1 == f) {
+            runs.back().last = f;
+        } else {
+            runs.push_back({f, f, 1});
+        }
+    }
+    return FrameList(std::move(runs));
+}
+
+std::int64_t FrameList::operator[](std::uint64_t i) const {
+    if (i >= size()) throw std::out_of_range(fmt::format("frame index {} of {}", i, size()));
+    const auto k = static_cast<std::size_t>(std::upper_bound(ends_.begin(), ends_.end(), i) - ends_.begin());
+    const std::uint64_t within = i - (k == 0 ? 0 : ends_[k - 1]);
+    return static_cast<std::int64_t>(static_cast<std::uint64_t>(ranges_[k].first) + within * static_cast<std::uint64_t>(ranges_[k].step));
+}
+
+bool FrameList::contains(std::int64_t frame) const {
+    return std::any_of(ranges_.begin(), ranges_.end(), [&](const FrameRange& r) {
+        return frame >= r.first && frame <= r.last && (static_cast<std::uint64_t>(frame) - static_cast<std::uint64_t>(r.first)) % static_cast<std::uint64_t>(r.step) == 0;
+    });
+}
+
+std::vector<std::int64_t> FrameList::listed(std::uint64_t limit) const {
+    std::vector<std::int64_t> out;
+    for (std::uint64_t i = 0; i < std::min(limit, size()); ++i) out.push_back((*this)[i]);
+    return out;
+}
+
+FrameList parse_frame_list(std::string_view list) {
+    std::vector<FrameRange> runs;
     std::size_t pos = 0;
     while (pos <= list.size()) {
         const std::size_t comma = std::min(list.find(',', pos), list.size());
@@ -122,18 +217,27 @@ std::vector<std::int64_t> parse_frame_list(std::string_view list) {
         const auto dash = item.find('-', 1);
         if (dash == std::string_view::npos) {
             if (step != 1) throw std::invalid_argument(fmt::format("frame list \"{}\": a step needs a range", list));
-            add(parse_int(item, list));
+            const std::int64_t f = parse_int(item, list);
+            runs.push_back({f, f, 1});
         } else {
             const std::int64_t first = parse_int(item.substr(0, dash), list);
             const std::int64_t last = parse_int(item.substr(dash + 1), list);
             if (last < first) {
                 throw std::invalid_argument(fmt::format("frame list \"{}\": range {}-{} ends before it starts", list, first, last));
             }
-            for (std::int64_t f = first; f <= last; f += step) add(f);
+            // The last frame on the run, computed without overflow.
+            const std::uint64_t span = static_cast<std::uint64_t>(last) - static_cast<std::uint64_t>(first);
+            const std::uint64_t on_run = span - span % static_cast<std::uint64_t>(step);
+            runs.push_back({first, static_cast<std::int64_t>(static_cast<std::uint64_t>(first) + on_run), step});
         }
         pos = comma + 1;
     }
-    return frames;
+    refuse_duplicates(runs, list);
+    try {
+        return FrameList(std::move(runs));
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("frame list \"{}\": {}", list, e.what()));
+    }
 }
 
 std::vector<std::int64_t> scan_frames(const FramePattern& pattern) {
@@ -148,6 +252,26 @@ std::vector<std::int64_t> scan_frames(const FramePattern& pattern) {
     }
     std::sort(frames.begin(), frames.end());
     return frames;
+}
+
+FrameList frames_to_read(const std::string& input, const std::string& frames, bool quiet) {
+    const FramePattern pattern = parse_pattern(input);
+    if (!pattern.is_sequence) {
+        if (!frames.empty()) throw std::runtime_error(fmt::format("{}: --frames needs a pattern (#, @ or %0Nd) in the input", input));
+        return FrameList({FrameRange{1, 1, 1}});
+    }
+    if (!frames.empty()) return parse_frame_list(frames);
+    const std::vector<std::int64_t> found = scan_frames(pattern);
+    if (found.empty()) throw std::runtime_error(fmt::format("{}: no frames match the pattern", input));
+    FrameList list = FrameList::of_numbers(found);
+    if (!quiet && list.ranges().size() > 1) {
+        const FrameRange& a = list.ranges()[0];
+        const FrameRange& b = list.ranges()[1];
+        const std::string missing = a.last + 1 == b.first - 1 ? fmt::format("frame {} is", a.last + 1) : fmt::format("frames {}-{} are", a.last + 1, b.first - 1);
+        fmt::print(stderr, "lensfx: warning: {}: {} missing; {} frames found in {} runs (use --frames to choose)\n", input, missing,
+                   found.size(), list.ranges().size());
+    }
+    return list;
 }
 
 }  // namespace lensfx::filter

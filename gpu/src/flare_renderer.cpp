@@ -2,6 +2,7 @@
 #include <gpu/flare_renderer.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <map>
 #include <cmath>
@@ -580,8 +581,9 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             if (computed) {
                 try {
                     table->save();
-                } catch (const std::exception& e) {  // a cache that cannot be written only costs time
-                    fmt::print(stderr, "lensfx: warning: {}\n", e.what());
+                } catch (const std::exception& e) {  // a cache that cannot be written only costs time: said once
+                    static std::atomic<bool> warned{false};
+                    if (!warned.exchange(true)) fmt::print(stderr, "lensfx: warning: {} (the cache is not kept this run)\n", e.what());
                 }
             }
         }

@@ -13,6 +13,14 @@
 
 namespace lensfx::optics {
 
+namespace {
+
+// Bounds of a look's numbers: far beyond any artistic use, far inside float range once multiplied.
+constexpr double kMaxLookGain = 1e6;
+constexpr double kMaxLookOffsetMm = 1e3;
+
+}  // namespace
+
 FlareLook parse_flare_look(std::string_view text, std::string_view origin) {
     const toml::table doc = parse_toml(text, origin);
     Fields top(doc, origin, "");
@@ -21,9 +29,10 @@ FlareLook parse_flare_look(std::string_view text, std::string_view origin) {
         if (!sym->is_table()) top.error("symmetry", "expected a table");
         Fields f(*sym->as_table(), origin, "symmetry.");
         look.symmetry_jitter_mm = f.opt_number("jitter_mm").value_or(0.0);
-        if (look.symmetry_jitter_mm < 0.0) f.error("jitter_mm", "must not be negative");
+        if (!(look.symmetry_jitter_mm >= 0.0 && look.symmetry_jitter_mm <= kMaxLookOffsetMm))
+            f.error("jitter_mm", fmt::format("expected a number in [0, {:g}]", kMaxLookOffsetMm));
         if (const auto seed = f.opt_number("seed")) {
-            if (*seed < 0.0 || *seed != std::floor(*seed)) f.error("seed", "expected a whole number >= 0");
+            if (!(*seed >= 0.0 && *seed < 1.8e19) || *seed != std::floor(*seed)) f.error("seed", "expected a whole number >= 0");
             look.seed = static_cast<std::uint64_t>(*seed);
         }
         f.reject_unknown();
@@ -37,23 +46,31 @@ FlareLook parse_flare_look(std::string_view text, std::string_view origin) {
             Fields f(*row.as_table(), origin, fmt::format("ghost {}: ", i + 1));
             GhostStyle style;
             const std::vector<double> surfaces = f.numbers("surfaces", false);
-            if (surfaces.size() != 2 || surfaces[0] < 1 || surfaces[1] < 1 || surfaces[0] == surfaces[1] ||
+            if (surfaces.size() != 2 || surfaces[0] < 1 || surfaces[1] < 1 || surfaces[0] > 10000 || surfaces[1] > 10000 || surfaces[0] == surfaces[1] ||
                 surfaces[0] != std::floor(surfaces[0]) || surfaces[1] != std::floor(surfaces[1]))
                 f.error("surfaces", "expected two different surface numbers (1-based, as in --ghost)");
             style.first = static_cast<int>(surfaces[0]) - 1;
             style.second = static_cast<int>(surfaces[1]) - 1;
             const double gain = f.opt_number("gain").value_or(1.0);
-            if (gain < 0.0) f.error("gain", "must not be negative");
+            if (!(gain >= 0.0 && gain <= kMaxLookGain)) f.error("gain", fmt::format("expected a number in [0, {:g}]", kMaxLookGain));
             std::array<double, 3> colour{1.0, 1.0, 1.0};
             if (const std::vector<double> c = f.numbers("colour", false); !c.empty()) {
-                if (c.size() != 3 || *std::min_element(c.begin(), c.end()) < 0.0)
-                    f.error("colour", "expected three non-negative numbers (R, G, B)");
+                const bool in_range = std::all_of(c.begin(), c.end(), [](double v) { return v >= 0.0 && v <= kMaxLookGain; });
+                if (c.size() != 3 || !in_range)
+                    f.error("colour", fmt::format("expected three numbers in [0, {:g}] (R, G, B)", kMaxLookGain));
                 colour = {c[0], c[1], c[2]};
             }
-            for (std::size_t k = 0; k < 3; ++k) style.gain[k] = gain * colour[k];
+            for (std::size_t k = 0; k < 3; ++k) style.gain[k] = std::min(gain * colour[k], kMaxLookGain);
             if (const std::vector<double> o = f.numbers("offset_mm", false); !o.empty()) {
-                if (o.size() != 2) f.error("offset_mm", "expected two numbers (right, up)");
+                const bool in_range = std::all_of(o.begin(), o.end(), [](double v) { return std::abs(v) <= kMaxLookOffsetMm; });
+                if (o.size() != 2 || !in_range) f.error("offset_mm", fmt::format("expected two numbers (right, up) within +-{:g}", kMaxLookOffsetMm));
                 style.offset_mm = {o[0], o[1]};
+            }
+            // A second entry for the same ghost would multiply the first's gains unseen.
+            for (std::size_t k = 0; k < look.ghosts.size(); ++k) {
+                const GhostStyle& other = look.ghosts[k];
+                if (std::minmax(other.first, other.second) == std::minmax(style.first, style.second))
+                    f.error("surfaces", fmt::format("ghost {},{} is already styled by ghost {}", style.first + 1, style.second + 1, k + 1));
             }
             f.reject_unknown();
             look.ghosts.push_back(style);

@@ -194,6 +194,11 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
     const double pixel_area = pixel_w_mm * pixel_h_mm;
     const double half = sb.size / 2;
     const double core2 = core_radius_texels * core_radius_texels;
+    // A pattern wholly outside the frame adds nothing; the test is made in double, so that a light far
+    // outside (3e9 px) never reaches the int pixel arithmetic below.
+    const double reach_x = half * tx + 2.0, reach_y = half * ty + 2.0;
+    if (!(cx + reach_x > 0.0 && cx - reach_x < width && cy + reach_y > 0.0 && cy - reach_y < height)) return;
+    if (!(reach_x < 1e8 && reach_y < 1e8)) return;  // texels larger than any frame: a degenerate scale
     const auto in_core = [&](int i, int j) {
         const double dx = i - half, dy = j - half;
         return dx * dx + dy * dy < core2;
@@ -250,7 +255,6 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
         return;
     }
     // Texels larger than pixels: each pixel takes the texture at its centre, weighted by its share of a texel.
-    const double reach_x = half * tx + 1.0, reach_y = half * ty + 1.0;
     const int x_begin = std::max(0, static_cast<int>(std::floor(cx - reach_x)));
     const int x_end = std::min(width, static_cast<int>(std::ceil(cx + reach_x)));
     const int y_begin = std::max(0, static_cast<int>(std::floor(cy - reach_y)));

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include <detect/track_file.h>
@@ -59,7 +61,7 @@ TEST(TrackFile, RoundTripIsExactAndLightsArePureFunctionsOfTheFrame) {
     const TrackFile file = recorded_shot(&live);
     const TrackFile back = parse_track_json(to_json_text(file), "mem.json");
     EXPECT_EQ(back, file);
-    EXPECT_EQ(back.frame_range(), (std::pair<int, int>{1, 40}));
+    EXPECT_EQ(back.frame_range(), (std::pair<std::int64_t, std::int64_t>{1, 40}));
     for (int f = 1; f <= 40; ++f) EXPECT_EQ(back.lights_at(f), live[static_cast<std::size_t>(f - 1)]) << "frame " << f;
     // A farm chunk that reads only frames 25-30, in any order, sees the same lights.
     for (int f = 30; f >= 25; --f) EXPECT_EQ(parse_track_json(to_json_text(file), "chunk").lights_at(f), back.lights_at(f));
@@ -136,7 +138,7 @@ TEST(TrackFile, ErrorsNameTheFileTrackAndKey) {
     EXPECT_NE(order.find("key 1: frame 5 does not follow frame 5"), std::string::npos) << order;
     EXPECT_NE(message(R"({"tracks": [{"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [1,1,1], "weight": 2}]}]})").find("weight"),
               std::string::npos);
-    EXPECT_NE(message(R"({"tracks": [{"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [-1,1,1]}]}]})").find("negative flux"),
+    EXPECT_NE(message(R"({"tracks": [{"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [-1,1,1]}]}]})").find("\"flux[0]\" -1 is outside"),
               std::string::npos);
     EXPECT_NE(message(R"({"tracks": [{"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [1,1,1],
         "shape": {"size": [2, 2], "cell": 1, "origin": [0, 0], "weights": [1]}}]}]})").find("shape"),
@@ -144,6 +146,51 @@ TEST(TrackFile, ErrorsNameTheFileTrackAndKey) {
     EXPECT_NE(message(R"({"tracks": [{"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [1,1,1]}]},
         {"id": 1, "keys": [{"frame": 1, "position": [0,0], "flux": [1,1,1]}]}]})").find("appears twice"),
               std::string::npos);
+}
+
+// Issue 14, class 1: every field is checked on load against bounds that keep later arithmetic in range,
+// frames are whole 64-bit numbers (never truncated), and the errors name the file, track, key and field.
+TEST(TrackFile, HostileFieldsAreRefusedByName) {
+    auto message = [](const std::string& key) {
+        try {
+            (void)parse_track_json(R"({"width": 64, "height": 48, "tracks": [{"id": 9, "keys": [)" + key + "]}]}", "hostile.json");
+        } catch (const std::runtime_error& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    const std::string ok = R"("position": [10, 10], "flux": [1, 1, 1])";
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {R"({"frame": 1, "position": [3e9, 10], "flux": [1, 1, 1]})", "hostile.json: track id 9 key 0: \"position[0]\" 3e+09 is outside"},
+        {R"({"frame": 1, "position": [10, -1e300], "flux": [1, 1, 1]})", "\"position[1]\""},
+        {R"({"frame": 1, "position": [10, 10], "flux": [1, 1e300, 1]})", "\"flux[1]\" 1e+300 is outside"},
+        {R"({"frame": 1, "position": [10, 10], "flux": [1, 1, 1], "extent": [1e300, 1, 0]})", "\"extent[0]\""},
+        {R"({"frame": 1.5, )" + ok + "}", "\"frame\" 1.5 is not a whole number"},
+        {R"({"frame": 18446744073709551615, )" + ok + "}", "beyond 64-bit frame numbers"},
+        {R"({"frame": "1", )" + ok + "}", "\"frame\" \"1\" is not a whole number"},
+        {R"({"frame": 1, )" + ok + R"(, "shape": {"size": [1, 1], "cell": 1e30, "origin": [0, 0], "weights": [1]}})", "key 0 shape: \"cell\" 1e+30 is outside"},
+        {R"({"frame": 1, )" + ok + R"(, "shape": {"size": [100000, 1], "cell": 1, "origin": [0, 0], "weights": [1]}})", "\"size[0]\" 100000 is outside"},
+        {R"({"frame": 1, )" + ok + R"(, "shape": {"size": [1, 1], "cell": 1, "origin": [0, 0], "weights": [-1]}})", "\"weights\""},
+    };
+    for (const auto& [key, expected] : cases) {
+        const std::string m = message(key);
+        EXPECT_NE(m.find(expected), std::string::npos) << key << " gave: " << m;
+    }
+    EXPECT_NE(message("{" + ok + "}").find("missing \"frame\""), std::string::npos);
+    try {
+        (void)parse_track_json(R"({"width": 4294967297, "tracks": []})", "w.json");
+        ADD_FAILURE() << "width beyond int accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("w.json: \"width\""), std::string::npos) << e.what();
+    }
+    // 2^32 + 1 stays itself: frame 1 has no light, frame 2^32 + 1 has it; keys beyond 2^62 round-trip.
+    const TrackFile file = parse_track_json(R"({"tracks": [{"id": 1, "keys": [{"frame": 4294967297, )" + ok + R"(},
+        {"frame": 9223372036854775807, )" + ok + "}]}]}", "big.json");
+    EXPECT_TRUE(file.lights_at(1).empty());
+    EXPECT_EQ(file.lights_at(4294967297).size(), 1u);
+    EXPECT_EQ(file.lights_at(std::numeric_limits<std::int64_t>::max()).size(), 1u);
+    EXPECT_EQ(file.frame_range(), (std::pair<std::int64_t, std::int64_t>{4294967297, std::numeric_limits<std::int64_t>::max()}));
+    EXPECT_EQ(parse_track_json(to_json_text(file), "again.json"), file);
 }
 
 TEST(TrackFile, AppendRejectsFramesOutOfOrder) {

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -45,17 +46,48 @@ TEST(Pattern, MatchesOnlyItsOwnPadding) {
 }
 
 TEST(FrameList, RangesStepsAndLists) {
-    EXPECT_EQ(parse_frame_list("1-5"), (std::vector<std::int64_t>{1, 2, 3, 4, 5}));
-    EXPECT_EQ(parse_frame_list("1-10x3"), (std::vector<std::int64_t>{1, 4, 7, 10}));
-    EXPECT_EQ(parse_frame_list("3,7,10-12"), (std::vector<std::int64_t>{3, 7, 10, 11, 12}));
-    EXPECT_EQ(parse_frame_list("-2-1"), (std::vector<std::int64_t>{-2, -1, 0, 1}));
-    EXPECT_EQ(parse_frame_list("42"), (std::vector<std::int64_t>{42}));
+    EXPECT_EQ(parse_frame_list("1-5").listed(), (std::vector<std::int64_t>{1, 2, 3, 4, 5}));
+    EXPECT_EQ(parse_frame_list("1-10x3").listed(), (std::vector<std::int64_t>{1, 4, 7, 10}));
+    EXPECT_EQ(parse_frame_list("3,7,10-12").listed(), (std::vector<std::int64_t>{3, 7, 10, 11, 12}));
+    EXPECT_EQ(parse_frame_list("-2-1").listed(), (std::vector<std::int64_t>{-2, -1, 0, 1}));
+    EXPECT_EQ(parse_frame_list("42").listed(), (std::vector<std::int64_t>{42}));
     EXPECT_THROW(parse_frame_list("5-1"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1-5x0"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1,,2"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1-3,2"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("a-3"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list(""), std::invalid_argument);
+}
+
+// Issue 14, class 3: ranges are kept as runs and read lazily, at any 64-bit frame number, without
+// overflow; duplicates between runs are found arithmetically.
+TEST(FrameList, HugeRangesAreLazyAndExact) {
+    constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max(), kMin = std::numeric_limits<std::int64_t>::min();
+    const auto big = parse_frame_list("1-2147483647");
+    EXPECT_EQ(big.size(), 2147483647u);
+    EXPECT_EQ(big[2147483646], 2147483647);
+    EXPECT_TRUE(big.contains(1000000));
+    const auto top = parse_frame_list("9223372036854775800-9223372036854775807");
+    EXPECT_EQ(top.size(), 8u);
+    EXPECT_EQ(top[7], kMax);
+    EXPECT_EQ(top.listed().size(), 8u);
+    const auto stepped = parse_frame_list("9223372036854775800-9223372036854775807x5");  // ends on the run
+    EXPECT_EQ(stepped.listed(), (std::vector<std::int64_t>{kMax - 7, kMax - 2}));
+    const auto bottom = parse_frame_list("-9223372036854775808--9223372036854775807");
+    EXPECT_EQ(bottom.listed(), (std::vector<std::int64_t>{kMin, kMin + 1}));
+    EXPECT_EQ(parse_pattern("s.####.exr").path(kMin), "s.-9223372036854775808.exr");
+    EXPECT_THROW(parse_frame_list("-9223372036854775808-9223372036854775807"), std::invalid_argument);  // 2^64 frames
+    EXPECT_EQ(big.listed(10).size(), 10u);
+    // Duplicates between runs with steps: 1-100x6 and 13-100x4 share 13; 2-100x6 and 3-100x4 share none.
+    EXPECT_THROW(parse_frame_list("1-100x6,13-100x4"), std::invalid_argument);
+    EXPECT_NO_THROW(parse_frame_list("2-100x6,3-100x4"));
+    try {
+        parse_frame_list("1-1000000000x7,500000000-2000000000x11");
+        FAIL() << "duplicate not found";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("names frame 500000033 twice"), std::string::npos) << e.what();
+    }
+    EXPECT_NO_THROW(parse_frame_list("1-9223372036854775807x4,2-9223372036854775806x4"));  // 2^62 frames in all
 }
 
 TEST(FrameList, ScanFindsExistingFramesInOrder) {

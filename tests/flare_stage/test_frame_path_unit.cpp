@@ -351,3 +351,34 @@ TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
         EXPECT_GT(sum_added * pixel * pixel, 0.005) << "the spikes beyond the bar, x " << cx;
     }
 }
+
+// Issue 14, class 1: lights far outside the frame draw nothing and touch no memory out of bounds (an int
+// overflow once wrote out of the buffer), and a footprint of enormous cells ends (it once looped forever).
+TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
+    optics::StarburstOptions options;
+    options.size = 64;
+    options.pupil_samples = 16;
+    const optics::Starburst sb = optics::make_starburst(optics::Aperture{6, 0.0, 0.0}, options);
+    const int w = 64, h = 48;
+    const double pixel = 2.0 * sb.texel_per_fnumber_mm * 8.0;
+    for (const double x : {3e9, -3e9, 1e300, 40.0}) {
+        for (const double f_number : {8.0, 8000.0}) {  // texels smaller and far larger than pixels
+            std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
+            optics::splat_starburst(sb, f_number, x, x == 40.0 ? 3e9 : 20.0, {1.0, 1.0, 1.0}, pixel, pixel, rgb.data(), w, h, 0.0);
+            EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return v == 0.0f; })) << x << " f/" << f_number;
+        }
+    }
+    detect::Shape huge;
+    huge.width = huge.height = 2;
+    huge.origin_x = huge.origin_y = -1e4;
+    huge.weights.assign(4, 0.25f);
+    for (const double cell : {1e4, 1e30}) {
+        huge.cell = cell;
+        for (const double m : {0.01, 0.5, 2.0}) {
+            std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
+            rgb[static_cast<std::size_t>(24 * w + 32) * 3] = 1.0f;
+            filter::convolve_footprint(rgb, w, h, huge, m);  // ends; spreads the point or leaves it
+            EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v) && v >= 0.0f; })) << cell << " m " << m;
+        }
+    }
+}

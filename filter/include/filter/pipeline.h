@@ -25,6 +25,7 @@ struct PipelineOptions {
     int threads = 0;     // OpenImageIO / OpenEXR worker threads; 0: one per core
     std::size_t queue_depth = 2;  // frames held between reader, stages and writer (each queue)
     bool skip_bad_frames = false;
+    bool allow_empty = false;     // a stream of no frames is a success, not an error
     Progress progress = Progress::automatic;
     bool quiet = false;           // no progress line and no per-frame warnings
     std::string report_path;      // --report FILE.json; empty: none

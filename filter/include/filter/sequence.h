@@ -29,11 +29,47 @@ struct FramePattern {
 // Parses a path; throws std::invalid_argument on two tokens or a malformed %d.
 FramePattern parse_pattern(std::string_view path);
 
+// An arithmetic run of frames, first..last (inclusive) by step >= 1; last is on the run. count() is for
+// runs of a FrameList (at most 2^62 frames).
+struct FrameRange {
+    std::int64_t first = 0, last = 0, step = 1;
+    std::uint64_t count() const { return (static_cast<std::uint64_t>(last) - static_cast<std::uint64_t>(first)) / static_cast<std::uint64_t>(step) + 1; }
+};
+
+// Frame numbers kept as runs, read lazily: "1-2147483647" is three numbers, not two billion.
+class FrameList {
+public:
+    FrameList() = default;
+    // Runs in the order they are listed; at most 2^62 frames in all.
+    explicit FrameList(std::vector<FrameRange> ranges);
+    // Sorted numbers (a directory scan), kept as runs of consecutive frames.
+    static FrameList of_numbers(const std::vector<std::int64_t>& sorted);
+
+    std::uint64_t size() const { return ends_.empty() ? 0 : ends_.back(); }
+    bool empty() const { return size() == 0; }
+    // The i-th frame (i < size()), in O(log runs).
+    std::int64_t operator[](std::uint64_t i) const;
+    bool contains(std::int64_t frame) const;
+    // At most `limit` frames from the start.
+    std::vector<std::int64_t> listed(std::uint64_t limit = 1u << 20) const;
+    const std::vector<FrameRange>& ranges() const { return ranges_; }
+
+private:
+    std::vector<FrameRange> ranges_;
+    std::vector<std::uint64_t> ends_;  // frames up to and including run k
+};
+
 // Parses "1-100", "1-100x2", "3,7,10-20" (ranges inclusive, descending allowed with a negative step is
 // not: the end must not precede the start). Frames keep the order written; duplicates are an error.
-std::vector<std::int64_t> parse_frame_list(std::string_view list);
+// Any 64-bit frame numbers; nothing is listed, so a range of any length costs the same.
+FrameList parse_frame_list(std::string_view list);
 
 // The frames of `pattern` that exist on disk, ascending. Empty when the directory has none.
 std::vector<std::int64_t> scan_frames(const FramePattern& pattern);
+
+// The frames to read of an input path: `frames` (--frames) of a pattern, else those on disk (a gap in
+// them is warned about on stderr unless `quiet`), else frame 1 of a single file. Throws
+// std::runtime_error naming the input when no frame matches or --frames is given without a pattern.
+FrameList frames_to_read(const std::string& input, const std::string& frames, bool quiet);
 
 }  // namespace lensfx::filter

@@ -1,0 +1,54 @@
+// Files the program writes: each is written aside under a temporary name and renamed into place, the
+// temporaries are removed on failure and on SIGINT/SIGTERM/SIGHUP/SIGQUIT (a registry the signal handler
+// unlinks), stale ones of dead processes are removed by a later run, and no output may be an input.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace lensfx::filter {
+
+// A temporary file beside `target` (".NAME.lensfx-PID.EXT", the extension kept last: some writers check
+// it), removed unless commit() renamed it into place, and removed by the signal handler if the program
+// is interrupted meanwhile.
+class TempFile {
+public:
+    explicit TempFile(const std::string& target);
+    TempFile(const TempFile&) = delete;
+    TempFile& operator=(const TempFile&) = delete;
+    ~TempFile();
+    const std::string& path() const { return path_; }
+    // Renames the temporary onto the target; throws naming both when it cannot.
+    void commit();
+
+private:
+    std::string target_;
+    std::string path_;
+    int slot_ = -1;  // in the signal handler's registry
+    bool committed_ = false;
+};
+
+// Writes `bytes` to `path` through a TempFile, every write checked: throws std::runtime_error naming the
+// file and the system's reason (a full disk, say), leaving neither a partial file nor the temporary.
+void write_file(const std::string& path, std::string_view bytes);
+
+// Writes `bytes` to stdout, checked (a full or closed stdout is an error, not a silent success).
+void write_stdout(std::string_view bytes);
+
+// Removes the temporaries (TempFile's names) in `dir` left by processes that no longer run. Returns how
+// many were removed.
+std::size_t remove_stale_temporaries(const std::string& dir);
+
+// Refuses (std::runtime_error naming `option` and the path) to write `path` when it is one of the files
+// that `input` names: a file, a frame pattern (every frame on disk) or "-". Also refused: `path` equal
+// to another output, `other_output` (a file or pattern; "" or "-" for none).
+void refuse_overwrite(const std::string& path, std::string_view option, const std::string& input,
+                      const std::string& other_output = "");
+
+// A path that names something other than a regular file (a device such as /dev/zero, a FIFO, a
+// directory) is refused where a file is needed: throws std::runtime_error naming `what` and the path
+// ("" for a caller that names the path itself). A path that does not exist passes: its reader says so.
+void require_regular_file(const std::string& path, std::string_view what);
+
+}  // namespace lensfx::filter

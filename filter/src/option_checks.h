@@ -1,0 +1,28 @@
+// Validators shared by the commands' numeric options.
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace lensfx::filter {
+
+// Refuses NaN and infinities, which CLI11's range checks let through (every comparison with NaN is false).
+inline CLI::Validator finite_number() {
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            try {
+                std::size_t used = 0;
+                const double v = std::stod(text, &used);
+                if (std::isfinite(v)) return {};
+            } catch (const std::out_of_range&) {  // beyond double: as infinite
+            } catch (const std::exception&) {
+                return {};  // not a number at all: the option's own conversion says so
+            }
+            return "must be a finite number, not " + text;
+        },
+        "FINITE");
+}
+
+}  // namespace lensfx::filter

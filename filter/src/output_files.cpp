@@ -1,0 +1,214 @@
+// Files the program writes (see filter/output_files.h).
+#include <filter/output_files.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <utility>
+#include <stdexcept>
+
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filter/sequence.h>
+
+namespace lensfx::filter {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::string_view kTempTag = ".lensfx-";  // ".NAME.lensfx-PID.EXT"
+
+// The temporaries being written, for the signal handler: fixed slots, each free, being filled, or ready
+// (its path may be unlinked). Only lock-free atomics and unlink() are touched from the handler.
+constexpr int kSlots = 64;
+constexpr std::size_t kPathMax = 4096;
+enum SlotState : int { kFree = 0, kFilling = 1, kReady = 2 };
+struct Slot {
+    std::atomic<int> state{kFree};
+    char path[kPathMax] = {};
+};
+Slot g_slots[kSlots];
+static_assert(std::atomic<int>::is_always_lock_free);
+
+extern "C" void remove_temporaries_and_die(int sig) {
+    for (Slot& s : g_slots) {
+        if (s.state.load() == kReady) ::unlink(s.path);
+    }
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+}
+
+void install_handlers_once() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
+            struct sigaction old {};
+            ::sigaction(sig, nullptr, &old);
+            if (old.sa_handler == SIG_IGN) continue;  // nohup: an ignored signal stays ignored
+            struct sigaction sa {};
+            sa.sa_handler = remove_temporaries_and_die;
+            sigemptyset(&sa.sa_mask);
+            ::sigaction(sig, &sa, nullptr);
+        }
+    });
+}
+
+// A slot holding `path`, or -1 when all are taken (the file is then only removed by a later run).
+int register_temporary(const std::string& path) {
+    install_handlers_once();
+    if (path.size() >= kPathMax) return -1;
+    for (int i = 0; i < kSlots; ++i) {
+        int expected = kFree;
+        if (g_slots[i].state.compare_exchange_strong(expected, kFilling)) {
+            std::memcpy(g_slots[i].path, path.c_str(), path.size() + 1);
+            g_slots[i].state.store(kReady);
+            return i;
+        }
+    }
+    return -1;
+}
+
+void unregister_temporary(int slot) {
+    if (slot < 0) return;
+    g_slots[slot].state.store(kFilling);
+    g_slots[slot].state.store(kFree);
+}
+
+// The PID in a temporary's name, or 0 when the name is not one of ours.
+long temporary_pid(const std::string& name) {
+    if (name.empty() || name[0] != '.') return 0;
+    const auto tag = name.rfind(kTempTag);
+    if (tag == std::string::npos) return 0;
+    long pid = 0;
+    std::size_t i = tag + kTempTag.size();
+    for (; i < name.size() && name[i] >= '0' && name[i] <= '9' && pid < 1'000'000'000; ++i) pid = pid * 10 + (name[i] - '0');
+    const bool ends = i == name.size() || name[i] == '.';
+    return ends && i > tag + kTempTag.size() ? pid : 0;
+}
+
+bool process_is_gone(long pid) { return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH; }
+
+using FileId = std::pair<dev_t, ino_t>;
+
+std::optional<FileId> file_id(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+    return FileId{st.st_dev, st.st_ino};
+}
+
+// The same file: one inode, or (when it does not exist yet) one path once normalised.
+bool same_file(const std::string& a, const std::string& b) {
+    const auto ia = file_id(a), ib = file_id(b);
+    if (ia && ib) return *ia == *ib;
+    std::error_code ec;
+    return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
+// Whether `path` is one of the files a file name or frame pattern names ("-": none).
+bool names_file_of(const std::string& pattern_text, const std::string& path) {
+    if (pattern_text.empty() || pattern_text == "-") return false;
+    const FramePattern pattern = parse_pattern(pattern_text);
+    if (!pattern.is_sequence) return same_file(pattern_text, path);
+    std::error_code ec;
+    const std::string absolute = fs::weakly_canonical(path, ec).string();
+    const std::string dir = fs::weakly_canonical(fs::path(pattern.prefix).parent_path().empty() ? "." : fs::path(pattern.prefix).parent_path(), ec).string();
+    const FramePattern in_dir = parse_pattern((fs::path(dir) / fs::path(pattern_text).filename()).string());
+    if (in_dir.match(absolute)) return true;
+    const auto id = file_id(path);
+    if (!id) return false;
+    for (std::int64_t n : scan_frames(pattern))
+        if (file_id(pattern.path(n)) == id) return true;
+    return false;
+}
+
+void write_all(int fd, std::string_view bytes, const std::string& what) {
+    while (!bytes.empty()) {
+        const ssize_t n = ::write(fd, bytes.data(), bytes.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw std::runtime_error(fmt::format("{}: write failed: {}", what, std::strerror(n < 0 ? errno : ENOSPC)));
+        bytes.remove_prefix(static_cast<std::size_t>(n));
+    }
+}
+
+}  // namespace
+
+TempFile::TempFile(const std::string& target) : target_(target) {
+    const fs::path t(target);
+    const std::string name = fmt::format(".{}{}{}{}", t.stem().string(), kTempTag, ::getpid(), t.extension().string());
+    path_ = (t.parent_path() / name).string();
+    slot_ = register_temporary(path_);
+}
+
+TempFile::~TempFile() {
+    if (!committed_) {
+        std::error_code ec;
+        fs::remove(path_, ec);
+    }
+    unregister_temporary(slot_);
+}
+
+void TempFile::commit() {
+    std::error_code ec;
+    fs::rename(path_, target_, ec);
+    if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
+    committed_ = true;
+}
+
+void write_file(const std::string& path, std::string_view bytes) {
+    TempFile tmp(path);
+    const int fd = ::open(tmp.path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0) throw std::runtime_error(fmt::format("{}: cannot create: {}", path, std::strerror(errno)));
+    try {
+        write_all(fd, bytes, path);
+    } catch (...) {
+        ::close(fd);
+        throw;
+    }
+    if (::close(fd) != 0) throw std::runtime_error(fmt::format("{}: write failed: {}", path, std::strerror(errno)));
+    tmp.commit();
+}
+
+void write_stdout(std::string_view bytes) {
+    if (std::fflush(stdout) != 0) throw std::runtime_error(fmt::format("stdout: write failed: {}", std::strerror(errno)));
+    write_all(STDOUT_FILENO, bytes, "stdout");
+}
+
+std::size_t remove_stale_temporaries(const std::string& dir) {
+    std::size_t removed = 0;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir.empty() ? "." : dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const long pid = temporary_pid(it->path().filename().string());
+        if (pid <= 0 || pid == ::getpid() || !process_is_gone(pid)) continue;
+        std::error_code rm;
+        if (it->is_regular_file(rm) && fs::remove(it->path(), rm)) ++removed;
+    }
+    return removed;
+}
+
+void refuse_overwrite(const std::string& path, std::string_view option, const std::string& input, const std::string& other_output) {
+    if (path.empty() || path == "-") return;
+    if (names_file_of(input, path)) throw std::runtime_error(fmt::format("{} {}: refusing to overwrite an input file", option, path));
+    if (names_file_of(other_output, path)) throw std::runtime_error(fmt::format("{} {}: refusing to overwrite the output {}", option, path, other_output));
+}
+
+void require_regular_file(const std::string& path, std::string_view what) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return;  // a missing file: the reader says so
+    const char* kind = S_ISDIR(st.st_mode)                           ? "a directory"
+                       : S_ISFIFO(st.st_mode)                        ? "a named pipe"
+                       : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
+                                                                     : "a special file";
+    const std::string where = what.empty() ? std::string() : fmt::format("{} {}: ", what, path);
+    throw std::runtime_error(fmt::format("{}{}, not a regular file", where, kind));
+}
+
+}  // namespace lensfx::filter
