@@ -238,8 +238,10 @@ TEST(Hostile, SideOutputsNeverOverwriteInputs) {
 // of processes that no longer exist (and keeps those of live ones).
 TEST(Hostile, SignalsLeaveNoTemporaries) {
     const auto dir = scratch_dir("hostile-signal");
-    write_image(dir / "s.0001.exr", {"R", "G", "B"}, OIIO::TypeFloat, 1024, 1024);
-    for (int f = 2; f <= 60; ++f) fs::copy_file(dir / "s.0001.exr", dir / fmt::format("s.{:04}.exr", f));
+    // Noise compresses slowly: most of a run's time is spent writing a temporary (before the fix, about
+    // half of these runs left one).
+    write_image(dir / "s.0001.exr", {"R", "G", "B"}, OIIO::TypeFloat, 1024, 1024, 0.0, 0.0, true);
+    for (int f = 2; f <= 60; ++f) fs::create_hard_link(dir / "s.0001.exr", dir / fmt::format("s.{:04}.exr", f));
     const fs::path out = dir / "out";
     fs::create_directories(out);
     auto temporaries = [&] {
@@ -248,12 +250,12 @@ TEST(Hostile, SignalsLeaveNoTemporaries) {
         return n;
     };
     for (int sig : {SIGTERM, SIGINT}) {
-        for (int delay_ms : {150, 400}) {
+        for (int delay_ms : {210, 330, 470, 610, 770, 950}) {
             const pid_t pid = ::fork();
             ASSERT_GE(pid, 0);
             if (pid == 0) {
-                ::execl(LENSFX_BINARY, LENSFX_BINARY, "-i", (dir / "s.####.exr").c_str(), "-o", (out / "o.####.tif").c_str(),
-                        "--compression", "none", "-q", static_cast<char*>(nullptr));
+                ::execl(LENSFX_BINARY, LENSFX_BINARY, "-i", (dir / "s.####.exr").c_str(), "-o", (out / "o.####.exr").c_str(),
+                        "--compression", "zip", "-q", static_cast<char*>(nullptr));
                 ::_exit(127);
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
@@ -262,6 +264,7 @@ TEST(Hostile, SignalsLeaveNoTemporaries) {
             ::waitpid(pid, &status, 0);
             EXPECT_TRUE(WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0)) << "signal " << sig;
             EXPECT_EQ(temporaries(), 0) << "signal " << sig << " after " << delay_ms << " ms";
+            for (const auto& e : fs::directory_iterator(out)) fs::remove(e.path());
         }
     }
     // Stale temporaries: one of a process that is gone (a child that has exited), one of this live process.

@@ -52,6 +52,19 @@ TEST(FlareLook, ErrorsNameTheFileLineAndField) {
     EXPECT_THROW(read_flare_look("/no/such/look.toml"), LensFileError);
 }
 
+// Issue 14: gains beyond float range or not finite, and a second entry for one ghost (whose gains would
+// multiply the first's unseen), are refused by name.
+TEST(FlareLook, HostileGainsAndDuplicateGhostsAreRefused) {
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [2, 1]\ngain = 1e39\n").find("ghost 1: gain"), std::string::npos);
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [2, 1]\ngain = nan\n").find("gain"), std::string::npos);
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [2, 1]\ncolour = [1, inf, 1]\n").find("colour"), std::string::npos);
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [2, 1]\noffset_mm = [nan, 0]\n").find("offset_mm"), std::string::npos);
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [1e30, 1]\n").find("surfaces"), std::string::npos);
+    EXPECT_NE(error_of("[[ghost]]\nsurfaces = [3, 1]\n[[ghost]]\nsurfaces = [1, 3]\n").find("ghost 2: surfaces: ghost 1,3 is already styled by ghost 1"),
+              std::string::npos)
+        << error_of("[[ghost]]\nsurfaces = [3, 1]\n[[ghost]]\nsurfaces = [1, 3]\n");
+}
+
 TEST(FlareLook, JitterIsSeededPerGhostWithTheStatedSize) {
     const System system = realize(load_lens("nikon-80-200"));
     const std::vector<Ghost> ghosts = enumerate_ghosts(system);
