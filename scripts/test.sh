@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs, builds and runs every test suite: the Release build, then the tests again under
-# AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/). This is what CI runs (.ci/run).
+# AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/), then the fuzz targets for 45 s each
+# (scripts/fuzz.sh). This is what CI runs (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
@@ -10,3 +11,7 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLENSFX_WER
 cmake --build build-asan
 ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j 2 -LE stress
+
+# Fuzzing (docs/fuzzing.md): every parser's libFuzzer target for a bounded time under ASan + UBSan
+# (build-fuzz/, clang-14); fails on any crash, sanitizer report, leak, hang or out-of-memory.
+bash scripts/fuzz.sh "${LENSFX_FUZZ_SECONDS:-45}"

@@ -219,7 +219,7 @@ Detection Detector::detect(const ImageView& image) {
     const int PW = (W + f - 1) / f, PH = (H + f - 1) / f;
     luminance_.create(H, W, CV_32F);
     pooled_.create(PH, PW, CV_32F);
-    pooled_.setTo(0.0f);
+    pooled_.setTo(0.0);
     std::fill(fine_histogram_.begin(), fine_histogram_.end(), 0u);
 
     Detection result;

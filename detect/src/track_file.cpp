@@ -242,8 +242,10 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
     if (!doc.is_object()) throw std::runtime_error(fmt::format("{}: expected a JSON object", name));
     if (field_or<std::string>(doc, "format", kFormat, name) != kFormat)
         throw std::runtime_error(fmt::format("{}: \"format\" is not \"{}\"", name, kFormat));
-    const int version = field_or<int>(doc, "version", kVersion, name);
-    if (version != kVersion) throw std::runtime_error(fmt::format("{}: track file version {} (this program reads {})", name, version, kVersion));
+    // Compared as JSON: converting a hostile number (1e30) to int first would be undefined.
+    const json version = doc.contains("version") ? doc["version"] : json(kVersion);
+    if (version != json(kVersion))
+        throw std::runtime_error(fmt::format("{}: track file version {} (this program reads {})", name, version.dump(), kVersion));
 
     TrackFile file;
     file.width = doc.contains("width") ? int_field(doc, "width", 0, kMaxFrameSide, name) : 0;

@@ -55,6 +55,12 @@ std::array<double, 3> xy_to_xyz(double x, double y) { return {x / y, 1.0, (1.0 -
 // D65 as OCIO's built-in transforms and ITU-R BT.709 state it.
 constexpr double d65_x = 0.3127, d65_y = 0.3290;
 
+// An EXR chromaticities attribute (float) as Chromaticities (double).
+Chromaticities widened(const std::array<float, 8>& c) {
+    const auto d = [&](std::size_t i) { return static_cast<double>(c[i]); };
+    return {d(0), d(1), d(2), d(3), d(4), d(5), d(6), d(7)};
+}
+
 }  // namespace
 
 Chromaticities chromaticities(KnownPrimaries p) {
@@ -420,7 +426,7 @@ std::optional<Mat3> measure_to_ap0(const OCIO::ConstConfigRcPtr& config, const s
     auto f = [&](double r, double g, double b) {
         float p[3] = {static_cast<float>(r), static_cast<float>(g), static_cast<float>(b)};
         cpu->applyRGB(p);
-        return std::array<double, 3>{p[0], p[1], p[2]};
+        return std::array<double, 3>{static_cast<double>(p[0]), static_cast<double>(p[1]), static_cast<double>(p[2])};
     };
     const auto cr = f(1, 0, 0), cg = f(0, 1, 0), cb = f(0, 0, 1);
     const Mat3 m{cr[0], cg[0], cb[0], cr[1], cg[1], cb[1], cr[2], cg[2], cb[2]};
@@ -509,7 +515,7 @@ std::string ColourConfig::input_space(const std::string& requested,
         }
     }
     // Other chromaticities: add a linear colour space for them to (a copy of) the built-in config.
-    const Chromaticities ch{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]};
+    const Chromaticities ch = widened(c);
     OCIO::TransformRcPtr to_ref;
     try {
         to_ref = rgb_to_aces_reference(ch);
@@ -723,7 +729,7 @@ ColourPipeline::ColourPipeline(ColourConfig config, const ColourOptions& options
     }
     if (exr_chromaticities && options.colorspace.empty()) {
         const auto& c = *exr_chromaticities;
-        working_.primaries = {c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]};
+        working_.primaries = widened(c);
         if (const auto k = identify_primaries(c)) working_.primaries = chromaticities(*k);
     } else if (linear_matrix) {
         working_.primaries = primaries_of(multiply(ap0_to_xyz_d65_matrix(), *linear_matrix));

@@ -3,9 +3,14 @@
 // naming the file, frame or surface at fault, and main() turns them into "lensfx: <message>", exit 1.
 #pragma once
 
+#include <memory>
+
 #include <CLI/CLI.hpp>
 
 namespace lensfx::filter {
+
+// The whole command line: every command and option, their callbacks installed, nothing run or parsed.
+std::unique_ptr<CLI::App> build_app();
 
 // `lensfx -i IN -o OUT [options]`: the frame filter (the app's own options; runs when no subcommand is given).
 void register_filter(CLI::App& app);

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -108,6 +110,49 @@ std::string layer_of(const std::string& name) {
     return dot == std::string::npos ? std::string() : name.substr(0, dot);
 }
 
+using File = std::unique_ptr<std::FILE, int (*)(std::FILE*)>;
+
+// A null-terminated name of at most `max` characters; nothing at the end of the file or when longer
+// (OpenEXR reports those itself).
+std::optional<std::string> header_name(std::FILE* f, std::size_t max) {
+    std::string name;
+    for (int c = std::fgetc(f); c != 0; c = std::fgetc(f)) {
+        if (c == EOF || name.size() == max) return std::nullopt;
+        name.push_back(static_cast<char>(c));
+    }
+    return name;
+}
+
+// OpenEXR 3.1 allocates every header attribute at the size the file declares before reading it, so an
+// 800-byte file declaring a 2 GB string took gigabytes and seconds (found by fuzz/fuzz_exr_reader.cpp).
+// Checks each declared size against the bytes left in the file, reading the headers only; throws
+// std::runtime_error naming the attribute. A damaged layout is left to OpenEXR to report.
+void check_attribute_sizes(const std::string& path) {
+    File f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    unsigned char start[8];
+    if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return;
+    const long file_size = std::ftell(f.get());
+    std::rewind(f.get());
+    if (std::fread(start, 1, 8, f.get()) != 8) return;
+    const bool multipart = (start[5] & 0x10) != 0, long_names = (start[5] & 0x04) != 0;
+    const std::size_t max_name = long_names ? 255 : 31;
+    for (bool more = true; more;) {
+        more = false;
+        for (std::optional<std::string> name; (name = header_name(f.get(), max_name)) && !name->empty();) {
+            more = multipart;  // a multi-part file's headers end with an empty one
+            const std::optional<std::string> type = header_name(f.get(), max_name);
+            unsigned char size_bytes[4];
+            if (!type || std::fread(size_bytes, 1, 4, f.get()) != 4) return;
+            const std::int32_t size = static_cast<std::int32_t>(static_cast<std::uint32_t>(size_bytes[0]) | static_cast<std::uint32_t>(size_bytes[1]) << 8 |
+                                                                static_cast<std::uint32_t>(size_bytes[2]) << 16 | static_cast<std::uint32_t>(size_bytes[3]) << 24);
+            const long left = file_size - std::ftell(f.get());
+            if (size < 0 || size > left)
+                throw std::runtime_error(fmt::format("header attribute \"{}\" ({}) declares {} bytes where the file has {} left", *name, *type, size, left));
+            if (std::fseek(f.get(), size, SEEK_CUR) != 0) return;
+        }
+    }
+}
+
 }  // namespace
 
 bool is_exr_file(const std::string& path) {
@@ -119,6 +164,7 @@ bool is_exr_file(const std::string& path) {
 
 Frame read_exr(const std::string& path) {
     try {
+        check_attribute_sizes(path);
         Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
         const Imf::Header& header = file.header(0);
         if (header.hasType() && Imf::isDeepData(header.type())) throw std::runtime_error("deep images are not supported");

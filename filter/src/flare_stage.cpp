@@ -463,7 +463,7 @@ struct FlareStage::State {
         g.width = frame.spec.full_width;
         g.height = frame.spec.full_height;
         g.sensor_width_mm = sensor[0];
-        const double aspect = frame.spec.pixel_aspect;
+        const auto aspect = static_cast<double>(frame.spec.pixel_aspect);
         g.sensor_height_mm = sensor[1] > 0.0 ? sensor[1] : sensor[0] * g.height / (g.width * aspect);
         g.focal_mm = settings.fov_deg ? 0.5 * g.sensor_width_mm / std::tan(0.5 * *settings.fov_deg / kDegrees) : efl_mm;
         return g;
@@ -622,7 +622,7 @@ void FlareStage::process(Frame& frame) {
         const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
         if (as_point) groups[0].ghosts.clear();  // every ghost: a point light's selection, and its caches
         if (as_point && !s.settings.band_filter) {
-            point_lights.push_back({ax, ay, {scale[0], scale[1], scale[2]}});  // drawn with the frame's others
+            point_lights.push_back({ax, ay, {static_cast<double>(scale[0]), static_cast<double>(scale[1]), static_cast<double>(scale[2])}});  // drawn with the frame's others
             continue;
         }
         for (const FootprintGroup& group : groups) {

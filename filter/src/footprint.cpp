@@ -86,7 +86,7 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
         cv::resize(cv::Mat(sh, sw, CV_32FC3, small_rgb.data()), image, cv::Size(width, height), 0.0, 0.0, cv::INTER_LINEAR);
         return;
     }
-    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0f));
+    cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0));
     if (std::abs(m) >= 1.0) {  // enlarged: each kernel pixel looks up where it came from
         for (int ky = -ry; ky <= ry; ++ky)
             for (int kx = -rx; kx <= rx; ++kx) kernel.at<float>(ry + ky, rx + kx) = weight_at(kx / m, ky / m);

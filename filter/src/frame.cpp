@@ -11,6 +11,7 @@
 
 #include <Imath/half.h>
 #if defined(__x86_64__)
+#include <cpuid.h>
 #include <immintrin.h>
 #endif
 
@@ -144,13 +145,19 @@ __attribute__((target("avx,f16c"))) void floats_to_halves_f16c(const float* src,
         for (std::size_t k = 0; k < 8; ++k) std::memcpy(dst + (i + k) * dst_stride, &h[k], sizeof h[k]);
     }
     for (; i < count; ++i) {
-        const auto h = static_cast<std::uint16_t>(_cvtss_sh(clamp_to_half(src[i * src_stride]), _MM_FROUND_TO_NEAREST_INT));
+        // _mm_cvtps_ph rather than _cvtss_sh, whose clang macro is a compound literal (-Wpedantic).
+        const __m128i one = _mm_cvtps_ph(_mm_set_ss(clamp_to_half(src[i * src_stride])), _MM_FROUND_TO_NEAREST_INT);
+        const auto h = static_cast<std::uint16_t>(_mm_extract_epi16(one, 0));
         std::memcpy(dst + i * dst_stride, &h, sizeof h);
     }
 }
 
 bool has_f16c() {
-    static const bool yes = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+    // F16C from CPUID: clang 14's __builtin_cpu_supports does not know "f16c" (its "avx" checks the OS too).
+    static const bool yes = [] {
+        unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+        return __builtin_cpu_supports("avx") && __get_cpuid(1, &eax, &ebx, &ecx, &edx) != 0 && (ecx & bit_F16C) != 0;
+    }();
     return yes;
 }
 #endif

@@ -10,21 +10,13 @@
 #include "commands.h"
 
 int main(int argc, char** argv) {
-    CLI::App app{"lensfx: physically based lens flare for HDR frames and streams"};
-    app.set_version_flag("--version", LENSFX_VERSION);
-    app.require_subcommand(0, 1);
-
-    lensfx::filter::register_filter(app);
-    lensfx::filter::register_lens_commands(app);
-    lensfx::filter::register_gpu_command(app);
-    lensfx::filter::register_flare_command(app);
-    lensfx::filter::register_track_command(app);
-    lensfx::filter::register_bench_command(app);
+    const std::unique_ptr<CLI::App> app = lensfx::filter::build_app();
+    app->set_version_flag("--version", LENSFX_VERSION);
 
     try {
-        app.parse(argc, argv);
+        app->parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        return app->exit(e);
     } catch (const std::exception& e) {
         fmt::print(stderr, "lensfx: {}\n", e.what());
         return 1;

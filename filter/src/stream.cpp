@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include <fmt/core.h>
 
@@ -62,6 +63,34 @@ int header_int(std::FILE* in, std::string_view what) {
         throw std::runtime_error(fmt::format("malformed PFM header: {} \"{}\"", what, token));
     }
     return static_cast<int>(value);
+}
+
+// Bytes of a frame's pixels read before the frame is allocated: a header that declares a huge image on a
+// short stream fails after at most this much memory instead of allocating what it declared.
+constexpr std::size_t kPixelsBeforeAllocation = std::size_t{64} << 20;
+
+// Reads `size` bytes into the buffer `allocate()` returns, calling it only once the first
+// kPixelsBeforeAllocation bytes have arrived (held meanwhile in a buffer that grows as they come).
+// Returns false when the stream ended before the first byte; throws on a short read, as read_exact does.
+template <typename Allocate>
+bool read_pixels(std::FILE* in, std::size_t size, std::string_view what, Allocate allocate) {
+    std::vector<std::byte> head;
+    const std::size_t head_size = std::min(size, kPixelsBeforeAllocation);
+    constexpr std::size_t kStep = std::size_t{1} << 20;
+    while (head.size() < head_size) {
+        const std::size_t have = head.size(), step = std::min(kStep, head_size - have);
+        head.resize(have + step);
+        const std::size_t got = std::fread(head.data() + have, 1, step, in);
+        if (got == step) continue;
+        if (std::ferror(in)) throw std::runtime_error(fmt::format("read error in {}: {}", what, std::strerror(errno)));
+        if (have + got == 0) return false;
+        throw std::runtime_error(fmt::format("stream ended inside {} ({} of {} bytes)", what, have + got, size));
+    }
+    std::byte* data = allocate();
+    std::memcpy(data, head.data(), head.size());
+    if (size > head.size() && !read_exact(in, data + head.size(), size - head.size(), what))
+        throw std::runtime_error(fmt::format("stream ended inside {} ({} of {} bytes)", what, head.size(), size));
+    return true;
 }
 
 Frame float_frame(int width, int height, int channels, std::string_view format) {
@@ -157,9 +186,13 @@ std::optional<Frame> read_pfm(std::FILE* in, bool top_first) {
     if (end != scale_token.c_str() + scale_token.size() || scale == 0.0 || !std::isfinite(scale)) {
         throw std::runtime_error(fmt::format("malformed PFM header: scale \"{}\"", scale_token));
     }
-    Frame frame = float_frame(width, height, channels, "pfm");
-    const std::size_t count = frame.pixel_count() * static_cast<std::size_t>(channels);
-    if (!read_exact(in, frame.pixels.data(), count * sizeof(float), "a PFM image's pixels")) {
+    Frame frame;
+    const std::size_t count = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(channels);
+    const auto allocate = [&] {
+        frame = float_frame(width, height, channels, "pfm");
+        return frame.pixels.data();
+    };
+    if (!read_pixels(in, count * sizeof(float), "a PFM image's pixels", allocate)) {
         throw std::runtime_error("stream ended after a PFM header");
     }
     const bool little = scale < 0.0;

@@ -21,7 +21,7 @@ std::optional<Point> centroid(const FlareImage& image) {
     double sum = 0.0, sx = 0.0, sy = 0.0;
     for (int y = 0; y < image.height; ++y)
         for (int x = 0; x < image.width; ++x) {
-            const double v = std::max(0.0f, image.at(x, y, 0));
+            const auto v = static_cast<double>(std::max(0.0f, image.at(x, y, 0)));
             sum += v;
             sx += v * (x + 0.5);
             sy += v * (y + 0.5);

@@ -72,7 +72,7 @@ double FlareImage::edge_measure() const {
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x)
             for (int c = 0; c < 3; ++c) {
-                const double v = at(x, y, c);
+                const auto v = static_cast<double>(at(x, y, c));
                 total += std::abs(v);
                 if (x + 1 < width) tv += std::abs(static_cast<double>(at(x + 1, y, c)) - v);
                 if (y + 1 < height) tv += std::abs(static_cast<double>(at(x, y + 1, c)) - v);

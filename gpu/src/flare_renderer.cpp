@@ -250,8 +250,8 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
             iy0 = std::min(iy0, iy);
             ix1 = std::max(ix1, ix);
             iy1 = std::max(iy1, iy);
-            const double sx = v[0];
-            const double sy = v[1];
+            const auto sx = static_cast<double>(v[0]);
+            const auto sy = static_cast<double>(v[1]);
             sensor = {std::min(sensor.x0, sx), std::min(sensor.y0, sy), std::max(sensor.x1, sx), std::max(sensor.y1, sy)};
         }
     }
@@ -737,7 +737,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             const std::vector<float> rgba = target.read_rgba();
                             for (std::size_t i = 0; i < pixels; ++i) {
                                 for (std::size_t c = 0; c < 3; ++c) {
-                                    const double value = rgba[i * 4 + c];
+                                    const auto value = static_cast<double>(rgba[i * 4 + c]);
                                     accumulated[i * 3 + c] += value;
                                     powers[g].power[c] += value * pixel_area;
                                 }

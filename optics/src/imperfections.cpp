@@ -83,14 +83,16 @@ void apply_imperfections(const PupilImperfections& dirt, int m, int r, double* t
     // Dirt is scattered over the unit disc: the pupil a round iris at full opening would show.
     const int specks = static_cast<int>(std::lround(dirt.dust_density * std::numbers::pi));
     for (int i = 0; i < specks; ++i) {
-        const auto [cu, cv] = in_disc(rng);
+        const auto centre = in_disc(rng);
+        const double cu = centre.first, cv = centre.second;
         const double radius = dirt.dust_radius * std::exp2(rng.uniform(-1.0, 1.0));
         const double r2 = radius * radius;
         stamp(m, r, t, cu - radius, cv - radius, cu + radius, cv + radius, dirt.dust_opacity,
               [&](double u, double v) { return (u - cu) * (u - cu) + (v - cv) * (v - cv) <= r2; });
     }
     for (int i = 0; i < dirt.scratches; ++i) {
-        const auto [cu, cv] = in_disc(rng);
+        const auto centre = in_disc(rng);
+        const double cu = centre.first, cv = centre.second;
         const double angle = (dirt.scratch_angle_deg + dirt.scratch_spread_deg * rng.uniform(-0.5, 0.5)) *
                              std::numbers::pi / 180.0;
         const double half_length = 0.5 * dirt.scratch_length * rng.uniform(0.5, 1.5);

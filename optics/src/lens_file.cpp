@@ -20,6 +20,10 @@
 namespace lensfx::optics {
 namespace {
 
+// The media a lens file may give, whatever its format: refractive index at 587.56 nm and Abbe number.
+constexpr double kMaxIndex = 3.0;
+constexpr double kMaxAbbe = 150.0;
+
 Coating mgf2() {
     Coating c;
     c.kind = Coating::Kind::QuarterWave;
@@ -63,9 +67,9 @@ std::optional<Glass> read_medium(Fields& f) {
         return g;
     }
     if (nd) {
-        if (*nd < 1.0 || *nd > 3.0) f.error("nd", fmt::format("{} is not a refractive index of glass (1 to 3)", *nd));
+        if (*nd < 1.0 || *nd > kMaxIndex) f.error("nd", fmt::format("{} is not a refractive index of glass (1 to {})", *nd, kMaxIndex));
         if (vd) {
-            if (*vd <= 0.0 || *vd > 150.0) f.error("vd", fmt::format("Abbe number {} outside (0, 150]", *vd));
+            if (*vd <= 0.0 || *vd > kMaxAbbe) f.error("vd", fmt::format("Abbe number {} outside (0, {}]", *vd, kMaxAbbe));
             try {
                 return glass_from_abbe(*nd, *vd, label.value_or(""));
             } catch (const std::invalid_argument& e) {
@@ -244,7 +248,11 @@ void validate_lens(const Lens& lens, std::string_view origin) {
         if (!std::isfinite(s.conic)) at(i, "k", "not a finite number");
         for (double a : s.aspheric)
             if (!std::isfinite(a)) at(i, "asph", "not a finite number");
-        if (!std::isfinite(after.nd) || after.nd < 1.0) at(i, "nd", fmt::format("refractive index {} is not valid", after.nd));
+        // The same bounds as the TOML reader's, so that every importer's lens writes a file that reads back.
+        if (!std::isfinite(after.nd) || after.nd < 1.0 || after.nd > kMaxIndex)
+            at(i, "nd", fmt::format("refractive index {} is not valid (1 to {})", after.nd, kMaxIndex));
+        if (after.formula == Glass::Formula::Abbe && !(after.vd > 0.0 && after.vd <= kMaxAbbe))
+            at(i, "vd", fmt::format("Abbe number {} outside (0, {}]", after.vd, kMaxAbbe));
         before = after;
     }
     if (!before.is_air()) at(lens.surfaces.size() - 1, "glass", "the last surface must leave the light in air");

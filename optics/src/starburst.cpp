@@ -236,7 +236,7 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
                 const std::size_t k = static_cast<std::size_t>(column[static_cast<std::size_t>(i)] - first) * 3;
                 const double a = right[static_cast<std::size_t>(i)];
                 for (std::size_t c = 0; c < 3; ++c) {
-                    const double v = texels[static_cast<std::size_t>(i) * 3 + c];
+                    const auto v = static_cast<double>(texels[static_cast<std::size_t>(i) * 3 + c]);
                     row[k + c] += (1.0 - a) * v;
                     row[k + 3 + c] += a * v;
                 }
