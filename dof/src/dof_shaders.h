@@ -12,6 +12,8 @@ uniform sampler2DArray layer_w;   // (1/front, 1/back); front < 0: no surface he
 uniform sampler2DArray layer_rgba;
 uniform sampler2D ray_line;       // (cx, ax, cy, ay): pixel(w) = c + a w
 uniform sampler2D ray_weight;
+uniform sampler2D colour_min, colour_max;  // per hierarchy cell, the range of every layer's RGBA
+uniform float reach_px, focus_w;           // the widest blur radius of the frame, the focused depth
 uniform ivec2 size;
 uniform int layer_count, top_level, start_level, max_iterations;
 uniform float w_near, w_far;
@@ -104,6 +106,24 @@ vec3 trace(vec4 l) {
     return acc + trans * farthest(cid);
 }
 
+// Whether every surface any ray of this pixel can reach has one colour (then that is the pixel's): the
+// rays converge on `centre` at the focused depth and spread at most reach_px from it.
+bool uniform_colour(vec2 centre, out vec3 colour) {
+    float r = reach_px + 4.0;
+    int level = min(top_level, int(ceil(log2(2.0 * r + 2.0))));
+    float cs = float(1 << level);
+    ivec2 a = clamp_cell(ivec2(floor((centre - r) / cs)), level), b = clamp_cell(ivec2(floor((centre + r) / cs)), level);
+    vec4 lo = vec4(1e30), hi = vec4(-1e30);
+    for (int y = a.y; y <= b.y; ++y) {
+        for (int x = a.x; x <= b.x; ++x) {
+            lo = min(lo, texelFetch(colour_min, ivec2(x, y), level));
+            hi = max(hi, texelFetch(colour_max, ivec2(x, y), level));
+        }
+    }
+    colour = lo.rgb;
+    return lo.a >= 1.0 && all(lessThanEqual(hi - lo, 1e-6 * (vec4(1.0) + abs(hi))));
+}
+
 uint hash(uvec2 v) {
     uint h = v.x * 1664525u + v.y * 1013904223u;
     h ^= h >> 16; h *= 0x7feb352du; h ^= h >> 15; h *= 0x846ca68bu; h ^= h >> 16;
@@ -115,6 +135,17 @@ void main() {
     if (pix.x >= size.x || pix.y >= size.y) return;
     vec2 p = vec2(pix) + 0.5;
     int offset = int(hash(uvec2(pix)) % uint(samples));
+    for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
+        vec4 line;
+        if (fetch_ray(1, p, (offset + k) % samples, line) > 0.0) {
+            vec3 colour;
+            if (reach_px >= 0.0 && uniform_colour(line.xz + line.yw * focus_w, colour)) {
+                imageStore(result, pix, vec4(colour, 1.0));
+                return;
+            }
+            break;
+        }
+    }
     vec3 sum = vec3(0.0), weight = vec3(0.0);
     for (int k = 0; k < rays; ++k) {
         int s = (offset + k) % samples;

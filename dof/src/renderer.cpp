@@ -92,7 +92,56 @@ std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& pa
     return levels;
 }
 
+std::array<std::vector<std::vector<float>>, 2> colour_pyramid(const LayerStack& layers, int padded_w, int padded_h) {
+    std::array<std::vector<std::vector<float>>, 2> out;  // [0]: minimum RGBA, [1]: maximum
+    const std::size_t n = 4 * static_cast<std::size_t>(padded_w) * static_cast<std::size_t>(padded_h);
+    std::vector<float> lo(n, 1e30f), hi(n, -1e30f);
+    for (int y = 0; y < layers.height; ++y) {
+        for (int x = 0; x < layers.width; ++x) {
+            const std::size_t cell = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_w) + static_cast<std::size_t>(x));
+            for (int k = 0; k < layers.count; ++k) {
+                const std::size_t i = layers.at(k, x, y);
+                const bool empty = layers.front[i] <= 0.0f;
+                if (empty && k > 0) break;
+                for (std::size_t c = 0; c < 4; ++c) {
+                    const float v = empty ? -1e30f : layers.rgba[4 * i + c];  // an empty pixel is never uniform
+                    lo[cell + c] = std::min(lo[cell + c], v), hi[cell + c] = std::max(hi[cell + c], empty ? 1e30f : v);
+                }
+            }
+        }
+    }
+    out[0].push_back(std::move(lo));
+    out[1].push_back(std::move(hi));
+    for (int w = padded_w, h = padded_h; w > 1 || h > 1;) {
+        const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
+        for (int m = 0; m < 2; ++m) {
+            const std::vector<float>& prev = out[static_cast<std::size_t>(m)].back();
+            std::vector<float> next(4 * static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh), m == 0 ? 1e30f : -1e30f);
+            for (int y = 0; y < nh; ++y)
+                for (int x = 0; x < nw; ++x)
+                    for (int j = 0; j < 2; ++j)
+                        for (int i = 0; i < 2; ++i) {
+                            const std::size_t s = 4 * (static_cast<std::size_t>(std::min(2 * y + j, h - 1)) * static_cast<std::size_t>(w) + static_cast<std::size_t>(std::min(2 * x + i, w - 1)));
+                            const std::size_t d = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x));
+                            for (std::size_t c = 0; c < 4; ++c)
+                                next[d + c] = m == 0 ? std::min(next[d + c], prev[s + c]) : std::max(next[d + c], prev[s + c]);
+                        }
+            out[static_cast<std::size_t>(m)].push_back(std::move(next));
+        }
+        w = nw, h = nh;
+    }
+    return out;
+}
+
 namespace {
+
+gpu::GlObject mip_texture(GLenum format, GLenum pixel_format, int w, int h, const std::vector<std::vector<float>>& levels) {
+    gpu::GlObject t = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.get(), static_cast<GLsizei>(levels.size()), format, w, h);
+    for (std::size_t l = 0; l < levels.size(); ++l)
+        glTextureSubImage2D(t.get(), static_cast<GLint>(l), 0, 0, std::max(1, w >> l), std::max(1, h >> l), pixel_format, GL_FLOAT, levels[l].data());
+    return t;
+}
 
 // The layers' inverse depths (1/front, 1/back; -1 where empty) as one array.
 std::vector<float> inverse_depths(const LayerStack& layers) {
@@ -112,10 +161,10 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     const GLuint prog = state_->program.get();
     int pw = 0, ph = 0;
     const std::vector<std::vector<float>> pyramid = minmax_pyramid(layers, pw, ph);
-    gpu::GlObject hiz = make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(hiz.get(), static_cast<GLsizei>(pyramid.size()), GL_RG32F, pw, ph);
-    for (std::size_t l = 0; l < pyramid.size(); ++l)
-        glTextureSubImage2D(hiz.get(), static_cast<GLint>(l), 0, 0, std::max(1, pw >> l), std::max(1, ph >> l), GL_RG, GL_FLOAT, pyramid[l].data());
+    gpu::GlObject hiz = mip_texture(GL_RG32F, GL_RG, pw, ph, pyramid);
+    const auto colours = colour_pyramid(layers, pw, ph);
+    gpu::GlObject cmin = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[0]);
+    gpu::GlObject cmax = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[1]);
     const std::vector<float> inv = inverse_depths(layers);
     gpu::GlObject layer_w = texture_array(GL_RG32F, layers.width, layers.height, layers.count, GL_RG, inv.data());
     gpu::GlObject layer_rgba = texture_array(GL_RGBA32F, layers.width, layers.height, layers.count, GL_RGBA, layers.rgba.data());
@@ -126,9 +175,9 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glTextureStorage2D(out.get(), 1, GL_RGBA32F, layers.width, layers.height);
 
     glUseProgram(prog);
-    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), weight.get()};
-    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "ray_weight"};
-    for (GLuint u = 0; u < 5; ++u) {
+    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), weight.get(), cmin.get(), cmax.get()};
+    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "ray_weight", "colour_min", "colour_max"};
+    for (GLuint u = 0; u < 7; ++u) {
         glBindTextureUnit(u, units[u]);
         glUniform1i(state_->program.uniform(names[u]), static_cast<GLint>(u));
     }
@@ -141,6 +190,10 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform1i(p.uniform("max_iterations"), settings.max_iterations);
     glUniform1f(p.uniform("w_near"), 1.0001f / layers.nearest());
     glUniform1f(p.uniform("w_far"), 1.0f / layers.farthest());
+    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
+    const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w));
+    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach) : -1e30f);
+    glUniform1f(p.uniform("focus_w"), static_cast<float>(table.focus_w));
     glUniform1i(p.uniform("samples"), table.samples);
     glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));
     glUniform1i(p.uniform("chromatic"), settings.chromatic ? 1 : 0);

@@ -5,6 +5,7 @@
 // behind a surface, and a miss at the finest level climbs one level only); rays skip to a cell's nearest
 // surface before descending (the paper's clamping of a ray to a cell's depth range).
 #pragma once
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -18,6 +19,7 @@ struct TraceSettings {
     bool chromatic = true;   // each channel through its own wavelength's rays; false: green's for all
     int start_level = 2;     // hierarchy level a ray starts at
     int max_iterations = 2048;
+    bool uniform_skip = true;  // pixels whose every reachable surface has one colour take it untraced
 };
 
 // Needs a current gpu::Context on the calling thread, for its whole life.
@@ -43,5 +45,8 @@ private:
 // to powers of two), (lowest, highest) inverse depth 1/back .. 1/front over every layer; empty cells
 // (1e30, -1e30). Level 0 first.
 std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& padded_w, int& padded_h);
+// Per cell of the same pyramid, the minimum ([0]) and maximum ([1]) RGBA of every layer (an empty pixel
+// gives -1e30 .. 1e30, never uniform).
+std::array<std::vector<std::vector<float>>, 2> colour_pyramid(const LayerStack& layers, int padded_w, int padded_h);
 
 }  // namespace lensfx::dof
