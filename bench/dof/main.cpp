@@ -55,7 +55,7 @@ std::optional<Scene> forest_crop(int w, int h) {
     for (const char* f : {"Balls.exr", "Leaves.exr", "Trunks.exr"}) parts.push_back(dof::read_deep_exr(dir + f));
     const dof::DeepImage all = dof::merge_deep(parts);
     const dof::DeepImage crop = dof::reframe(all, all.full_width / 2 - w / 2, all.full_height / 2 - h / 2, w, h);
-    return Scene{"forest", dof::layers_from_deep(crop), 0.0};
+    return Scene{"forest", dof::layers_from_deep(crop, 0.01), 0.0};  // depth read as centimetres
 }
 
 double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
@@ -78,8 +78,8 @@ int main(int argc, char** argv) {
     const int w = quick ? 128 : 256, h = quick ? 72 : 144;
     std::vector<Scene> scenes{synthetic(w, h)};
     if (auto f = forest_crop(w, h)) {
-        // focus on the nearest tenth of the forest's depth range
-        f->focus_m = static_cast<double>(f->layers.nearest()) * 1.5;
+        // focus on the near cones (the README's first focus)
+        f->focus_m = 0.8;
         scenes.push_back(std::move(*f));
     }
     gpu::Context context;
@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
         const std::vector<float> ref = dof::render_reference(scene.layers, table);
         const double ref_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         for (bool chromatic : {false, true}) {
-            for (int rays : {4, 8, 16, 32, 64}) {
+            for (int rays : {4, 8, 16, 32, 64, table.samples}) {
                 dof::TraceSettings s;
                 s.rays = rays, s.chromatic = chromatic;
                 renderer.render(scene.layers, table, s);  // warm

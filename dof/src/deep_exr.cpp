@@ -60,6 +60,14 @@ DeepImage read_deep_exr(const std::string& path) {
         };
         fb.insertSampleCountSlice(Imf::Slice(Imf::UINT, base(counts.data(), sizeof(unsigned int)), sizeof(unsigned int),
                                              sizeof(unsigned int) * row));
+        // The pointer arrays are registered first and filled once the counts are known (OpenEXR's order).
+        std::vector<ChannelRead> reads{{"R", &DeepSample::r}, {"G", &DeepSample::g}, {"B", &DeepSample::b},
+                                       {"A", &DeepSample::a}, {"Z", &DeepSample::z}};
+        if (has_zback) reads.push_back({"ZBack", &DeepSample::zback});
+        std::vector<std::vector<float*>> pointers(reads.size(), std::vector<float*>(n, nullptr));
+        for (std::size_t c = 0; c < reads.size(); ++c)
+            fb.insert(reads[c].name, Imf::DeepSlice(Imf::FLOAT, base(pointers[c].data(), sizeof(float*)), sizeof(float*),
+                                                    sizeof(float*) * row, sizeof(float)));
         file.setFrameBuffer(fb);
         file.readPixelSampleCounts(dw.min.y, dw.max.y);
 
@@ -67,18 +75,9 @@ DeepImage read_deep_exr(const std::string& path) {
         image.offsets[0] = 0;
         for (std::size_t i = 0; i < n; ++i) image.offsets[i + 1] = image.offsets[i] + counts[i];
         image.samples.resize(image.offsets[n]);
-
-        std::vector<ChannelRead> reads{{"R", &DeepSample::r}, {"G", &DeepSample::g}, {"B", &DeepSample::b},
-                                       {"A", &DeepSample::a}, {"Z", &DeepSample::z}};
-        if (has_zback) reads.push_back({"ZBack", &DeepSample::zback});
-        std::vector<std::vector<float>> values(reads.size(), std::vector<float>(image.samples.size()));
-        std::vector<std::vector<float*>> pointers(reads.size(), std::vector<float*>(n));
-        for (std::size_t c = 0; c < reads.size(); ++c) {
+        std::vector<std::vector<float>> values(reads.size(), std::vector<float>(image.samples.size() + 1));
+        for (std::size_t c = 0; c < reads.size(); ++c)
             for (std::size_t i = 0; i < n; ++i) pointers[c][i] = values[c].data() + image.offsets[i];
-            fb.insert(reads[c].name, Imf::DeepSlice(Imf::FLOAT, base(pointers[c].data(), sizeof(float*)), sizeof(float*),
-                                                    sizeof(float*) * row, sizeof(float)));
-        }
-        file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
         for (std::size_t c = 0; c < reads.size(); ++c)
             for (std::size_t s = 0; s < image.samples.size(); ++s) image.samples[s].*(reads[c].field) = values[c][s];
@@ -180,6 +179,7 @@ LayerStack layers_from_deep(const DeepImage& image, double depth_scale, int max_
         }
     }
     set_thickness(layers, thickness, step);
+    layers.open = true;
     return layers;
 }
 

@@ -17,7 +17,7 @@ uniform float reach_px, focus_w;           // the widest blur radius of the fram
 uniform ivec2 size;
 uniform int layer_count, top_level, start_level, max_iterations;
 uniform float w_near, w_far;
-uniform int samples, rays, chromatic;
+uniform int samples, rays, chromatic, open_scene;
 uniform ivec2 grid;
 uniform vec2 cell;
 
@@ -64,11 +64,10 @@ vec3 trace(vec4 l) {
     vec2 nudge = vec2(0.0);
     vec3 acc = vec3(0.0);
     float trans = 1.0;
-    ivec2 cid = ivec2(0);
     for (int it = 0; it < max_iterations; ++it) {
         float cs = float(1 << level);
         vec2 p = c + a * w + nudge;
-        cid = ivec2(floor(p / cs));
+        ivec2 cid = ivec2(floor(p / cs));
         vec2 bound = (vec2(cid) + far_side) * cs;
         float wx = a.x != 0.0 ? (bound.x - c.x) / a.x : -1e30;
         float wy = a.y != 0.0 ? (bound.y - c.y) / a.y : -1e30;
@@ -103,7 +102,8 @@ vec3 trace(vec4 l) {
         nudge = cross_offset;
         level = min(1, top_level);  // floating cells: a miss climbs one level only
     }
-    return acc + trans * farthest(cid);
+    if (open_scene != 0) return acc;
+    return acc + trans * farthest(ivec2(floor(c + a * max(w, w_far))));
 }
 
 // Whether every surface any ray of this pixel can reach has one colour (then that is the pixel's): the

@@ -55,7 +55,7 @@ float trace_channel(const LayerStack& layers, const DepthSpan& span, float cx, f
         w = w_exit;
         if (wx >= wy) x += sx; else y += sy;
     }
-    return acc + trans * farthest_colour(layers, x, y, channel);
+    return layers.open ? acc : acc + trans * farthest_colour(layers, x, y, channel);
 }
 
 }  // namespace

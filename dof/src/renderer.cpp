@@ -197,6 +197,7 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform1i(p.uniform("samples"), table.samples);
     glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));
     glUniform1i(p.uniform("chromatic"), settings.chromatic ? 1 : 0);
+    glUniform1i(p.uniform("open_scene"), layers.open ? 1 : 0);
     glUniform2i(p.uniform("grid"), table.grid_x, table.grid_y);
     glUniform2f(p.uniform("cell"), static_cast<float>(table.cell_w), static_cast<float>(table.cell_h));
     glDispatchCompute(static_cast<GLuint>((layers.width + 7) / 8), static_cast<GLuint>((layers.height + 7) / 8), 1);

@@ -41,6 +41,26 @@ TEST(DofFilter, BlursAPointBehindTheFocusAndKeepsItsEnergy) {
     EXPECT_FLOAT_EQ(z[0], 2.0f) << "other channels pass through";
 }
 
+// With the flare: the light is found on the sharp plate, and its flare lands on the blurred plate.
+TEST(DofFilter, FlareIsAddedAfterTheBlur) {
+    const auto dir = lensfx::test::scratch_dir("dof_flare");
+    const std::string in = point_exr(dir, true), blur = (dir / "blur.exr").string(), both = (dir / "both.exr").string();
+    const std::string common = " --dof --lens mld-double-gauss --fstop 4 --focus 1 --sensor 6 --dof-rays 16";
+    auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + blur + common + " --dof-only");
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + both + common);
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    int w = 0, h = 0;
+    const std::vector<float> a = read_channel(blur, "G", w, h), b = read_channel(both, "G", w, h);
+    double added = 0.0, below = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        added += double{b[i]} - double{a[i]};
+        below = std::min(below, double{b[i]} - double{a[i]});
+    }
+    EXPECT_GT(added, 0.0) << "the flare adds light";
+    EXPECT_GT(below, -1e-3) << "and takes none away from the blurred plate";
+}
+
 TEST(DofFilter, MissingDepthIsAOneLineError) {
     const auto dir = lensfx::test::scratch_dir("dof_nodepth");
     const std::string in = point_exr(dir, false);

@@ -13,6 +13,10 @@ struct LayerStack {
     std::vector<float> front;  // count x width x height, metres; 0: no surface (later layers are empty too)
     std::vector<float> back;   // >= front: the surface's thickness, so rays between pixels cannot slip by
     std::vector<float> rgba;   // 4 per entry, premultiplied by alpha
+    // true (deep input): a pixel without surfaces is empty space, and a ray that meets nothing gathers
+    // nothing; false (flat input): every surface extends behind itself, and such a ray takes the farthest
+    // surface under its end
+    bool open = false;
 
     std::size_t at(int layer, int x, int y) const {
         return (static_cast<std::size_t>(layer) * static_cast<std::size_t>(height) + static_cast<std::size_t>(y)) *
