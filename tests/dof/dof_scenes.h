@@ -37,6 +37,19 @@ inline LayerStack point_scene(int size, double z_m, int px, int py, float level)
     return layers_from_flat(rgb.data(), depth.data(), size, size);
 }
 
+// Left half: a black surface at 1 m; behind it all over, a plane of 100 at 10 m (flat, with Z).
+inline LayerStack edge_scene(int size) {
+    const std::size_t n = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
+    std::vector<float> rgb(3 * n, 100.0f), depth(n, 10.0f);
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size / 2; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(size) + static_cast<std::size_t>(x);
+            depth[i] = 1.0f;
+            for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = 0.0f;
+        }
+    return layers_from_flat(rgb.data(), depth.data(), size, size);
+}
+
 // Sum, centroid and second moment of channel c of an RGB raster.
 struct Moments {
     double sum = 0, cx = 0, cy = 0, r2 = 0;

@@ -92,16 +92,10 @@ TEST(DofReference, PointInFocusKeepsItsEnergyWithinFiveByFive) {
     EXPECT_GE(inside / m.sum, 0.8) << inside << " of " << m.sum;
 }
 
-// Left half: a black surface in focus at 1 m; behind it all over, a bright plane at 10 m.
+// An in-focus black edge at 1 m before a bright background at 10 m (test::edge_scene).
 TEST(DofReference, InFocusEdgeGetsNoHaloOfTheBlurredBackground) {
     const Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 10.0, kSize, 16.0);
-    std::vector<float> rgb(3 * kSize * kSize, 100.0f), depth(kSize * kSize, 10.0f);
-    for (int y = 0; y < kSize; ++y)
-        for (int x = 0; x < kSize / 2; ++x) {
-            depth[static_cast<std::size_t>(y * kSize + x)] = 1.0f;
-            for (int c = 0; c < 3; ++c) rgb[static_cast<std::size_t>(3 * (y * kSize + x) + c)] = 0.0f;
-        }
-    const LayerStack layers = layers_from_flat(rgb.data(), depth.data(), kSize, kSize);
+    const LayerStack layers = test::edge_scene(kSize);
     ASSERT_EQ(layers.count, 2);
     const std::vector<float> out = render_reference(layers, make_ray_table(cam, 256, 5));
     float worst = 0.0f;
@@ -154,6 +148,37 @@ TEST(DofReference, CookeTripletBlursEachChannelAsItsGlassesImply) {
     EXPECT_GT(std::abs(predicted_ratio - 1.0), 0.01) << "the triplet's glasses disperse";
     EXPECT_NEAR(measured_ratio - 1.0, predicted_ratio - 1.0, 0.35 * std::abs(predicted_ratio - 1.0))
         << "red/blue diameters " << measured[0] << "/" << measured[2] << " mm, forward traces " << predicted[0] << "/" << predicted[2];
+}
+
+// Tilt-shift: a sensor tilted about the vertical axis moves each column's focus; points at the focus
+// distance stay sharp on the axis and blur towards the sides (Scheimpflug).
+TEST(DofReference, TiltedSensorBlursTheFocusPlaneAwayFromTheAxis) {
+    constexpr int w = 320, h = 24;
+    std::vector<float> rgb(3 * w * h, 0.0f), depth(w * h, 1.0f);
+    for (int x : {30, 160, 290})
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * static_cast<std::size_t>(h / 2 * w + x) + c] = 1000.0f;
+    const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
+    Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, w, 20.0);
+    cam.height = h, cam.centre_y = 0.5 * h;
+    // share of the energy near column `near` (within 20 px) lying beyond 2 px of its centroid
+    const auto spread = [&](const std::vector<float>& out, int near) {
+        double all = 0, cx = 0, in = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = near - 20; x <= near + 20; ++x) all += double{at(out, w, x, y, 1)}, cx += (x + 0.5) * double{at(out, w, x, y, 1)};
+        cx /= all;
+        for (int y = h / 2 - 2; y <= h / 2 + 2; ++y)
+            for (int x = near - 20; x <= near + 20; ++x)
+                if (std::abs(x + 0.5 - cx) <= 2.5) in += double{at(out, w, x, y, 1)};
+        return 1.0 - in / all;
+    };
+    const std::vector<float> flat = render_reference(scene, make_ray_table(cam, 256, 5));
+    cam.tilt_y_deg = 30.0;  // 143 px off the axis (130, magnified by the focused lens): about 14 px of blur
+    const std::vector<float> tilted = render_reference(scene, make_ray_table(cam, 256, 5));
+    for (int x : {17, 303}) {  // where the lens, focused at 1 m, images columns 30 and 290
+        EXPECT_LT(spread(flat, x), 0.2) << x;
+        EXPECT_GT(spread(tilted, x), 0.4) << x;
+    }
+    EXPECT_LT(spread(tilted, 160), 0.2);
 }
 
 TEST(DofLayers, FlatImageGetsTheHiddenSurfaceUnderItsNearerNeighbour) {

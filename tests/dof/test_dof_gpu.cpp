@@ -46,13 +46,7 @@ TEST_F(DofGpu, DefocusedPointMatchesTheReference) {
 
 TEST_F(DofGpu, InFocusEdgeBeforeBlurredBackgroundMatchesTheReferenceWithoutHalo) {
     const Camera cam = test::camera_for("mld-double-gauss", 4.0, 1.0, 10.0, kSize, 16.0);
-    std::vector<float> rgb(3 * kSize * kSize, 100.0f), depth(kSize * kSize, 10.0f);
-    for (int y = 0; y < kSize; ++y)
-        for (int x = 0; x < kSize / 2; ++x) {
-            depth[static_cast<std::size_t>(y * kSize + x)] = 1.0f;
-            for (int c = 0; c < 3; ++c) rgb[static_cast<std::size_t>(3 * (y * kSize + x) + c)] = 0.0f;
-        }
-    const LayerStack layers = layers_from_flat(rgb.data(), depth.data(), kSize, kSize);
+    const LayerStack layers = test::edge_scene(kSize);
     const RayTable table = make_ray_table(cam, 128, 5);
     TraceSettings settings;
     settings.rays = 32;
