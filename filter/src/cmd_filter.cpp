@@ -10,6 +10,7 @@
 #include <fmt/core.h>
 
 #include <filter/colour.h>
+#include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
 #include <filter/pipeline.h>
 
@@ -25,6 +26,7 @@ struct FilterArgs {
     bool progress = false;
     colour::ColourArgs colour;
     FlareSettings flare;
+    DofSettings dof;
     bool gpu_given = false;  // --gpu on the command line: the GPU path is active from the first frame
 };
 
@@ -52,13 +54,17 @@ std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
     gpu->platform = args.flare.gpu;
     gpu->requested = args.gpu_given;
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
-    if (!args.flare.lens.empty()) {
+    bool flare_runs = false;
+    DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs);
+    if (dof.blur) stages.push_back(std::move(dof.blur));
+    if (flare_runs) {
         auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
             if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
             return std::nullopt;
         };
         stages.push_back(std::make_unique<FlareStage>(args.flare, gpu, primaries));
     }
+    if (dof.compose) stages.push_back(std::move(dof.compose));
     stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session, gpu, args.colour.device));
     return stages;
 }
@@ -119,6 +125,7 @@ void register_filter(CLI::App& app) {
     app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");
     colour::add_colour_options(app, args->colour);
     add_flare_options(app, args->flare);
+    add_dof_options(app, args->dof);
 
     app.callback([&app, args] {
         if (!app.get_subcommands().empty()) return;

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include <fmt/core.h>
+#include <filter/dof_stage.h>
 #include <Imath/half.h>
 #include <OpenEXR/IlmThreadPool.h>
 #include <OpenEXR/ImfChannelList.h>
@@ -167,7 +168,7 @@ Frame read_exr(const std::string& path) {
         check_attribute_sizes(path);
         Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
         const Imf::Header& header = file.header(0);
-        if (header.hasType() && Imf::isDeepData(header.type())) throw std::runtime_error("deep images are not supported");
+        if (header.hasType() && Imf::isDeepData(header.type())) return read_deep_exr_frame(path);  // flattened
         Frame frame;
         frame.source = path;
         frame.format = "openexr";

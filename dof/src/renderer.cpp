@@ -1,0 +1,216 @@
+// The GPU lens-blur trace (see renderer.h); the shader is in dof_shaders.h.
+#include <dof/renderer.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <epoxy/gl.h>
+#include <fmt/core.h>
+#include <gpu/gl.h>
+
+#include "dof_shaders.h"
+
+namespace lensfx::dof {
+
+namespace {
+
+int next_pow2(int n) {
+    int p = 1;
+    while (p < n) p *= 2;
+    return p;
+}
+
+gpu::GlObject make_texture(GLenum target) {
+    GLuint n = 0;
+    glCreateTextures(target, 1, &n);
+    return {gpu::GlObject::Kind::Texture, n};
+}
+
+gpu::GlObject texture_2d(GLenum format, int w, int h, GLenum pixel_format, const float* data) {
+    gpu::GlObject t = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.get(), 1, format, w, h);
+    glTextureSubImage2D(t.get(), 0, 0, 0, w, h, pixel_format, GL_FLOAT, data);
+    return t;
+}
+
+gpu::GlObject texture_array(GLenum format, int w, int h, int layers, GLenum pixel_format, const float* data) {
+    gpu::GlObject t = make_texture(GL_TEXTURE_2D_ARRAY);
+    glTextureStorage3D(t.get(), 1, format, w, h, layers);
+    glTextureSubImage3D(t.get(), 0, 0, 0, 0, w, h, layers, pixel_format, GL_FLOAT, data);
+    return t;
+}
+
+}  // namespace
+
+struct Renderer::State {
+    gpu::Program program{"dof_trace.comp", {{gpu::ShaderStage::Type::Compute, kTraceShader}}};
+};
+
+Renderer::Renderer() : state_(std::make_unique<State>()) {}
+Renderer::~Renderer() = default;
+
+std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& padded_w, int& padded_h) {
+    padded_w = next_pow2(layers.width), padded_h = next_pow2(layers.height);
+    std::vector<std::vector<float>> levels;
+    std::vector<float> base(2 * static_cast<std::size_t>(padded_w) * static_cast<std::size_t>(padded_h));
+    for (std::size_t i = 0; i < base.size(); i += 2) base[i] = 1e30f, base[i + 1] = -1e30f;
+    for (int y = 0; y < layers.height; ++y) {
+        for (int x = 0; x < layers.width; ++x) {
+            float* cell = &base[2 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_w) + static_cast<std::size_t>(x))];
+            for (int k = 0; k < layers.count; ++k) {
+                const std::size_t i = layers.at(k, x, y);
+                if (layers.front[i] <= 0.0f) break;
+                cell[0] = std::min(cell[0], 1.0f / layers.back[i]);
+                cell[1] = std::max(cell[1], 1.0f / layers.front[i]);
+            }
+        }
+    }
+    levels.push_back(std::move(base));
+    for (int w = padded_w, h = padded_h; w > 1 || h > 1;) {
+        const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
+        const std::vector<float>& prev = levels.back();
+        std::vector<float> next(2 * static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh));
+        for (int y = 0; y < nh; ++y) {
+            for (int x = 0; x < nw; ++x) {
+                float lo = 1e30f, hi = -1e30f;
+                for (int j = 0; j < 2; ++j) {
+                    for (int i = 0; i < 2; ++i) {
+                        const int px = std::min(2 * x + i, w - 1), py = std::min(2 * y + j, h - 1);
+                        const std::size_t k = 2 * (static_cast<std::size_t>(py) * static_cast<std::size_t>(w) + static_cast<std::size_t>(px));
+                        lo = std::min(lo, prev[k]), hi = std::max(hi, prev[k + 1]);
+                    }
+                }
+                next[2 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x))] = lo;
+                next[2 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x)) + 1] = hi;
+            }
+        }
+        levels.push_back(std::move(next));
+        w = nw, h = nh;
+    }
+    return levels;
+}
+
+std::array<std::vector<std::vector<float>>, 2> colour_pyramid(const LayerStack& layers, int padded_w, int padded_h) {
+    std::array<std::vector<std::vector<float>>, 2> out;  // [0]: minimum RGBA, [1]: maximum
+    const std::size_t n = 4 * static_cast<std::size_t>(padded_w) * static_cast<std::size_t>(padded_h);
+    std::vector<float> lo(n, 1e30f), hi(n, -1e30f);
+    for (int y = 0; y < layers.height; ++y) {
+        for (int x = 0; x < layers.width; ++x) {
+            const std::size_t cell = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_w) + static_cast<std::size_t>(x));
+            for (int k = 0; k < layers.count; ++k) {
+                const std::size_t i = layers.at(k, x, y);
+                const bool empty = layers.front[i] <= 0.0f;
+                if (empty && k > 0) break;
+                for (std::size_t c = 0; c < 4; ++c) {
+                    const float v = empty ? -1e30f : layers.rgba[4 * i + c];  // an empty pixel is never uniform
+                    lo[cell + c] = std::min(lo[cell + c], v), hi[cell + c] = std::max(hi[cell + c], empty ? 1e30f : v);
+                }
+            }
+        }
+    }
+    out[0].push_back(std::move(lo));
+    out[1].push_back(std::move(hi));
+    for (int w = padded_w, h = padded_h; w > 1 || h > 1;) {
+        const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
+        for (int m = 0; m < 2; ++m) {
+            const std::vector<float>& prev = out[static_cast<std::size_t>(m)].back();
+            std::vector<float> next(4 * static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh), m == 0 ? 1e30f : -1e30f);
+            for (int y = 0; y < nh; ++y)
+                for (int x = 0; x < nw; ++x)
+                    for (int j = 0; j < 2; ++j)
+                        for (int i = 0; i < 2; ++i) {
+                            const std::size_t s = 4 * (static_cast<std::size_t>(std::min(2 * y + j, h - 1)) * static_cast<std::size_t>(w) + static_cast<std::size_t>(std::min(2 * x + i, w - 1)));
+                            const std::size_t d = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x));
+                            for (std::size_t c = 0; c < 4; ++c)
+                                next[d + c] = m == 0 ? std::min(next[d + c], prev[s + c]) : std::max(next[d + c], prev[s + c]);
+                        }
+            out[static_cast<std::size_t>(m)].push_back(std::move(next));
+        }
+        w = nw, h = nh;
+    }
+    return out;
+}
+
+namespace {
+
+gpu::GlObject mip_texture(GLenum format, GLenum pixel_format, int w, int h, const std::vector<std::vector<float>>& levels) {
+    gpu::GlObject t = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.get(), static_cast<GLsizei>(levels.size()), format, w, h);
+    for (std::size_t l = 0; l < levels.size(); ++l)
+        glTextureSubImage2D(t.get(), static_cast<GLint>(l), 0, 0, std::max(1, w >> l), std::max(1, h >> l), pixel_format, GL_FLOAT, levels[l].data());
+    return t;
+}
+
+// The layers' inverse depths (1/front, 1/back; -1 where empty) as one array.
+std::vector<float> inverse_depths(const LayerStack& layers) {
+    std::vector<float> w(2 * layers.front.size());
+    for (std::size_t i = 0; i < layers.front.size(); ++i) {
+        const bool empty = layers.front[i] <= 0.0f;
+        w[2 * i] = empty ? -1.0f : 1.0f / layers.front[i];
+        w[2 * i + 1] = empty ? -1.0f : 1.0f / layers.back[i];
+    }
+    return w;
+}
+
+}  // namespace
+
+std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings) {
+    const auto start = std::chrono::steady_clock::now();
+    const GLuint prog = state_->program.get();
+    int pw = 0, ph = 0;
+    const std::vector<std::vector<float>> pyramid = minmax_pyramid(layers, pw, ph);
+    gpu::GlObject hiz = mip_texture(GL_RG32F, GL_RG, pw, ph, pyramid);
+    const auto colours = colour_pyramid(layers, pw, ph);
+    gpu::GlObject cmin = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[0]);
+    gpu::GlObject cmax = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[1]);
+    const std::vector<float> inv = inverse_depths(layers);
+    gpu::GlObject layer_w = texture_array(GL_RG32F, layers.width, layers.height, layers.count, GL_RG, inv.data());
+    gpu::GlObject layer_rgba = texture_array(GL_RGBA32F, layers.width, layers.height, layers.count, GL_RGBA, layers.rgba.data());
+    const int rows = 3 * table.grid_x * table.grid_y;
+    gpu::GlObject line = texture_2d(GL_RGBA32F, table.samples, rows, GL_RGBA, table.line.front().data());
+    gpu::GlObject weight = texture_2d(GL_R32F, table.samples, rows, GL_RED, table.weight.data());
+    gpu::GlObject out = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(out.get(), 1, GL_RGBA32F, layers.width, layers.height);
+
+    glUseProgram(prog);
+    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), weight.get(), cmin.get(), cmax.get()};
+    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "ray_weight", "colour_min", "colour_max"};
+    for (GLuint u = 0; u < 7; ++u) {
+        glBindTextureUnit(u, units[u]);
+        glUniform1i(state_->program.uniform(names[u]), static_cast<GLint>(u));
+    }
+    glBindImageTexture(0, out.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+    const auto& p = state_->program;
+    glUniform2i(p.uniform("size"), layers.width, layers.height);
+    glUniform1i(p.uniform("layer_count"), layers.count);
+    glUniform1i(p.uniform("top_level"), static_cast<GLint>(pyramid.size()) - 1);
+    glUniform1i(p.uniform("start_level"), settings.start_level);
+    glUniform1i(p.uniform("max_iterations"), settings.max_iterations);
+    glUniform1f(p.uniform("w_near"), 1.0001f / layers.nearest());
+    glUniform1f(p.uniform("w_far"), 1.0f / layers.farthest());
+    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
+    const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w));
+    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach) : -1e30f);
+    glUniform1f(p.uniform("focus_w"), static_cast<float>(table.focus_w));
+    glUniform1i(p.uniform("samples"), table.samples);
+    glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));
+    glUniform1i(p.uniform("chromatic"), settings.chromatic ? 1 : 0);
+    glUniform1i(p.uniform("open_scene"), layers.open ? 1 : 0);
+    glUniform2i(p.uniform("grid"), table.grid_x, table.grid_y);
+    glUniform2f(p.uniform("cell"), static_cast<float>(table.cell_w), static_cast<float>(table.cell_h));
+    glDispatchCompute(static_cast<GLuint>((layers.width + 7) / 8), static_cast<GLuint>((layers.height + 7) / 8), 1);
+    glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+    std::vector<float> rgba(4 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height));
+    glGetTextureImage(out.get(), 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(rgba.size() * sizeof(float)), rgba.data());
+    gpu::check_gl("dof trace");
+    if (glGetError() != GL_NO_ERROR) throw std::runtime_error("lens blur: the GL trace failed");
+    std::vector<float> rgb(3 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height));
+    for (std::size_t i = 0, n = rgb.size() / 3; i < n; ++i)
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = rgba[4 * i + c];
+    last_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return rgb;
+}
+
+}  // namespace lensfx::dof

@@ -1,0 +1,244 @@
+// The lens-blur stage (see dof_stage.h).
+#include <filter/dof_stage.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/core.h>
+
+#include <dof/deep_exr.h>
+#include <dof/renderer.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+namespace lensfx::filter {
+
+struct DofShared {
+    int x = 0, y = 0, width = 0, height = 0;  // data window the plates cover
+    std::vector<float> sharp, blurred;        // RGB interleaved
+};
+
+void add_dof_options(CLI::App& app, DofSettings& s) {
+    const std::string group = "Lens blur";
+    app.add_flag("--dof", s.enabled, "Lens blur (depth of field) from Z or deep samples through --lens")->group(group);
+    app.add_option("--focus", s.focus_m, "Focus distance in metres from the entrance pupil (with --dof)")->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--depth-channel", s.depth_channel, "Channel holding depth along the view axis")->capture_default_str()->group(group);
+    app.add_option("--depth-scale", s.depth_scale, "Metres per depth unit")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
+    app.add_option("--deep", s.deep, "Deep EXR files (comma-separated, merged) whose samples are the scene's layers")->group(group);
+    app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
+    app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
+    app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")->group(group);
+    app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
+}
+
+namespace {
+
+std::array<double, 2> parse_pair(const std::string& text, const char* what) {
+    const auto comma = text.find(',');
+    try {
+        std::size_t a = 0, b = 0;
+        if (comma == std::string::npos) throw std::invalid_argument(text);
+        const double x = std::stod(text.substr(0, comma), &a), y = std::stod(text.substr(comma + 1), &b);
+        if (a != comma || b != text.size() - comma - 1) throw std::invalid_argument(text);
+        return {x, y};
+    } catch (const std::exception&) {
+        throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
+    }
+}
+
+std::vector<std::string> split_commas(const std::string& text) {
+    std::vector<std::string> out;
+    for (std::size_t b = 0; b <= text.size();) {
+        const std::size_t e = std::min(text.find(',', b), text.size());
+        if (e > b) out.push_back(text.substr(b, e - b));
+        b = e + 1;
+    }
+    return out;
+}
+
+int channel_index(const Frame& frame, const std::string& name) {
+    const auto& names = frame.spec.channelnames;
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
+double elapsed_ms(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+struct DofStage::State {
+    DofSettings settings;
+    std::shared_ptr<GpuSession> gpu;
+    bool flare_follows = false;
+    optics::System system;
+    std::optional<dof::DeepImage> deep;
+    std::unique_ptr<dof::Renderer> renderer;
+    std::optional<dof::RayTable> table;
+    dof::Camera camera;
+    std::shared_ptr<DofShared> shared = std::make_shared<DofShared>();
+    double layers_ms = 0, rays_ms = 0, trace_ms = 0;
+
+    dof::Camera camera_for(const Frame& frame) const;
+    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table) const;
+};
+
+dof::Camera DofStage::State::camera_for(const Frame& frame) const {
+    const ImageSpec& spec = frame.spec;
+    dof::Camera c;
+    c.system = system;
+    c.focus_m = *settings.focus_m;
+    c.width = spec.width, c.height = spec.height;
+    c.display_width = spec.full_width;
+    c.centre_x = spec.full_x + 0.5 * spec.full_width - spec.x;
+    c.centre_y = spec.full_y + 0.5 * spec.full_height - spec.y;
+    const double efl = dof::focus_of(system, c.focus_m).efl_mm;
+    c.sensor_width_mm = settings.fov_deg ? 2.0 * efl * std::tan(0.5 * *settings.fov_deg * std::acos(-1.0) / 180.0)
+                                         : std::stod(settings.sensor.substr(0, settings.sensor.find('x')));
+    if (!settings.tilt.empty()) {
+        const auto t = parse_pair(settings.tilt, "--tilt");
+        c.tilt_x_deg = t[0], c.tilt_y_deg = t[1];
+    }
+    return c;
+}
+
+dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t) const {
+    const ImageSpec& spec = frame.spec;
+    if (deep) return dof::layers_from_deep(dof::reframe(*deep, spec.x, spec.y, spec.width, spec.height), settings.depth_scale);
+    if (dof::is_deep_exr(frame.source)) {  // a deep input: its samples are the layers
+        const dof::DeepImage own = dof::read_deep_exr(frame.source);
+        return dof::layers_from_deep(dof::reframe(own, spec.x, spec.y, spec.width, spec.height), settings.depth_scale);
+    }
+    const int z = channel_index(frame, settings.depth_channel);
+    if (z < 0) throw std::runtime_error(fmt::format("no depth channel \"{}\" for --dof (see --depth-channel)", settings.depth_channel));
+    std::vector<float> depth = channels_as_float(frame, {z});
+    float zmin = 1e30f, zmax = 0.0f;
+    for (float& d : depth) {
+        d = static_cast<float>(static_cast<double>(d) * settings.depth_scale);
+        if (std::isfinite(d) && d > 0.0f) zmin = std::min(zmin, d), zmax = std::max(zmax, d);
+    }
+    dof::FlatLayerOptions options;
+    // the hidden layer reaches as far as the widest blur of the frame's depth range
+    const double reach = t.max_slope * std::max(std::abs(1.0 / double{zmin} - t.focus_w), std::abs(1.0 / double{std::max(zmax, zmin)} - t.focus_w));
+    options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
+    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options);
+}
+
+DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows) : state_(std::make_unique<State>()) {
+    State& s = *state_;
+    if (settings.lens.empty()) throw std::runtime_error("--dof needs --lens");
+    if (!settings.focus_m) throw std::runtime_error("--dof needs --focus METRES");
+    const optics::Lens lens = optics::load_lens(settings.lens);
+    s.system = optics::realize(lens, settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom), settings.fstop);
+    if (!settings.deep.empty()) {
+        std::vector<dof::DeepImage> images;
+        for (const std::string& f : split_commas(settings.deep)) images.push_back(dof::read_deep_exr(f));
+        s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images);
+    }
+    if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame
+    s.settings = std::move(settings);
+    s.gpu = gpu ? std::move(gpu) : std::make_shared<GpuSession>();
+    s.flare_follows = flare_follows;
+}
+
+DofStage::~DofStage() = default;
+
+std::shared_ptr<DofShared> DofStage::shared() const { return state_->shared; }
+
+void DofStage::process(Frame& frame) {
+    State& s = *state_;
+    auto t0 = std::chrono::steady_clock::now();
+    // the blur spreads over the whole sensor: the display window
+    const ImageSpec& spec = frame.spec;
+    grow_data_window(frame, spec.full_x, spec.full_y, spec.full_x + spec.full_width, spec.full_y + spec.full_height);
+    const dof::Camera camera = s.camera_for(frame);
+    if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||
+        camera.centre_y != s.camera.centre_y) {
+        s.table = dof::make_ray_table(camera, std::max(64, 4 * s.settings.rays));
+        s.camera = camera;
+    }
+    s.rays_ms = elapsed_ms(t0);
+    t0 = std::chrono::steady_clock::now();
+    const dof::LayerStack layers = s.layers_of(frame, *s.table);
+    s.layers_ms = elapsed_ms(t0);
+    t0 = std::chrono::steady_clock::now();
+    s.gpu->get();
+    if (!s.renderer) s.renderer = std::make_unique<dof::Renderer>();
+    dof::TraceSettings trace;
+    trace.rays = s.settings.rays;
+    trace.chromatic = s.settings.chromatic;
+    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace);
+    s.trace_ms = elapsed_ms(t0);
+    if (!s.flare_follows) {
+        frame.rgb = std::move(blurred);
+        return;
+    }
+    DofShared& sh = *s.shared;
+    sh.x = frame.spec.x, sh.y = frame.spec.y, sh.width = frame.spec.width, sh.height = frame.spec.height;
+    sh.sharp = frame.rgb;
+    sh.blurred = std::move(blurred);
+}
+
+std::vector<std::pair<std::string, double>> DofStage::part_times() const {
+    return {{"rays", state_->rays_ms}, {"layers", state_->layers_ms}, {"trace", state_->trace_ms}};
+}
+
+void DofComposeStage::process(Frame& frame) {
+    DofShared& sh = *shared_;
+    const ImageSpec& spec = frame.spec;
+    for (int y = 0; y < sh.height; ++y) {
+        for (int x = 0; x < sh.width; ++x) {
+            const std::size_t src = 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(sh.width) + static_cast<std::size_t>(x));
+            const std::size_t dst = 3 * (static_cast<std::size_t>(y + sh.y - spec.y) * static_cast<std::size_t>(spec.width) +
+                                         static_cast<std::size_t>(x + sh.x - spec.x));
+            for (std::size_t c = 0; c < 3; ++c) frame.rgb[dst + c] += sh.blurred[src + c] - sh.sharp[src + c];
+        }
+    }
+}
+
+}  // namespace lensfx::filter
+
+namespace lensfx::filter {
+
+Frame read_deep_exr_frame(const std::string& path) {
+    const dof::DeepImage deep = dof::read_deep_exr(path);
+    std::vector<float> z;
+    const std::vector<float> rgba = dof::flatten_deep(deep, &z);
+    Frame frame;
+    frame.source = path;
+    frame.format = "openexr";
+    ImageSpec& spec = frame.spec;
+    spec.x = deep.x, spec.y = deep.y, spec.width = deep.width, spec.height = deep.height;
+    spec.full_x = deep.full_x, spec.full_y = deep.full_y, spec.full_width = deep.full_width, spec.full_height = deep.full_height;
+    spec.compression = "zip";
+    for (const char* name : {"R", "G", "B", "A", "Z"}) {
+        spec.channelnames.push_back(name);
+        spec.channeltypes.push_back(PixelType::float32);
+    }
+    const std::size_t n = static_cast<std::size_t>(deep.width) * static_cast<std::size_t>(deep.height);
+    frame.pixels = PixelBuffer(spec.image_bytes());
+    auto* out = reinterpret_cast<float*>(frame.pixels.data());
+    for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t c = 0; c < 4; ++c) out[5 * i + c] = rgba[4 * i + c];
+        out[5 * i + 4] = z[i];
+    }
+    find_rgb_channels(frame);
+    return frame;
+}
+
+DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std::shared_ptr<GpuSession> gpu, bool& flare_runs) {
+    flare_runs = !flare.lens.empty() && !(settings.enabled && settings.dof_only);
+    if (!settings.enabled) return {};
+    settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
+    settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
+    auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs);
+    DofStages stages;
+    if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());
+    stages.blur = std::move(blur);
+    return stages;
+}
+
+}  // namespace lensfx::filter

@@ -1,0 +1,199 @@
+// The lens blur's optics through the dense CPU reference (issue 18's "Done when"): blur size and energy of a
+// defocused point, a focused point's concentration, no halo of a blurred background around an in-focus
+// edge, partial occlusion from deep input, and chromatic blur of the Cooke triplet.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <dof/deep_exr.h>
+#include <dof/reference.h>
+#include <optics/tracer.h>
+
+#include "dof_scenes.h"
+
+namespace lensfx::dof {
+namespace {
+
+using test::camera_for;
+using test::disc_diameter;
+using test::moments;
+using test::point_scene;
+using test::thin_lens_blur_mm;
+
+constexpr int kSize = 80;
+
+float at(const std::vector<float>& rgb, int w, int x, int y, int c) {
+    return rgb[3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) + static_cast<std::size_t>(c)];
+}
+
+// The sensor spot of an on-axis object point at z_m, traced forward through a dense grid over the round
+// entrance pupil at one wavelength: the diameter of the uniform disc with its second moment (mm). Independent of
+// the ray table and the gather; it holds the lens's spherical aberration, which the thin lens lacks.
+double traced_spot_diameter_mm(const Camera& cam, double z_m, double wavelength_nm = 550.0) {
+    const Focus f = focus_of(cam.system, cam.focus_m);
+    optics::System system = cam.system;
+    system.sensor_z_mm = f.sensor_z_mm;
+    const optics::TraceSystem ts(system, wavelength_nm);
+    const auto path = optics::direct_path(system);
+    const double z_obj = f.entrance_pupil_z_mm - z_m * 1000.0, r = 0.5 * f.entrance_pupil_diameter_mm;
+    double sum = 0.0;
+    int n = 0;
+    constexpr int kGrid = 64;
+    for (int j = 0; j < kGrid; ++j)
+        for (int i = 0; i < kGrid; ++i) {
+            const double u = (2.0 * i + 1.0) / kGrid - 1.0, v = (2.0 * j + 1.0) / kGrid - 1.0;
+            if (u * u + v * v > 1.0) continue;
+            const optics::Vec3 aim{u * r, v * r, f.entrance_pupil_z_mm};
+            const optics::TraceResult t = optics::trace(ts, {{0.0, 0.0, z_obj}, optics::normalize(aim - optics::Vec3{0.0, 0.0, z_obj})}, path);
+            if (!t.ok()) continue;
+            sum += t.position.x * t.position.x + t.position.y * t.position.y;
+            ++n;
+        }
+    return std::sqrt(8.0 * sum / n);
+}
+
+// The formula is a round pupil's: the lens's six blades are taken out here (and tested in the bokeh below).
+TEST(DofReference, DefocusedPointHasTheThinLensDiameterAndItsEnergy) {
+    Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, kSize, 20.0);
+    cam.system.aperture.blades = 0;
+    const RayTable table = make_ray_table(cam, 1024, 3);
+    const std::vector<float> out = render_reference(point_scene(kSize, 2.0, kSize / 2, kSize / 2, 1000.0f), table);
+    const double thin_lens_px = thin_lens_blur_mm(cam.system, 2.0, 1.0) / cam.pitch_mm();
+    const double traced_px = traced_spot_diameter_mm(cam, 2.0) / cam.pitch_mm();
+    const test::Moments m = moments(out, kSize, kSize, 1);
+    EXPECT_NEAR(disc_diameter(m) / thin_lens_px, 1.0, 0.05) << "diameter " << disc_diameter(m) << " px, thin lens " << thin_lens_px;
+    EXPECT_NEAR(disc_diameter(m) / traced_px, 1.0, 0.02) << "diameter " << disc_diameter(m) << " px, forward trace " << traced_px;
+    // the lens images 2 m at its own scale (focus breathing): the point's energy over that scale squared
+    const double scale = scene_scale(table, 1, 0.5);
+    EXPECT_NEAR(m.sum / (1000.0 / (scale * scale)), 1.0, 0.01) << "energy " << m.sum << ", scene scale " << scale;
+}
+
+// Six straight blades inscribed in the round stop: a hexagonal bokeh, whose second moment is 5/6 of the
+// circumscribed disc's (diameter ratio sqrt(5/6) = 0.913).
+TEST(DofReference, BladesShapeTheBokeh) {
+    Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, kSize, 20.0);
+    cam.system.aperture.blades = 0;
+    const LayerStack scene = point_scene(kSize, 2.0, kSize / 2, kSize / 2, 1000.0f);
+    const double round = disc_diameter(moments(render_reference(scene, make_ray_table(cam, 1024, 3)), kSize, kSize, 1));
+    cam.system.aperture.blades = 6;
+    const double hexagon = disc_diameter(moments(render_reference(scene, make_ray_table(cam, 1024, 3)), kSize, kSize, 1));
+    EXPECT_NEAR(hexagon / round, std::sqrt(5.0 / 6.0), 0.02);
+}
+
+TEST(DofReference, PointInFocusKeepsItsEnergyWithinFiveByFive) {
+    const Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, kSize, 20.0);
+    const RayTable table = make_ray_table(cam, 256, 5);
+    const std::vector<float> out = render_reference(point_scene(kSize, 1.0, kSize / 2, kSize / 2, 1000.0f), table);
+    const test::Moments m = moments(out, kSize, kSize, 1);
+    double inside = 0.0;
+    for (int y = kSize / 2 - 2; y <= kSize / 2 + 2; ++y)
+        for (int x = kSize / 2 - 2; x <= kSize / 2 + 2; ++x) inside += double{at(out, kSize, x, y, 1)};
+    EXPECT_GE(inside / m.sum, 0.8) << inside << " of " << m.sum;
+}
+
+// An in-focus black edge at 1 m before a bright background at 10 m (test::edge_scene).
+TEST(DofReference, InFocusEdgeGetsNoHaloOfTheBlurredBackground) {
+    const Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 10.0, kSize, 16.0);
+    const LayerStack layers = test::edge_scene(kSize);
+    ASSERT_EQ(layers.count, 2);
+    const std::vector<float> out = render_reference(layers, make_ray_table(cam, 256, 5));
+    float worst = 0.0f;
+    for (int y = 10; y < kSize - 10; ++y)
+        for (int x = 0; x < kSize / 2 - 3; ++x) worst = std::max(worst, at(out, kSize, x, y, 1));
+    EXPECT_LE(worst, 0.1f) << "0.1% of the background's 100";
+    EXPECT_GT(at(out, kSize, kSize / 2 + 1, kSize / 2, 1), 30.0f) << "the background beside the edge is lit";
+}
+
+// Deep input: a black surface at 0.5 m over the left half, out of focus, in front of a sharp striped plane
+// at 2 m (the focus) that the deep samples hold behind it too.
+TEST(DofReference, BlurredForegroundShowsTheBackgroundThroughItFromDeepInput) {
+    const Camera cam = camera_for("mld-double-gauss", 4.0, 2.0, 0.5, kSize, 16.0);
+    DeepImage deep;
+    deep.width = deep.height = deep.full_width = deep.full_height = kSize;
+    deep.offsets.push_back(0);
+    const auto stripe = [](int y) { return (y / 2) % 2 ? 1.0f : 0.2f; };
+    for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+            if (x < kSize / 2) deep.samples.push_back({0, 0, 0, 1, 0.5f, 0.5f});
+            const float s = stripe(y);
+            deep.samples.push_back({s, s, s, 1, 2.0f, 2.0f});
+            deep.offsets.push_back(static_cast<std::uint32_t>(deep.samples.size()));
+        }
+    const std::vector<float> out = render_reference(layers_from_deep(deep), make_ray_table(cam, 256, 5));
+    const int x = kSize / 2 - 3;  // inside the foreground, within its blur
+    double bright = 0, dark = 0;
+    int nb = 0, nd = 0;
+    for (int y = 20; y < kSize - 20; ++y) {
+        const double v = at(out, kSize, x, y, 1);
+        if (stripe(y) > 0.5f) bright += v, ++nb; else dark += v, ++nd;
+    }
+    bright /= nb, dark /= nd;
+    const double seen = 0.5 * (bright + dark) / 0.6;  // share of the background seen (mean stripe level 0.6)
+    EXPECT_GT(seen, 0.1) << "the background shows through the foreground's blur";
+    EXPECT_GT(bright - dark, 0.5 * (1.0 - 0.2) * seen) << "and it is sharp: its stripes keep half their contrast or more";
+}
+
+TEST(DofReference, CookeTripletBlursEachChannelAsItsGlassesImply) {
+    Camera cam = camera_for("cooke-triplet", 5.6, 1.0, 2.0, kSize, 20.0);
+    cam.system.aperture.blades = 0;  // the forward trace's pupil is round
+    const RayTable table = make_ray_table(cam, 1024, 3);
+    const std::vector<float> out = render_reference(point_scene(kSize, 2.0, kSize / 2, kSize / 2, 1000.0f), table);
+    std::array<double, 3> measured{}, predicted{};
+    for (int c = 0; c < 3; ++c) {
+        measured[static_cast<std::size_t>(c)] = disc_diameter(moments(out, kSize, kSize, c)) * cam.pitch_mm();
+        predicted[static_cast<std::size_t>(c)] = traced_spot_diameter_mm(cam, 2.0, cam.wavelengths_nm[static_cast<std::size_t>(c)]);
+    }
+    const double measured_ratio = measured[0] / measured[2], predicted_ratio = predicted[0] / predicted[2];
+    EXPECT_GT(std::abs(predicted_ratio - 1.0), 0.01) << "the triplet's glasses disperse";
+    EXPECT_NEAR(measured_ratio - 1.0, predicted_ratio - 1.0, 0.35 * std::abs(predicted_ratio - 1.0))
+        << "red/blue diameters " << measured[0] << "/" << measured[2] << " mm, forward traces " << predicted[0] << "/" << predicted[2];
+}
+
+// Tilt-shift: a sensor tilted about the vertical axis moves each column's focus; points at the focus
+// distance stay sharp on the axis and blur towards the sides (Scheimpflug).
+TEST(DofReference, TiltedSensorBlursTheFocusPlaneAwayFromTheAxis) {
+    constexpr int w = 320, h = 24;
+    std::vector<float> rgb(3 * w * h, 0.0f), depth(w * h, 1.0f);
+    for (int x : {30, 160, 290})
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * static_cast<std::size_t>(h / 2 * w + x) + c] = 1000.0f;
+    const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
+    Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, w, 20.0);
+    cam.height = h, cam.centre_y = 0.5 * h;
+    // share of the energy near column `near` (within 20 px) lying beyond 2 px of its centroid
+    const auto spread = [&](const std::vector<float>& out, int near) {
+        double all = 0, cx = 0, in = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = near - 20; x <= near + 20; ++x) all += double{at(out, w, x, y, 1)}, cx += (x + 0.5) * double{at(out, w, x, y, 1)};
+        cx /= all;
+        for (int y = h / 2 - 2; y <= h / 2 + 2; ++y)
+            for (int x = near - 20; x <= near + 20; ++x)
+                if (std::abs(x + 0.5 - cx) <= 2.5) in += double{at(out, w, x, y, 1)};
+        return 1.0 - in / all;
+    };
+    const std::vector<float> flat = render_reference(scene, make_ray_table(cam, 256, 5));
+    cam.tilt_y_deg = 30.0;  // 143 px off the axis (130, magnified by the focused lens): about 14 px of blur
+    const std::vector<float> tilted = render_reference(scene, make_ray_table(cam, 256, 5));
+    for (int x : {17, 303}) {  // where the lens, focused at 1 m, images columns 30 and 290
+        EXPECT_LT(spread(flat, x), 0.2) << x;
+        EXPECT_GT(spread(tilted, x), 0.4) << x;
+    }
+    EXPECT_LT(spread(tilted, 160), 0.2);
+}
+
+TEST(DofLayers, FlatImageGetsTheHiddenSurfaceUnderItsNearerNeighbour) {
+    std::vector<float> rgb(3 * 16 * 4, 1.0f), depth(16 * 4, 5.0f);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 8; ++x) depth[static_cast<std::size_t>(y * 16 + x)] = 1.0f;
+    FlatLayerOptions o;
+    o.hidden_radius_px = 4;
+    const LayerStack l = layers_from_flat(rgb.data(), depth.data(), 16, 4, o);
+    ASSERT_EQ(l.count, 2);
+    EXPECT_FLOAT_EQ(l.front[l.at(1, 7, 1)], 5.0f);   // under the near surface, next to the edge
+    EXPECT_FLOAT_EQ(l.front[l.at(1, 4, 1)], 5.0f);   // 4 px in
+    EXPECT_FLOAT_EQ(l.front[l.at(1, 2, 1)], 0.0f);   // beyond the reach
+    EXPECT_FLOAT_EQ(l.front[l.at(1, 12, 1)], 0.0f);  // nothing hides behind the far surface
+}
+
+}  // namespace
+}  // namespace lensfx::dof

@@ -1,0 +1,86 @@
+// `lensfx -i IN -o OUT --dof`: the stage through the program on small synthetic EXRs with Z.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "../filter/filter_test_util.h"
+#include "exr_rgbz.h"
+
+namespace lensfx::dof::test {
+namespace {
+
+constexpr int kSize = 48;
+
+// A black plane at 2 m with a bright 4 x 4 square of energy 1000 in the middle.
+std::string point_exr(const std::filesystem::path& dir, bool with_z) {
+    std::vector<float> rgb(kSize * kSize, 0.0f), z(kSize * kSize, 2.0f);
+    for (int y = kSize / 2 - 2; y < kSize / 2 + 2; ++y)
+        for (int x = kSize / 2 - 2; x < kSize / 2 + 2; ++x) rgb[static_cast<std::size_t>(y * kSize + x)] = 1000.0f / 16.0f;
+    const std::string path = (dir / (with_z ? "point.exr" : "flat.exr")).string();
+    if (with_z) write_exr(path, kSize, kSize, {"R", "G", "B", "Z"}, {rgb, rgb, rgb, z});
+    else write_exr(path, kSize, kSize, {"R", "G", "B"}, {rgb, rgb, rgb});
+    return path;
+}
+
+TEST(DofFilter, BlursAPointBehindTheFocusAndKeepsItsEnergy) {
+    const auto dir = lensfx::test::scratch_dir("dof_point");
+    const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
+    const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
+                                     " --dof --dof-only --lens mld-double-gauss --fstop 4 --focus 1 --sensor 6 --dof-rays 256");
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    int w = 0, h = 0;
+    const std::vector<float> g = read_channel(out, "G", w, h);
+    ASSERT_EQ(w, kSize);
+    const double sum = std::accumulate(g.begin(), g.end(), 0.0);
+    EXPECT_LT(g[kSize / 2 * kSize + kSize / 2], 1000.0f / 16.0f / 4.0f) << "spread over many pixels";
+    // focused at 1 m the lens images 2 m 1.096 times larger than the plate's own scale (focus breathing,
+    // DofReference.DefocusedPoint...): 1000 x 1.096^2, within the noise of 256 rays per pixel
+    EXPECT_NEAR(sum / (1000.0 * 1.096 * 1.096), 1.0, 0.03);
+    const std::vector<float> z = read_channel(out, "Z", w, h);
+    EXPECT_FLOAT_EQ(z[0], 2.0f) << "other channels pass through";
+}
+
+// With the flare: the light is found on the sharp plate, and its flare lands on the blurred plate.
+TEST(DofFilter, FlareIsAddedAfterTheBlur) {
+    const auto dir = lensfx::test::scratch_dir("dof_flare");
+    const std::string in = point_exr(dir, true), blur = (dir / "blur.exr").string(), both = (dir / "both.exr").string();
+    const std::string common = " --dof --lens mld-double-gauss --fstop 4 --focus 1 --sensor 6 --dof-rays 16";
+    auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + blur + common + " --dof-only");
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + both + common);
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    int w = 0, h = 0;
+    const std::vector<float> a = read_channel(blur, "G", w, h), b = read_channel(both, "G", w, h);
+    double added = 0.0, below = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        added += double{b[i]} - double{a[i]};
+        below = std::min(below, double{b[i]} - double{a[i]});
+    }
+    EXPECT_GT(added, 0.0) << "the flare adds light";
+    EXPECT_GT(below, -1e-3) << "and takes none away from the blurred plate";
+}
+
+TEST(DofFilter, MissingDepthIsAOneLineError) {
+    const auto dir = lensfx::test::scratch_dir("dof_nodepth");
+    const std::string in = point_exr(dir, false);
+    const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + (dir / "out.exr").string() +
+                                     " --dof --dof-only --lens mld-double-gauss --focus 1");
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("no depth channel \"Z\""), std::string::npos) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find("flat.exr"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+}
+
+TEST(DofFilter, NeedsALensAndAFocus) {
+    const auto dir = lensfx::test::scratch_dir("dof_args");
+    const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
+    const auto no_lens = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --focus 1");
+    EXPECT_NE(no_lens.exit_code, 0);
+    EXPECT_NE(no_lens.stderr_text.find("--dof needs --lens"), std::string::npos) << no_lens.stderr_text;
+    const auto no_focus = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --lens mld-double-gauss");
+    EXPECT_NE(no_focus.stderr_text.find("--focus"), std::string::npos) << no_focus.stderr_text;
+}
+
+}  // namespace
+}  // namespace lensfx::dof::test
