@@ -31,6 +31,7 @@ constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
+constexpr float kRimClamp = 4.0f;  // reduced targets' alpha: distance to the rim, target pixels (ghost_raster_frag)
 
 struct StepData {
     float geom[4];
@@ -50,6 +51,7 @@ struct GhostSequences {
 
 struct FlareRenderer::State {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, shaders::ghost_trace_comp}}};
+    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, shaders::ghost_shade_comp}}};
     Program raster{"ghost_raster",
                    {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
                     {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
@@ -321,17 +323,48 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
 }
 
 // A render target's read-back: RGBA rows bottom to top, as GL stores them, covering the whole sensor.
+// reduce > 1: a reduced target, its alpha the distance to the ghosts' rim in its pixels (ghost_raster_frag).
 struct Readback {
     std::vector<float> rgba;
     int width = 0;
     int height = 0;
+    int reduce = 1;
 };
 
+// A reduced target's samples just outside the rim (alpha < 0) take the mean colour of their neighbours
+// inside it, so that interpolating towards the rim stays at the ghost's own level instead of fading to
+// black over a reduced pixel; the rim itself is then cut at full resolution from the distance in alpha.
+void extend_over_rim(Readback& r) {
+    const std::vector<float> in = r.rgba;
+    const auto at = [&](int x, int y) { return in.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(r.width) + static_cast<std::size_t>(x)) * 4; };
+    for (int y = 0; y < r.height; ++y) {
+        for (int x = 0; x < r.width; ++x) {
+            if (at(x, y)[3] >= 0.0f) continue;
+            float sum[3] = {0.0f, 0.0f, 0.0f};
+            int n = 0;
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int nx = x + dx, ny = y + dy;
+                    if (nx < 0 || ny < 0 || nx >= r.width || ny >= r.height) continue;
+                    const float* q = at(nx, ny);
+                    if (q[3] < 0.0f) continue;
+                    for (int c = 0; c < 3; ++c) sum[c] += q[c];
+                    ++n;
+                }
+            }
+            if (n == 0) continue;
+            float* out = r.rgba.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(r.width) + static_cast<std::size_t>(x)) * 4;
+            for (int c = 0; c < 3; ++c) out[c] = sum[c] / static_cast<float>(n);
+        }
+    }
+}
+
 // Adds read-backs into a top-down RGB image of w x h: copied where of the same size, upsampled bilinearly
-// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
-// source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
-// widened rows (a loop the compiler vectorises), so the image is read and written once.
-void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
+// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres), each reduced
+// one's colour cut by its rim: the share of the full-resolution pixel on the inner side of the
+// interpolated distance to the rim. Separably: each source row is widened to w RGBA pixels once, and each
+// output row adds, for every source, a blend of two widened rows, so the image is read and written once.
+void add_targets(std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
         float f;
@@ -353,8 +386,11 @@ void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, 
         int held[2] = {-1, -1};      // which rows they hold
     };
     std::vector<Source> srcs;
-    for (const Readback& r : sources)
-        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(row_values), std::vector<float>(row_values)}});
+    for (Readback& r : sources) {
+        if (r.reduce > 1) extend_over_rim(r);
+        const std::size_t values = static_cast<std::size_t>(w) * 4;
+        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(values), std::vector<float>(values)}});
+    }
     auto widened = [&](Source& src, int row, int keep) -> const float* {
         for (int k = 0; k < 2; ++k)
             if (src.held[k] == row) return src.wide[k].data();
@@ -365,7 +401,7 @@ void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, 
             const Tap t = src.xs[x];
             const float* a = in + static_cast<std::size_t>(t.i0) * 4;
             const float* b = in + static_cast<std::size_t>(t.i1) * 4;
-            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] = a[c] + t.f * (b[c] - a[c]);
+            for (std::size_t c = 0; c < 4; ++c) out[x * 4 + c] = a[c] + t.f * (b[c] - a[c]);
         }
         src.held[k] = row;
         return out;
@@ -373,14 +409,23 @@ void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, 
     for (int y = 0; y < h; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
         for (Source& src : srcs) {
-            const Tap t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
-            const float* a = widened(src, t.i0, t.i1);
-            if (t.f == 0.0f) {
-                for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i];
+            if (src.readback->reduce == 1) {  // the full-size target: added as it is
+                const float* in = src.readback->rgba.data() + static_cast<std::size_t>(h - 1 - y) * static_cast<std::size_t>(w) * 4;
+                for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x)
+                    for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
                 continue;
             }
+            const Tap t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
+            const float* a = widened(src, t.i0, t.i1);
             const float* b = widened(src, t.i1, t.i0);
-            for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i] + t.f * (b[i] - a[i]);
+            const float f = t.f;
+            const float reduce = static_cast<float>(src.readback->reduce);
+            for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
+                const float distance = (a[x * 4 + 3] + f * (b[x * 4 + 3] - a[x * 4 + 3])) * reduce;
+                const float cover = std::clamp(distance + 0.5f, 0.0f, 1.0f);
+                if (cover == 0.0f) continue;
+                for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += cover * (a[x * 4 + c] + f * (b[x * 4 + c] - a[x * 4 + c]));
+            }
         }
     }
 }
@@ -458,6 +503,14 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         glUniform3f(s.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
                     static_cast<float>(direction.z));
         glUniform1i(s.trace.uniform("table_size"), kTableSize);
+        const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
+        glDispatchCompute(groups, groups, 1);
+    };
+
+    // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done.
+    auto dispatch_shade = [&](int res, GLuint vertex_offset) {
+        glUniform1i(s.shade.uniform("grid"), res);
+        glUniform1ui(s.shade.uniform("vertex_offset"), vertex_offset);
         const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
         glDispatchCompute(groups, groups, 1);
     };
@@ -679,6 +732,9 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                                    job.first_vertex);
                 }
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+                glUseProgram(s.shade.get());
+                for (const Job& job : batch) dispatch_shade(plans[job.ghost].grid, job.first_vertex);
+                glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
                 for (const int reduce : {16, 8, 4, 2, 1}) {
@@ -691,9 +747,12 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             const std::size_t slot = State::slot(reduce);
                             FloatTarget& t = s.target(reduce, view.width, view.height);
                             t.bind();
-                            if (slot > 0 && !drawn_into[slot]) t.clear();
+                            if (slot > 0 && !drawn_into[slot]) t.clear(-kRimClamp);
                             drawn_into[slot] = true;
                             bound = true;
+                            // Reduced targets keep the distance to the rim in alpha, the union of the ghosts' (max).
+                            glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, reduce > 1);
+                            glBlendEquationSeparate(GL_FUNC_ADD, reduce > 1 ? GL_MAX : GL_FUNC_ADD);
                         }
                         if (reduce > 1) ++s.stats.ghosts_reduced;
                         const int ghost_grid = plan.grid;
@@ -726,6 +785,8 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
                         }
                         glUseProgram(s.raster.get());
+                        glUniform1i(s.raster.uniform("rim"), reduce > 1 ? 1 : 0);
+                        glUseProgram(s.raster.get());
                         glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
                         glUseProgram(s.splat.get());
                         glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
@@ -750,6 +811,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     target.bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glBlendEquation(GL_FUNC_ADD);
     if (options.per_ghost_power) {
         for (int y = 0; y < view.height; ++y) {
             const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
@@ -763,7 +825,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         for (int slot : {0, 1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
-            readbacks.push_back({t.read_rgba(), t.width(), t.height()});
+            readbacks.push_back({t.read_rgba(), t.width(), t.height(), 1 << slot});
         }
         add_targets(readbacks, rgb, view.width, view.height);
     }

@@ -105,6 +105,66 @@ void main() {
 }
 )GLSL";
 
+// One invocation per grid vertex, after the trace: the vertex's share of irradiance for Gouraud shading
+// (flare paper 4.3, "Smooth shading"), the average over the cells around it whose four rays got through,
+// weighted by their sensor areas: (cells around) / (their summed sensor area), per unit cell flux. Written
+// into the vertex's spare fourth float; 0 where no whole cell touches it. Also, for the cell whose first
+// corner this vertex is, which of its four neighbours is dropped (a corner's ray failed): bits 1 below,
+// 2 right, 4 above, 8 left, added to the valid flag as mask / 16 (still > 0.5: valid), so the rim pass
+// knows the cell's outer edges.
+inline constexpr const char* ghost_shade_comp = R"GLSL(
+#version 430
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };
+uniform int grid;
+uniform uint vertex_offset;
+
+bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
+
+bool cell_valid(int cx, int cy) {
+    if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) return true;  // beyond the grid: no cut of its own
+    uint stride = uint(grid + 1);
+    uint a = vertex_offset + uint(cy) * stride + uint(cx);
+    return valid(a) && valid(a + 1u) && valid(a + stride + 1u) && valid(a + stride);
+}
+
+float triangle_area(uint a, uint b, uint c) {
+    vec2 e1 = vertices[3u * b].xy - vertices[3u * a].xy;
+    vec2 e2 = vertices[3u * c].xy - vertices[3u * a].xy;
+    return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
+}
+
+void main() {
+    uvec2 id = gl_GlobalInvocationID.xy;
+    if (id.x > uint(grid) || id.y > uint(grid)) return;
+    uint stride = uint(grid + 1);
+    float area = 0.0;
+    float cells = 0.0;
+    for (int dy = -1; dy <= 0; ++dy) {
+        for (int dx = -1; dx <= 0; ++dx) {
+            int cx = int(id.x) + dx;
+            int cy = int(id.y) + dy;
+            if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) continue;
+            uint a = vertex_offset + uint(cy) * stride + uint(cx);
+            uint b = a + 1u;
+            uint c = a + stride + 1u;
+            uint d = a + stride;
+            if (!(valid(a) && valid(b) && valid(c) && valid(d))) continue;
+            area += triangle_area(a, b, c) + triangle_area(a, c, d);  // the cell's two triangles
+            cells += 1.0;
+        }
+    }
+    uint me = vertex_offset + id.y * stride + id.x;
+    vertices[3u * me + 2u].w = area > 0.0 ? cells / area : 0.0;
+    int cx = int(id.x), cy = int(id.y);
+    if (cx < grid && cy < grid && cell_valid(cx, cy)) {
+        int outer = (cell_valid(cx, cy - 1) ? 0 : 1) | (cell_valid(cx + 1, cy) ? 0 : 2) | (cell_valid(cx, cy + 1) ? 0 : 4) |
+                    (cell_valid(cx - 1, cy) ? 0 : 8);
+        if (outer != 0) vertices[3u * me + 2u].z = 1.0 + float(outer) / 16.0;
+    }
+}
+)GLSL";
+
 // Shared by both grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
 // whether a triangle's sensor footprint is too small for pixel-centre rasterisation (under `splat_area`
 // pixels), in which case it is drawn as a point splat instead.
@@ -145,21 +205,30 @@ vec4 clip_position(vec2 sensor) {
 }
 )GLSL";
 
-// Triangles at least `splat_area` pixels large, fetched by gl_VertexID; each carries half the cell's flux
-// over its own sensor area. Triangles with a lost corner (missed surface, total internal reflection) are
-// dropped, and so are the small ones (ghost_splat_vert draws those).
+// Triangles at least `splat_area` pixels large, fetched by gl_VertexID, Gouraud-shaded: each corner
+// carries the irradiance ghost_shade_comp averaged over its cells, interpolated across the triangle, so a
+// coarse grid shows no flat cells. Triangles with a lost corner (missed surface, total internal reflection)
+// are dropped, and so are the small ones (ghost_splat_vert draws those, each with its own flux).
 inline constexpr const char* ghost_raster_vert = R"GLSL(
 out float v_r_rel;
 out float v_transmission;
 out vec2 v_uv0;
 out vec2 v_uv1;
 out vec2 v_uv2;
-flat out float v_irradiance;
+out float v_irradiance;
+out vec3 v_bary;           // barycentric: 1 at this corner
+flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
 
 void main() {
     int tri = gl_VertexID / 3;
     int corner = gl_VertexID - 3 * tri;
     ivec3 i = triangle_corners(tri);
+    // The cell's outer edges (ghost_shade_comp): lower triangle (a, a+1, a+stride+1): below is opposite
+    // corner 2, right opposite 0; upper (a, a+stride+1, a+stride): above opposite 0, left opposite 1.
+    int cell_outer = int(round((vertices[3 * i.x + 2].z - 1.0) * 16.0));
+    v_outer = (tri & 1) == 0 ? (((cell_outer & 1) != 0 ? 4 : 0) | ((cell_outer & 2) != 0 ? 1 : 0))
+                             : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
+    v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     float area = sensor_area(i);
     int me = i[corner];
     vec4 q = vertices[3 * me];
@@ -170,7 +239,7 @@ void main() {
         v_irradiance = 0.0;
     } else {
         gl_Position = clip_position(q.xy);
-        v_irradiance = triangle_flux / area;
+        v_irradiance = 2.0 * triangle_flux * w.w;  // a cell's flux x cells per sensor area at this corner
     }
     v_r_rel = q.z;
     v_transmission = q.w;
@@ -250,10 +319,14 @@ out vec4 colour;
 
 void main() {
     vec2 w = max(vec2(0.0), 1.0 - abs(gl_FragCoord.xy - v_centre));
-    colour = channels * (v_irradiance * w.x * w.y);
+    colour = vec4(channels.rgb * (v_irradiance * w.x * w.y), 1.0);  // alpha: inside the ghost (reduced targets)
 }
 )GLSL";
 
+// Reduced-resolution targets (rim = true) also keep, in alpha, the signed distance in target pixels to
+// the ghost's rim (positive inside, clamped to +-kRimClamp; blended by max, so the union of the ghosts):
+// the upsampling (add_targets) cuts the rim from that distance at full resolution, so a ghost drawn at
+// 1/8 keeps a sharp outline. Fragments just outside the rim write only that distance.
 inline constexpr const char* ghost_raster_frag = R"GLSL(
 #version 430
 in float v_r_rel;
@@ -261,36 +334,64 @@ in float v_transmission;
 in vec2 v_uv0;
 in vec2 v_uv1;
 in vec2 v_uv2;
-flat in float v_irradiance;
+in float v_irradiance;
+in vec3 v_bary;
+flat in int v_outer;
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform vec4 channels;
 uniform bool ringing;          // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
 uniform sampler2D iris_ringing;
+uniform bool rim;              // write the distance to the rim into alpha (reduced targets)
 out vec4 colour;
 
-bool inside(vec2 uv) {
-    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r <= 0.0;
+const float kRimClamp = 4.0;
+
+float sdf(vec2 uv) {
+    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r;
 }
 
 float ringing_at(vec2 uv) {
     return texture(iris_ringing, uv / (2.0 * iris_extent) + 0.5).r;
 }
 
+// Distance in pixels to where f (linear across the pixel) reaches 0, positive where f < 0.
+float pixels_inside(float f) {
+    return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
+}
+
 void main() {
-    if (v_r_rel > 1.0) discard;
+    float s0 = stop_crossings > 0 ? sdf(v_uv0) : -1.0;
+    float s1 = stop_crossings > 1 ? sdf(v_uv1) : -1.0;
+    float s2 = stop_crossings > 2 ? sdf(v_uv2) : -1.0;
+    float distance = kRimClamp;
+    if (rim) {  // derivatives first: the whole 2 x 2 quad must still run
+        distance = pixels_inside(v_r_rel - 1.0);
+        // The edges along dropped cells: no fragment lies beyond them, so their distance is measured inside.
+        vec3 to_edge = vec3(pixels_inside(-v_bary.x), pixels_inside(-v_bary.y), pixels_inside(-v_bary.z));
+        for (int k = 0; k < 3; ++k)
+            if ((v_outer & (1 << k)) != 0) distance = min(distance, to_edge[k]);
+        if (stop_crossings > 0 && !ringing) distance = min(distance, pixels_inside(s0));
+        if (stop_crossings > 1 && !ringing) distance = min(distance, pixels_inside(s1));
+        if (stop_crossings > 2 && !ringing) distance = min(distance, pixels_inside(s2));
+        distance = clamp(distance, -kRimClamp, kRimClamp);
+    }
+    bool inside = v_r_rel <= 1.0;
     float iris = 1.0;
     if (ringing) {
         if (stop_crossings > 0) iris *= ringing_at(v_uv0);
         if (stop_crossings > 1) iris *= ringing_at(v_uv1);
         if (stop_crossings > 2) iris *= ringing_at(v_uv2);
     } else {
-        if (stop_crossings > 0 && !inside(v_uv0)) discard;
-        if (stop_crossings > 1 && !inside(v_uv1)) discard;
-        if (stop_crossings > 2 && !inside(v_uv2)) discard;
+        inside = inside && s0 <= 0.0 && s1 <= 0.0 && s2 <= 0.0;
     }
-    colour = channels * (v_irradiance * v_transmission * iris);
+    if (!inside) {
+        if (!rim) discard;
+        colour = vec4(0.0, 0.0, 0.0, distance);
+        return;
+    }
+    colour = vec4(channels.rgb * (v_irradiance * v_transmission * iris), distance);
 }
 )GLSL";
 
