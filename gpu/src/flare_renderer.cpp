@@ -31,7 +31,6 @@ constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
-constexpr float kRimClamp = 4.0f;  // reduced targets' alpha: distance to the rim, target pixels (ghost_raster_frag)
 
 struct StepData {
     float geom[4];
@@ -323,48 +322,17 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
 }
 
 // A render target's read-back: RGBA rows bottom to top, as GL stores them, covering the whole sensor.
-// reduce > 1: a reduced target, its alpha the distance to the ghosts' rim in its pixels (ghost_raster_frag).
 struct Readback {
     std::vector<float> rgba;
     int width = 0;
     int height = 0;
-    int reduce = 1;
 };
 
-// A reduced target's samples just outside the rim (alpha < 0) take the mean colour of their neighbours
-// inside it, so that interpolating towards the rim stays at the ghost's own level instead of fading to
-// black over a reduced pixel; the rim itself is then cut at full resolution from the distance in alpha.
-void extend_over_rim(Readback& r) {
-    const std::vector<float> in = r.rgba;
-    const auto at = [&](int x, int y) { return in.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(r.width) + static_cast<std::size_t>(x)) * 4; };
-    for (int y = 0; y < r.height; ++y) {
-        for (int x = 0; x < r.width; ++x) {
-            if (at(x, y)[3] >= 0.0f) continue;
-            float sum[3] = {0.0f, 0.0f, 0.0f};
-            int n = 0;
-            for (int dy = -1; dy <= 1; ++dy) {
-                for (int dx = -1; dx <= 1; ++dx) {
-                    const int nx = x + dx, ny = y + dy;
-                    if (nx < 0 || ny < 0 || nx >= r.width || ny >= r.height) continue;
-                    const float* q = at(nx, ny);
-                    if (q[3] < 0.0f) continue;
-                    for (int c = 0; c < 3; ++c) sum[c] += q[c];
-                    ++n;
-                }
-            }
-            if (n == 0) continue;
-            float* out = r.rgba.data() + (static_cast<std::size_t>(y) * static_cast<std::size_t>(r.width) + static_cast<std::size_t>(x)) * 4;
-            for (int c = 0; c < 3; ++c) out[c] = sum[c] / static_cast<float>(n);
-        }
-    }
-}
-
 // Adds read-backs into a top-down RGB image of w x h: copied where of the same size, upsampled bilinearly
-// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres), each reduced
-// one's colour cut by its rim: the share of the full-resolution pixel on the inner side of the
-// interpolated distance to the rim. Separably: each source row is widened to w RGBA pixels once, and each
-// output row adds, for every source, a blend of two widened rows, so the image is read and written once.
-void add_targets(std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
+// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
+// source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
+// widened rows (a loop the compiler vectorises), so the image is read and written once.
+void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
         float f;
@@ -386,11 +354,8 @@ void add_targets(std::vector<Readback>& sources, std::vector<float>& rgb, int w,
         int held[2] = {-1, -1};      // which rows they hold
     };
     std::vector<Source> srcs;
-    for (Readback& r : sources) {
-        if (r.reduce > 1) extend_over_rim(r);
-        const std::size_t values = static_cast<std::size_t>(w) * 4;
-        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(values), std::vector<float>(values)}});
-    }
+    for (const Readback& r : sources)
+        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(row_values), std::vector<float>(row_values)}});
     auto widened = [&](Source& src, int row, int keep) -> const float* {
         for (int k = 0; k < 2; ++k)
             if (src.held[k] == row) return src.wide[k].data();
@@ -401,7 +366,7 @@ void add_targets(std::vector<Readback>& sources, std::vector<float>& rgb, int w,
             const Tap t = src.xs[x];
             const float* a = in + static_cast<std::size_t>(t.i0) * 4;
             const float* b = in + static_cast<std::size_t>(t.i1) * 4;
-            for (std::size_t c = 0; c < 4; ++c) out[x * 4 + c] = a[c] + t.f * (b[c] - a[c]);
+            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] = a[c] + t.f * (b[c] - a[c]);
         }
         src.held[k] = row;
         return out;
@@ -409,23 +374,14 @@ void add_targets(std::vector<Readback>& sources, std::vector<float>& rgb, int w,
     for (int y = 0; y < h; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
         for (Source& src : srcs) {
-            if (src.readback->reduce == 1) {  // the full-size target: added as it is
-                const float* in = src.readback->rgba.data() + static_cast<std::size_t>(h - 1 - y) * static_cast<std::size_t>(w) * 4;
-                for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x)
-                    for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
-                continue;
-            }
             const Tap t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
             const float* a = widened(src, t.i0, t.i1);
-            const float* b = widened(src, t.i1, t.i0);
-            const float f = t.f;
-            const float reduce = static_cast<float>(src.readback->reduce);
-            for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
-                const float distance = (a[x * 4 + 3] + f * (b[x * 4 + 3] - a[x * 4 + 3])) * reduce;
-                const float cover = std::clamp(distance + 0.5f, 0.0f, 1.0f);
-                if (cover == 0.0f) continue;
-                for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += cover * (a[x * 4 + c] + f * (b[x * 4 + c] - a[x * 4 + c]));
+            if (t.f == 0.0f) {
+                for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i];
+                continue;
             }
+            const float* b = widened(src, t.i1, t.i0);
+            for (std::size_t i = 0; i < row_values; ++i) out[i] += a[i] + t.f * (b[i] - a[i]);
         }
     }
 }
@@ -711,6 +667,43 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 std::size_t ghost;
                 GLuint first_vertex;
             };
+            // One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the
+            // pixels of its level (1/reduce of the image); rim_mode 2 draws into the full-size target, the same
+            // triangles.
+            auto ghost_uniforms = [&](const Job& job, int reduce, int rim_mode) {
+                const std::size_t g = job.ghost;
+                const int ghost_grid = plans[g].grid;
+                const PupilRect& rect = estimates[g].rect;
+                const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+                const int level_w = (view.width + reduce - 1) / reduce;
+                const int level_h = (view.height + reduce - 1) / reduce;
+                const double level_pixel_area = (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
+                const int target_w = rim_mode == 2 ? view.width : level_w;
+                const int target_h = rim_mode == 2 ? view.height : level_h;
+                const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+                const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                for (const Program* program : {&s.raster, &s.splat}) {
+                    glUseProgram(program->get());
+                    glUniform1i(program->uniform("grid"), ghost_grid);
+                    glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+                    glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                                static_cast<float>(view.sensor_height_mm / 2));
+                    glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                    glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area));
+                    glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                    glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+                    glUniform1i(program->uniform("iris_sdf"), 0);
+                    glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                    glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                    glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
+                                static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
+                                static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
+                    glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+                }
+                glUseProgram(s.raster.get());
+                glUniform1i(s.raster.uniform("rim_mode"), rim_mode);
+                glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce));
+            };
             for (std::size_t next = 0; next < todo.size();) {
                 std::vector<Job> batch;
                 std::size_t used = 0;
@@ -747,49 +740,16 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             const std::size_t slot = State::slot(reduce);
                             FloatTarget& t = s.target(reduce, view.width, view.height);
                             t.bind();
-                            if (slot > 0 && !drawn_into[slot]) t.clear(-kRimClamp);
+                            if (slot > 0 && !drawn_into[slot]) t.clear();
                             drawn_into[slot] = true;
                             bound = true;
-                            // Reduced targets keep the distance to the rim in alpha, the union of the ghosts' (max).
-                            glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, reduce > 1);
-                            glBlendEquationSeparate(GL_FUNC_ADD, reduce > 1 ? GL_MAX : GL_FUNC_ADD);
                         }
                         if (reduce > 1) ++s.stats.ghosts_reduced;
-                        const int ghost_grid = plan.grid;
-                        const PupilRect& rect = estimates[g].rect;
-                        const double cell_area =
-                            (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-                        // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
-                        // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
-                        const int target_w = (view.width + reduce - 1) / reduce;
-                        const int target_h = (view.height + reduce - 1) / reduce;
-                        const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
-                        const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-                        const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-                        for (const Program* program : {&s.raster, &s.splat}) {
-                            glUseProgram(program->get());
-                            glUniform1i(program->uniform("grid"), ghost_grid);
-                            glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
-                            glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                                        static_cast<float>(view.sensor_height_mm / 2));
-                            glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                            glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
-                            glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-                            glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
-                            glUniform1i(program->uniform("iris_sdf"), 0);
-                            glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
-                            glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
-                            glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
-                                        static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
-                                        static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
-                            glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
-                        }
+                        ghost_uniforms(job, reduce, reduce > 1 ? 1 : 0);
                         glUseProgram(s.raster.get());
-                        glUniform1i(s.raster.uniform("rim"), reduce > 1 ? 1 : 0);
-                        glUseProgram(s.raster.get());
-                        glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+                        glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
                         glUseProgram(s.splat.get());
-                        glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
+                        glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
                         check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
 
                         if (options.per_ghost_power) {
@@ -805,13 +765,24 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         }
                     }
                 }
+                // The reduced ghosts' rims, at full resolution (ghost_raster_frag's rim_mode 2).
+                bool rims_bound = false;
+                for (const Job& job : batch) {
+                    const GhostPlan& plan = plans[job.ghost];
+                    if (plan.reduce == 1) continue;
+                    if (!rims_bound) target.bind();
+                    rims_bound = true;
+                    ghost_uniforms(job, plan.reduce, 2);
+                    glUseProgram(s.raster.get());
+                    glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+                    check_gl(fmt::format("the rim of ghost {},{}", ghosts[job.ghost].second, ghosts[job.ghost].first));
+                }
             }
         }
     }
     target.bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    glBlendEquation(GL_FUNC_ADD);
     if (options.per_ghost_power) {
         for (int y = 0; y < view.height; ++y) {
             const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
@@ -825,7 +796,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         for (int slot : {0, 1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
-            readbacks.push_back({t.read_rgba(), t.width(), t.height(), 1 << slot});
+            readbacks.push_back({t.read_rgba(), t.width(), t.height()});
         }
         add_targets(readbacks, rgb, view.width, view.height);
     }
