@@ -1,8 +1,10 @@
 // bench_flare: for each lens preset, the number of ghosts, milliseconds per flare on the GPU at the
 // default grid (RGB and one wavelength) and for the dense CPU reference, and the GPU image's error
-// against the reference (total power, worst ghost over 1% of the total, 8x8-block relative L1).
+// against the reference (total power, worst ghost over 1% of the total, 8x8-block relative L1), and its
+// structure error: the gradient-domain relative L1 (gpu::gradient_error) of the default RGB render against
+// one at grid --structure-grid (512) with every acceleration off (0: not computed).
 //   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
-//               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1]
+//               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1] [--structure-grid N]
 // --ref-bounds 1: the reference's rays cover each ghost's pupil bounds (ReferenceOptions::ghost_bounds),
 // so small ghosts of big zooms get enough rays. --rays 0: times only, no reference (nor error figures),
 // and the fewest ms of CPU (all threads) an RGB render took.
@@ -18,6 +20,7 @@
 #include <vector>
 
 #include <fmt/core.h>
+#include <gpu/acceleration.h>
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
@@ -65,6 +68,7 @@ int main(int argc, char** argv) try {
     int repeat = 3;
     std::string platform = "auto";
     bool ref_bounds = false;
+    int structure_grid = 512;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
         const std::string value = argv[i + 1];
@@ -77,6 +81,7 @@ int main(int argc, char** argv) try {
         else if (key == "--repeat") repeat = std::max(1, std::stoi(value));
         else if (key == "--gpu") platform = value;
         else if (key == "--ref-bounds") ref_bounds = value == "1";
+        else if (key == "--structure-grid") structure_grid = std::stoi(value);
         else throw std::invalid_argument("unknown option " + key);
     }
 
@@ -86,8 +91,9 @@ int main(int argc, char** argv) try {
                context.info().gl_renderer, lensfx::gpu::platform_name(context.info().platform), ax, ay, width,
                height, grid, rays, rays, ref_bounds ? " over each ghost's bounds" : "");
     fmt::print("# error of the GPU image against the reference at 550 nm (total power, worst ghost > 1% and its surfaces, 8x8 L1)\n");
-    fmt::print("{:<24} {:>6} {:>6} {:>11} {:>11} {:>12} {:>8} {:>8} {:>8} {:>8}\n", "preset", "f/", "ghosts",
-               "gpu_rgb_ms", "gpu_1wl_ms", "ref_1wl_ms", "total%", "ghost%", "worst", "L1%");
+    fmt::print("# struct: gradient L1 of the default RGB render against grid {} without accelerations\n", structure_grid);
+    fmt::print("{:<24} {:>6} {:>6} {:>11} {:>11} {:>12} {:>8} {:>8} {:>8} {:>8} {:>8}\n", "preset", "f/", "ghosts",
+               "gpu_rgb_ms", "gpu_1wl_ms", "ref_1wl_ms", "total%", "ghost%", "worst", "L1%", "struct");
     for (const std::string& name : presets) {
         try {
             const lensfx::optics::Lens lens = lensfx::optics::load_lens(name);
@@ -100,7 +106,15 @@ int main(int argc, char** argv) try {
             const std::size_t ghosts = lensfx::optics::ghost_count(system);
             lensfx::gpu::GpuFlareOptions options;
             options.grid = grid;
-            renderer.render(system, view, options);  // warm-up: shader caches, buffers
+            const lensfx::gpu::FlareImage rgb_image = renderer.render(system, view, options);  // also the warm-up
+            double structure = -1.0;
+            if (structure_grid > 0) {
+                lensfx::gpu::GpuFlareOptions dense;
+                dense.grid = structure_grid;
+                dense.accel.bounding = lensfx::gpu::Bounding::None;
+                dense.accel.adaptive = dense.accel.lod = dense.accel.reduced = false;
+                structure = lensfx::gpu::gradient_error(rgb_image, renderer.render(system, view, dense));
+            }
             double rgb_ms = 1e300;
             double rgb_cpu_ms = 1e300;
             for (int k = 0; k < repeat; ++k) {
@@ -118,8 +132,8 @@ int main(int argc, char** argv) try {
                 one_ms = std::min(one_ms, ms_since(start));
             }
             if (rays <= 0) {
-                fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f}   rgb cpu {:.1f} ms\n", name,
-                           lensfx::optics::paraxial(system).f_number, ghosts, rgb_ms, one_ms, rgb_cpu_ms);
+                fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f}   rgb cpu {:.1f} ms   struct {:.3f}\n", name,
+                           lensfx::optics::paraxial(system).f_number, ghosts, rgb_ms, one_ms, rgb_cpu_ms, structure);
                 std::fflush(stdout);
                 continue;
             }
@@ -132,10 +146,10 @@ int main(int argc, char** argv) try {
             const lensfx::gpu::FlareImage reference = lensfx::gpu::render_reference(system, view, ref_options);
             const double ref_ms = ms_since(start);
             const lensfx::gpu::FlareError error = lensfx::gpu::compare_flare(gpu_image, reference, view);
-            fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f} {:>12.1f} {:>8.2f} {:>8.2f} {:>8} {:>8.2f}\n",
+            fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f} {:>12.1f} {:>8.2f} {:>8.2f} {:>8} {:>8.2f} {:>8.3f}\n",
                        name, lensfx::optics::paraxial(system).f_number, ghosts, rgb_ms, one_ms, ref_ms,
                        100 * error.total, 100 * error.worst_ghost,
-                       fmt::format("{},{}", error.worst.second + 1, error.worst.first + 1), 100 * error.block_l1);
+                       fmt::format("{},{}", error.worst.second + 1, error.worst.first + 1), 100 * error.block_l1, structure);
             std::fflush(stdout);
         } catch (const std::exception& e) {
             fmt::print("{:<24} failed: {}\n", name, e.what());

@@ -46,6 +46,7 @@ struct FlareArgs {
     int bands = 0;
     bool band_filter = false;
     std::string coating = "lens";
+    double coating_spread = 0.03;
     std::vector<std::string> ghosts;
     bool list = false;
     std::string output;
@@ -128,7 +129,7 @@ void run_flare(const FlareArgs& args) {
     }
     const double zoom = args.zoom.empty() ? 0.0 : optics::parse_zoom(lens, args.zoom);
     optics::System system = optics::realize(lens, zoom, args.fstop);
-    if (args.coating == "none") system = gpu::without_coatings(std::move(system));
+    filter::apply_coatings(system, args.coating, args.coating_spread);
 
     gpu::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
@@ -197,11 +198,11 @@ void run_flare(const FlareArgs& args) {
         const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
         const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
         const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
-        optics::splat_starburst(starburst, paraxial.f_number * args.starburst_scale,
-                                (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
-                                filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
-                                view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
-                                view.width, view.height);
+        optics::draw_starburst(starburst, system.aperture, paraxial.f_number, args.starburst_scale,
+                               (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
+                               filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
+                               view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
+                               view.width, view.height);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
@@ -241,14 +242,13 @@ void register_flare_command(CLI::App& app) {
         ->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
         ->needs("--bands");
-    cmd->add_option("--coating", args->coating, "Anti-reflection coatings: lens (as prescribed) or none")
-        ->check(CLI::IsMember({"lens", "none"}))->capture_default_str();
+    add_coating_options(*cmd, args->coating, args->coating_spread, "Flare");
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
     cmd->add_flag("--list", args->list, "Print each ghost's power on the image");
     cmd->add_option("--parts", args->parts, "What to render: ghosts, starburst or both (ghosts,starburst)")
         ->capture_default_str();
     cmd->add_option("--starburst-scale", args->starburst_scale,
-                    "Starburst size relative to its physical size (wavelength x f-number)")
+                    "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")
         ->capture_default_str()->check(CLI::PositiveNumber);
     add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");

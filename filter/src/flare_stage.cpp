@@ -28,6 +28,7 @@
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
+#include <optics/coating.h>
 #include <optics/flare_look.h>
 #include <optics/ghosts.h>
 #include <optics/lens_file.h>
@@ -75,6 +76,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--zoom", s.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group);
     app.add_option("--fstop", s.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--blades", s.blades, "Iris blade count (0 = round), overriding the lens's")->group(group)->check(CLI::Range(0, 64));
+    add_coating_options(app, s.coating, s.coating_spread, group);
     app.add_option("--threshold", s.threshold, "Light-source threshold: luminance (20) or stops above the median (+6ev)")->capture_default_str()->group(group);
     app.add_option("--max-lights", s.max_lights, "The brightest lights rendered per frame")->capture_default_str()->group(group)->check(CLI::Range(0, 4096));
     app.add_option("--sensor", s.sensor, "Sensor width in mm, or WxH (the height follows the frame's aspect)")->capture_default_str()->group(group);
@@ -87,7 +89,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
     app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
-    app.add_option("--starburst-scale", s.starburst_scale, "Starburst size relative to its physical size (wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
+    app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
         ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
@@ -99,6 +101,19 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
     add_pupil_options(app, s.pupil);
     add_acceleration_options(app, s.accel, "Ghost renderer accelerations");
+}
+
+void add_coating_options(CLI::App& app, std::string& coating, double& spread, const std::string& group) {
+    app.add_option("--coating", coating,
+                   "Anti-reflection coatings of the air-glass surfaces: uncoated (before the 1940s), single (MgF2, "
+                   "1950s-70s), multi (broadband multi-layer, since the 1970s) or lens (the lens file's)")
+        ->capture_default_str()->group(group)->check(CLI::IsMember({"uncoated", "single", "multi", "lens", "none"}));
+    app.add_option("--coating-spread", spread, "Relative thickness spread of the coating layers (seeded per surface; 0 = exact)")
+        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 0.49));
+}
+
+void apply_coatings(optics::System& system, const std::string& coating, double spread) {
+    optics::choose_coatings(system, optics::parse_coating_choice(coating), spread);
 }
 
 FlareParts parse_parts(std::string_view text) {
@@ -425,8 +440,9 @@ struct FlareStage::State {
         const optics::Lens lens = optics::load_lens(settings.lens);
         const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
         system = optics::realize(lens, zoom, settings.fstop);
-        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {}", optics::write_lens_toml(lens), zoom,
-                                settings.fstop.value_or(0.0), settings.blades.value_or(-1));
+        apply_coatings(system, settings.coating, settings.coating_spread);
+        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {} coating {} spread {:.17g}", optics::write_lens_toml(lens), zoom,
+                                settings.fstop.value_or(0.0), settings.blades.value_or(-1), settings.coating, settings.coating_spread);
         if (settings.blades) system.aperture.blades = *settings.blades;
         const optics::Paraxial first_order = optics::paraxial(system);
         efl_mm = first_order.efl_mm;
@@ -585,21 +601,20 @@ void FlareStage::process(Frame& frame) {
             std::array<double, 3> energy{};
             for (std::size_t c = 0; c < 3; ++c)
                 energy[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost, kMaxLightScale);
-            // An artistic --starburst-scale enlarges the core too; never leave out more than the light's
-            // own pixel, or a small light would show a hole.
-            const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number * s.settings.starburst_scale /
-                                    (geo.sensor_width_mm / geo.width);
+            // Never leave out more than the light's own pixel, or a small light would show a hole.
+            const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number / (geo.sensor_width_mm / geo.width);
             const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
             // An extended light's diffraction is every point's pattern over its footprint (the direct image),
             // less what its recorded pixels hold (footprint.h).
-            const double f_number = s.f_number * s.settings.starburst_scale;
+            const double f_number = s.f_number;
             const double pixel_w_mm = geo.sensor_width_mm / geo.width, pixel_h_mm = geo.sensor_height_mm / geo.height;
             if (extended) {
                 add_extended_starburst(*s.starburst, f_number, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
                                        core_texels, *light.shape, flare_rgb.data(), geo.width, geo.height);
             } else {
-                optics::splat_starburst(*s.starburst, f_number, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
-                                        flare_rgb.data(), geo.width, geo.height, core_texels);
+                optics::draw_starburst(*s.starburst, s.system.aperture, f_number, s.settings.starburst_scale, light.x,
+                                       light.y, energy, pixel_w_mm, pixel_h_mm, flare_rgb.data(), geo.width, geo.height,
+                                       core_texels);
             }
             starburst_ms += ms_since(t);
         }

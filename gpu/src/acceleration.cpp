@@ -183,6 +183,9 @@ std::uint64_t system_hash(const System& system) {
             f.glass(layer.material);
             f.num(layer.thickness_nm);
         }
+        f.num(static_cast<std::int64_t>(s.coating.design));
+        f.num(static_cast<std::int64_t>(s.coating.layer_errors.size()));
+        for (double e : s.coating.layer_errors) f.num(e);
         f.num(static_cast<std::int64_t>(s.is_stop));
         f.num(s.conic);
         f.num(static_cast<std::int64_t>(s.aspheric.size()));

@@ -307,4 +307,31 @@ FlareError compare_flare(const FlareImage& image, const FlareImage& reference, c
     return error;
 }
 
+double gradient_error(const FlareImage& image, const FlareImage& reference) {
+    if (image.width != reference.width || image.height != reference.height)
+        throw std::invalid_argument(fmt::format("gradient_error: {}x{} against {}x{}", image.width, image.height,
+                                                reference.width, reference.height));
+    double difference = 0.0;
+    double total = 0.0;
+    for (int y = 0; y < image.height; ++y) {
+        for (int x = 0; x < image.width; ++x) {
+            for (int c = 0; c < 3; ++c) {
+                const auto a = [&](int i, int j) { return static_cast<double>(image.at(i, j, c)); };
+                const auto b = [&](int i, int j) { return static_cast<double>(reference.at(i, j, c)); };
+                if (x + 1 < image.width) {
+                    const double gb = b(x + 1, y) - b(x, y);
+                    difference += std::abs(a(x + 1, y) - a(x, y) - gb);
+                    total += std::abs(gb);
+                }
+                if (y + 1 < image.height) {
+                    const double gb = b(x, y + 1) - b(x, y);
+                    difference += std::abs(a(x, y + 1) - a(x, y) - gb);
+                    total += std::abs(gb);
+                }
+            }
+        }
+    }
+    return total > 0.0 ? difference / total : 0.0;
+}
+
 }  // namespace lensfx::gpu

@@ -51,6 +51,7 @@ struct GhostSequences {
 
 struct FlareRenderer::State {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, shaders::ghost_trace_comp}}};
+    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, shaders::ghost_shade_comp}}};
     Program raster{"ghost_raster",
                    {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
                     {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
@@ -463,6 +464,14 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         glDispatchCompute(groups, groups, 1);
     };
 
+    // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done.
+    auto dispatch_shade = [&](int res, GLuint vertex_offset) {
+        glUniform1i(s.shade.uniform("grid"), res);
+        glUniform1ui(s.shade.uniform("vertex_offset"), vertex_offset);
+        const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
+        glDispatchCompute(groups, groups, 1);
+    };
+
     // Ghost sequences and coating tables per wavelength, built once per system and ghost selection.
     std::uint64_t key = system_hash(system);
     auto mix = [&key](std::uint64_t v) { key = (key ^ v) * 0x100000001b3ull; };
@@ -660,6 +669,43 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 std::size_t ghost;
                 GLuint first_vertex;
             };
+            // One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the
+            // pixels of its level (1/reduce of the image); rim_mode 2 draws into the full-size target, the same
+            // triangles.
+            auto ghost_uniforms = [&](const Job& job, int reduce, int rim_mode) {
+                const std::size_t g = job.ghost;
+                const int ghost_grid = plans[g].grid;
+                const PupilRect& rect = estimates[g].rect;
+                const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+                const int level_w = (view.width + reduce - 1) / reduce;
+                const int level_h = (view.height + reduce - 1) / reduce;
+                const double level_pixel_area = (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
+                const int target_w = rim_mode == 2 ? view.width : level_w;
+                const int target_h = rim_mode == 2 ? view.height : level_h;
+                const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+                const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                for (const Program* program : {&s.raster, &s.splat}) {
+                    glUseProgram(program->get());
+                    glUniform1i(program->uniform("grid"), ghost_grid);
+                    glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+                    glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
+                                static_cast<float>(view.sensor_height_mm / 2));
+                    glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
+                    glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area));
+                    glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+                    glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+                    glUniform1i(program->uniform("iris_sdf"), 0);
+                    glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+                    glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
+                    glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
+                                static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
+                                static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
+                    glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+                }
+                glUseProgram(s.raster.get());
+                glUniform1i(s.raster.uniform("rim_mode"), rim_mode);
+                glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce));
+            };
             for (std::size_t next = 0; next < todo.size();) {
                 std::vector<Job> batch;
                 std::size_t used = 0;
@@ -681,6 +727,9 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                                    job.first_vertex);
                 }
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+                glUseProgram(s.shade.get());
+                for (const Job& job : batch) dispatch_shade(plans[job.ghost].grid, job.first_vertex);
+                glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
                 for (const int reduce : {16, 8, 4, 2, 1}) {
@@ -698,39 +747,11 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             bound = true;
                         }
                         if (reduce > 1) ++s.stats.ghosts_reduced;
-                        const int ghost_grid = plan.grid;
-                        const PupilRect& rect = estimates[g].rect;
-                        const double cell_area =
-                            (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-                        // Triangles of a pixel or more are rasterised; smaller ones become bilinear 2 x 2-pixel splats.
-                        // The bound target's pixels: a reduced-resolution target has fewer, larger ones.
-                        const int target_w = (view.width + reduce - 1) / reduce;
-                        const int target_h = (view.height + reduce - 1) / reduce;
-                        const double target_pixel_area = (view.sensor_width_mm / target_w) * (view.sensor_height_mm / target_h);
-                        const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-                        const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-                        for (const Program* program : {&s.raster, &s.splat}) {
-                            glUseProgram(program->get());
-                            glUniform1i(program->uniform("grid"), ghost_grid);
-                            glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
-                            glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                                        static_cast<float>(view.sensor_height_mm / 2));
-                            glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                            glUniform1f(program->uniform("pixel_area"), static_cast<float>(target_pixel_area));
-                            glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-                            glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
-                            glUniform1i(program->uniform("iris_sdf"), 0);
-                            glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
-                            glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
-                            glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
-                                        static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
-                                        static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
-                            glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
-                        }
+                        ghost_uniforms(job, reduce, reduce > 1 ? 1 : 0);
                         glUseProgram(s.raster.get());
-                        glDrawArrays(GL_TRIANGLES, 0, 6 * ghost_grid * ghost_grid);
+                        glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
                         glUseProgram(s.splat.get());
-                        glDrawArrays(GL_POINTS, 0, 2 * ghost_grid * ghost_grid);
+                        glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
                         check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
 
                         if (options.per_ghost_power) {
@@ -745,6 +766,18 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             target.clear();
                         }
                     }
+                }
+                // The reduced ghosts' rims, at full resolution (ghost_raster_frag's rim_mode 2).
+                bool rims_bound = false;
+                for (const Job& job : batch) {
+                    const GhostPlan& plan = plans[job.ghost];
+                    if (plan.reduce == 1) continue;
+                    if (!rims_bound) target.bind();
+                    rims_bound = true;
+                    ghost_uniforms(job, plan.reduce, 2);
+                    glUseProgram(s.raster.get());
+                    glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+                    check_gl(fmt::format("the rim of ghost {},{}", ghosts[job.ghost].second, ghosts[job.ghost].first));
                 }
             }
         }

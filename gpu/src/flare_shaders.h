@@ -105,6 +105,68 @@ void main() {
 }
 )GLSL";
 
+// One invocation per grid vertex, after the trace: the vertex's irradiance for Gouraud shading (flare paper
+// 4.3, "Smooth shading"), the average over the six triangles around it whose rays got through, weighted
+// by their sensor areas: (triangles) / (their summed sensor area), per unit triangle flux. Since each
+// triangle's Gouraud integral is its area x the mean of its corners, the drawn power sums to exactly the
+// triangles' flux. Written into the vertex's spare fourth float; 0 where no triangle touches it. Also, for the cell whose first
+// corner this vertex is, which of its four neighbours is dropped (a corner's ray failed): bits 1 below,
+// 2 right, 4 above, 8 left, added to the valid flag as mask / 16 (still > 0.5: valid), so the rim pass
+// knows the cell's outer edges.
+inline constexpr const char* ghost_shade_comp = R"GLSL(
+#version 430
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };
+uniform int grid;
+uniform uint vertex_offset;
+
+bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
+
+bool cell_valid(int cx, int cy) {
+    if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) return true;  // beyond the grid: no cut of its own
+    uint stride = uint(grid + 1);
+    uint a = vertex_offset + uint(cy) * stride + uint(cx);
+    return valid(a) && valid(a + 1u) && valid(a + stride + 1u) && valid(a + stride);
+}
+
+float triangle_area(uint a, uint b, uint c) {
+    vec2 e1 = vertices[3u * b].xy - vertices[3u * a].xy;
+    vec2 e2 = vertices[3u * c].xy - vertices[3u * a].xy;
+    return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
+}
+
+void main() {
+    uvec2 id = gl_GlobalInvocationID.xy;
+    if (id.x > uint(grid) || id.y > uint(grid)) return;
+    uint stride = uint(grid + 1);
+    float area = 0.0;
+    float triangles = 0.0;
+    // The triangles with this corner (ghost_grid_glsl's split): of the cell at (x, y) both, of (x-1, y) the
+    // lower, of (x-1, y-1) both, of (x, y-1) the upper.
+    const ivec3 around[6] = ivec3[6](ivec3(0, 0, 0), ivec3(0, 0, 1), ivec3(-1, 0, 0), ivec3(-1, -1, 0), ivec3(-1, -1, 1),
+                                     ivec3(0, -1, 1));
+    for (int k = 0; k < 6; ++k) {
+        int cx = int(id.x) + around[k].x;
+        int cy = int(id.y) + around[k].y;
+        if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) continue;
+        uint a = vertex_offset + uint(cy) * stride + uint(cx);
+        uint b = around[k].z == 0 ? a + 1u : a + stride + 1u;
+        uint c = around[k].z == 0 ? a + stride + 1u : a + stride;
+        if (!(valid(a) && valid(b) && valid(c))) continue;
+        area += triangle_area(a, b, c);
+        triangles += 1.0;
+    }
+    uint me = vertex_offset + id.y * stride + id.x;
+    vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
+    int cx = int(id.x), cy = int(id.y);
+    if (cx < grid && cy < grid && cell_valid(cx, cy)) {
+        int outer = (cell_valid(cx, cy - 1) ? 0 : 1) | (cell_valid(cx + 1, cy) ? 0 : 2) | (cell_valid(cx, cy + 1) ? 0 : 4) |
+                    (cell_valid(cx - 1, cy) ? 0 : 8);
+        if (outer != 0) vertices[3u * me + 2u].z = 1.0 + float(outer) / 16.0;
+    }
+}
+)GLSL";
+
 // Shared by both grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
 // whether a triangle's sensor footprint is too small for pixel-centre rasterisation (under `splat_area`
 // pixels), in which case it is drawn as a point splat instead.
@@ -145,32 +207,88 @@ vec4 clip_position(vec2 sensor) {
 }
 )GLSL";
 
-// Triangles at least `splat_area` pixels large, fetched by gl_VertexID; each carries half the cell's flux
-// over its own sensor area. Triangles with a lost corner (missed surface, total internal reflection) are
-// dropped, and so are the small ones (ghost_splat_vert draws those).
+// Triangles at least `splat_area` pixels large, fetched by gl_VertexID, Gouraud-shaded: each corner
+// carries the irradiance ghost_shade_comp averaged over its cells, interpolated across the triangle, so a
+// coarse grid shows no flat cells. Triangles with a lost corner (missed surface, total internal reflection)
+// are dropped, and so are the small ones (ghost_splat_vert draws those, each with its own flux).
 inline constexpr const char* ghost_raster_vert = R"GLSL(
 out float v_r_rel;
 out float v_transmission;
 out vec2 v_uv0;
 out vec2 v_uv1;
 out vec2 v_uv2;
-flat out float v_irradiance;
+out float v_irradiance;
+out vec3 v_bary;           // barycentric: 1 at this corner
+flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
+uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim
+uniform float rim_reduce;
+uniform vec2 viewport;     // pixels
+uniform sampler2D iris_sdf;
+uniform float iris_extent;
+uniform int stop_crossings;
+uniform bool ringing;
+
+// Signed distances (pixels, positive where f < 0) of the corners p to where f, linear over the
+// triangle, is 0.
+vec3 corner_distances(vec2 p0, vec2 p1, vec2 p2, vec3 f) {
+    vec2 e1 = p1 - p0;
+    vec2 e2 = p2 - p0;
+    float det = e1.x * e2.y - e1.y * e2.x;
+    if (abs(det) < 1e-12) return vec3(0.0);  // degenerate: kept
+    vec2 g = vec2((f.y - f.x) * e2.y - (f.z - f.x) * e1.y, (f.z - f.x) * e1.x - (f.y - f.x) * e2.x) / det;
+    float len = length(g);
+    if (len < 1e-20) return vec3(f.x < 0.0 ? 1e9 : -1e9);
+    return -f / len;
+}
+
+// Whether part of the triangle lies within the rim band (3 reduced pixels) and inside the ghost: the
+// distances are linear over the triangle, so corners all deeper than the band, or all beyond one edge of
+// the ghost, settle it.
+bool near_rim(ivec3 i, int outer) {
+    vec2 p0 = (clip_position(vertices[3 * i.x].xy).xy * 0.5 + 0.5) * viewport;
+    vec2 p1 = (clip_position(vertices[3 * i.y].xy).xy * 0.5 + 0.5) * viewport;
+    vec2 p2 = (clip_position(vertices[3 * i.z].xy).xy * 0.5 + 0.5) * viewport;
+    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3 * i.x].z, vertices[3 * i.y].z, vertices[3 * i.z].z) - 1.0);
+    bool outside = all(lessThan(d, vec3(-1.0)));
+    vec3 nearest = d;
+    for (int c = 0; c < 3 && c < stop_crossings && !ringing; ++c) {
+        vec2 uv[3];
+        for (int k = 0; k < 3; ++k) {
+            vec4 s = vertices[3 * i[k] + 1];
+            uv[k] = c == 0 ? s.xy : c == 1 ? s.zw : vertices[3 * i[k] + 2].xy;
+        }
+        vec3 f = vec3(textureLod(iris_sdf, uv[0] / (2.0 * iris_extent) + 0.5, 0.0).r,
+                      textureLod(iris_sdf, uv[1] / (2.0 * iris_extent) + 0.5, 0.0).r,
+                      textureLod(iris_sdf, uv[2] / (2.0 * iris_extent) + 0.5, 0.0).r);
+        vec3 ds = corner_distances(p0, p1, p2, f);
+        outside = outside || all(lessThan(ds, vec3(-1.0)));
+        nearest = min(nearest, ds);
+    }
+    if (outside) return false;
+    return outer != 0 || any(lessThan(nearest, vec3(3.0 * rim_reduce)));
+}
 
 void main() {
     int tri = gl_VertexID / 3;
     int corner = gl_VertexID - 3 * tri;
     ivec3 i = triangle_corners(tri);
+    // The cell's outer edges (ghost_shade_comp): lower triangle (a, a+1, a+stride+1): below is opposite
+    // corner 2, right opposite 0; upper (a, a+stride+1, a+stride): above opposite 0, left opposite 1.
+    int cell_outer = int(round((vertices[3 * i.x + 2].z - 1.0) * 16.0));
+    v_outer = (tri & 1) == 0 ? (((cell_outer & 1) != 0 ? 4 : 0) | ((cell_outer & 2) != 0 ? 1 : 0))
+                             : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
+    v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     float area = sensor_area(i);
     int me = i[corner];
     vec4 q = vertices[3 * me];
     vec4 s = vertices[3 * me + 1];
     vec4 w = vertices[3 * me + 2];
-    if (!corners_valid(i) || !(area >= splat_area * pixel_area)) {
+    if (!corners_valid(i) || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !near_rim(i, v_outer))) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
     } else {
         gl_Position = clip_position(q.xy);
-        v_irradiance = triangle_flux / area;
+        v_irradiance = triangle_flux * w.w;  // a triangle's flux x triangles per sensor area at this corner
     }
     v_r_rel = q.z;
     v_transmission = q.w;
@@ -180,8 +298,8 @@ void main() {
 }
 )GLSL";
 
-// One 2 x 2-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
-// bilinearly over the four pixels (ghost_splat_frag): a pixel centre
+// One 3 x 3-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
+// over the nine pixels (ghost_splat_frag): a pixel centre
 // would catch such a triangle (and its flux) or miss it by chance, and along a caustic's rim, where the
 // grid's triangles crowd, the catches and misses are correlated, so the ghost's power came out wrong and
 // depended on the image size. The point carries the triangle's flux shaded as a rasterised triangle would
@@ -205,7 +323,7 @@ float iris(vec2 uv) {
 void main() {
     ivec3 i = triangle_corners(gl_VertexID);
     float area = sensor_area(i);
-    gl_PointSize = 2.0;
+    gl_PointSize = 3.0;
     if (!corners_valid(i) || !(area < splat_area * pixel_area)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
@@ -239,8 +357,9 @@ void main() {
 }
 )GLSL";
 
-// Bilinear (tent) weights over the 2 x 2 pixels the point covers: they sum to one, and a dense regular
-// lattice of splats adds up nearly flat (a box would beat against the pixel grid).
+// Quadratic B-spline weights over the 3 x 3 pixels the point covers: they sum to one, and a dense regular
+// lattice of splats adds up flat to within a percent (a tent rippled by some 5% where the lattice's pitch
+// beat against the pixels, rings across a caustic; a box far more).
 inline constexpr const char* ghost_splat_frag = R"GLSL(
 #version 430
 flat in float v_irradiance;
@@ -248,12 +367,23 @@ flat in vec2 v_centre;
 uniform vec4 channels;
 out vec4 colour;
 
+vec2 bspline(vec2 d) {
+    vec2 a = abs(d);
+    return mix(0.5 * (1.5 - a) * (1.5 - a), 0.75 - a * a, vec2(lessThan(a, vec2(0.5)))) * vec2(lessThan(a, vec2(1.5)));
+}
+
 void main() {
-    vec2 w = max(vec2(0.0), 1.0 - abs(gl_FragCoord.xy - v_centre));
+    vec2 w = bspline(gl_FragCoord.xy - v_centre);
     colour = channels * (v_irradiance * w.x * w.y);
 }
 )GLSL";
 
+// A ghost drawn at reduced resolution loses its sharp rim in the upsampling, so it is drawn in two
+// parts (rim_mode): 1, at reduced resolution, its light weighted by w = smoothstep(1, 3, d), d its
+// distance to the rim in reduced pixels, so nothing within a reduced pixel of the rim is interpolated
+// over it; 2, at full resolution, the rest, 1 - w, cut sharply at the rim (ghost_raster_vert drops the
+// triangles that lie wholly deeper than the band or wholly outside). The two add up to the ghost.
+// rim_mode 0: the plain full-resolution draw.
 inline constexpr const char* ghost_raster_frag = R"GLSL(
 #version 430
 in float v_r_rel;
@@ -261,36 +391,59 @@ in float v_transmission;
 in vec2 v_uv0;
 in vec2 v_uv1;
 in vec2 v_uv2;
-flat in float v_irradiance;
+in float v_irradiance;
+in vec3 v_bary;
+flat in int v_outer;
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform vec4 channels;
 uniform bool ringing;          // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
 uniform sampler2D iris_ringing;
+uniform int rim_mode;          // 0 plain, 1 reduced interior, 2 full-resolution rim band
+uniform float rim_reduce;      // target pixels per reduced pixel (mode 2)
 out vec4 colour;
 
-bool inside(vec2 uv) {
-    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r <= 0.0;
+float sdf(vec2 uv) {
+    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r;
 }
 
 float ringing_at(vec2 uv) {
     return texture(iris_ringing, uv / (2.0 * iris_extent) + 0.5).r;
 }
 
+// Distance in pixels to where f (linear across the pixel) reaches 0, positive where f < 0.
+float pixels_inside(float f) {
+    return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
+}
+
 void main() {
-    if (v_r_rel > 1.0) discard;
+    float s0 = stop_crossings > 0 ? sdf(v_uv0) : -1.0;
+    float s1 = stop_crossings > 1 ? sdf(v_uv1) : -1.0;
+    float s2 = stop_crossings > 2 ? sdf(v_uv2) : -1.0;
+    float weight = 1.0;
+    if (rim_mode != 0) {  // derivatives first: the whole 2 x 2 quad must still run
+        float d = pixels_inside(v_r_rel - 1.0);
+        if (stop_crossings > 0 && !ringing) d = min(d, pixels_inside(s0));
+        if (stop_crossings > 1 && !ringing) d = min(d, pixels_inside(s1));
+        if (stop_crossings > 2 && !ringing) d = min(d, pixels_inside(s2));
+        // The edges along dropped cells: their distance is measured from inside.
+        vec3 to_edge = vec3(pixels_inside(-v_bary.x), pixels_inside(-v_bary.y), pixels_inside(-v_bary.z));
+        for (int k = 0; k < 3; ++k)
+            if ((v_outer & (1 << k)) != 0) d = min(d, to_edge[k]);
+        float interior = smoothstep(1.0, 3.0, rim_mode == 1 ? d : d / rim_reduce);
+        weight = rim_mode == 1 ? interior : 1.0 - interior;
+    }
+    if (v_r_rel > 1.0 || weight <= 0.0) discard;
     float iris = 1.0;
     if (ringing) {
         if (stop_crossings > 0) iris *= ringing_at(v_uv0);
         if (stop_crossings > 1) iris *= ringing_at(v_uv1);
         if (stop_crossings > 2) iris *= ringing_at(v_uv2);
-    } else {
-        if (stop_crossings > 0 && !inside(v_uv0)) discard;
-        if (stop_crossings > 1 && !inside(v_uv1)) discard;
-        if (stop_crossings > 2 && !inside(v_uv2)) discard;
+    } else if (s0 > 0.0 || s1 > 0.0 || s2 > 0.0) {
+        discard;
     }
-    colour = channels * (v_irradiance * v_transmission * iris);
+    colour = channels * (v_irradiance * v_transmission * iris * weight);
 }
 )GLSL";
 

@@ -159,9 +159,9 @@ void FloatTarget::bind() const {
     glViewport(0, 0, width_, height_);
 }
 
-void FloatTarget::clear() const {
-    const float zero[4] = {0.f, 0.f, 0.f, 0.f};
-    glClearTexImage(texture_.get(), 0, GL_RGBA, GL_FLOAT, zero);
+void FloatTarget::clear(float alpha) const {
+    const float value[4] = {0.f, 0.f, 0.f, alpha};
+    glClearTexImage(texture_.get(), 0, GL_RGBA, GL_FLOAT, value);
 }
 
 std::vector<float> FloatTarget::read_rgba() const {

@@ -8,6 +8,8 @@
 
 #include <fmt/format.h>
 
+#include <optics/random.h>
+
 namespace lensfx::optics {
 
 namespace {
@@ -112,7 +114,103 @@ Reflectance single_layer_one_polarisation(const FilmLayer& layer, double n_in, d
 
 double clamp_cos(double c) { return std::isnan(c) ? 0.0 : std::clamp(c, 0.0, 1.0); }
 
+// A layer of index n and `qwot` quarter waves of optical thickness at wavelength nm.
+FilmLayer quarter_waves(double n, double qwot, double nm) { return {n, qwot * nm / (4.0 * n)}; }
+
+// Two layers n1 (air side), n2 (glass side) with zero reflectance at nm on glass ns from air n0: the
+// closed-form V-coat (Macleod 4.2), the thinner-first-layer root. Empty when these indices have none.
+std::vector<FilmLayer> v_coat(double n0, double n1, double n2, double ns, double nm) {
+    const double d = (n1 * n1 * ns - n0 * n2 * n2);
+    const double tan2_1 = (ns - n0) * (n2 * n2 - n0 * ns) * n1 * n1 / (d * (n0 * ns - n1 * n1));
+    const double tan2_2 = (ns - n0) * (n0 * ns - n1 * n1) * n2 * n2 / (d * (n2 * n2 - n0 * ns));
+    if (!(tan2_1 > 0.0) || !(tan2_2 > 0.0) || !std::isfinite(tan2_1) || !std::isfinite(tan2_2)) return {};
+    const double delta1 = std::atan(std::sqrt(tan2_1));
+    const double delta2 = std::numbers::pi - std::atan(std::sqrt(tan2_2));
+    return {{n1, delta1 * nm / (2.0 * std::numbers::pi * n1)}, {n2, delta2 * nm / (2.0 * std::numbers::pi * n2)}};
+}
+
+// One normal deviate (Box-Muller) from the generator.
+double normal(Random& random) {
+    const double u = std::max(random.uniform(), 1e-300);
+    return std::sqrt(-2.0 * std::log(u)) * std::cos(2.0 * std::numbers::pi * random.uniform());
+}
+
+// Layers of a design on the glass side of an interface, listed from the object side.
+std::vector<FilmLayer> design_on(const Coating& coating, const Glass& before, const Glass& after) {
+    const double nm = coating.design_wavelength_nm;
+    const double nb = before.index(nm), na = after.index(nm);
+    std::vector<FilmLayer> layers = design_layers(coating.design, nm, std::min(nb, na), std::max(nb, na));
+    if (nb > na) std::reverse(layers.begin(), layers.end());  // the glass is on the object side
+    return layers;
+}
+
 }  // namespace
+
+std::vector<FilmLayer> design_layers(Coating::Design design, double nm, double n_air, double n_glass) {
+    if (!(nm > 0.0) || !(n_air >= 1.0) || !(n_glass > n_air))
+        throw std::invalid_argument(fmt::format("coating design {}: needs a design wavelength ({} nm) and glass denser than air ({} on {})",
+                                                design_name(design), nm, n_glass, n_air));
+    switch (design) {
+        case Coating::Design::VCoat: {
+            std::vector<FilmLayer> layers = v_coat(n_air, kLowIndex, kHighIndex, n_glass, nm);
+            if (layers.empty()) layers = {quarter_waves(kLowIndex, 1.0, nm)};  // glass about 1.9: MgF2 alone is ideal
+            return layers;
+        }
+        case Coating::Design::QuarterHalfQuarter:
+            return {quarter_waves(kLowIndex, 1.0, nm), quarter_waves(kHighIndex, 2.0, nm),
+                    quarter_waves(kMediumIndex * std::sqrt(n_glass / 1.52), 1.0, nm)};
+        case Coating::Design::Broadband4:
+            return {quarter_waves(kLowIndex, 0.96, nm), quarter_waves(kHighIndex, 1.96, nm),
+                    quarter_waves(kLowIndex, std::clamp(0.32 * (1.9 - n_glass) / 0.38, 0.03, 0.4), nm),
+                    quarter_waves(kHighIndex, std::clamp(0.20 * (1.85 - n_glass) / 0.33, 0.01, 0.3), nm)};
+    }
+    return {};
+}
+
+std::optional<Coating::Design> parse_design(std::string_view name) {
+    if (name == "v-coat") return Coating::Design::VCoat;
+    if (name == "broadband-3") return Coating::Design::QuarterHalfQuarter;
+    if (name == "broadband-4") return Coating::Design::Broadband4;
+    return std::nullopt;
+}
+
+const char* design_name(Coating::Design design) {
+    switch (design) {
+        case Coating::Design::VCoat: return "v-coat";
+        case Coating::Design::QuarterHalfQuarter: return "broadband-3";
+        case Coating::Design::Broadband4: return "broadband-4";
+    }
+    return "?";
+}
+
+CoatingChoice parse_coating_choice(std::string_view text) {
+    if (text == "uncoated" || text == "none") return CoatingChoice::Uncoated;
+    if (text == "single") return CoatingChoice::Single;
+    if (text == "multi") return CoatingChoice::Multi;
+    if (text == "lens") return CoatingChoice::Lens;
+    throw std::invalid_argument(fmt::format("--coating {}: uncoated, single, multi or lens", text));
+}
+
+void choose_coatings(System& system, CoatingChoice choice, double spread, std::uint64_t seed) {
+    if (!(spread >= 0.0) || !(spread < 0.5))
+        throw std::invalid_argument(fmt::format("--coating-spread {}: a relative thickness spread in [0, 0.5)", spread));
+    for (std::size_t i = 0; i < system.interfaces.size(); ++i) {
+        System::Interface& s = system.interfaces[i];
+        const bool air_glass = !s.is_stop && s.before.is_air() != s.after.is_air();
+        if (choice != CoatingChoice::Lens && air_glass) {
+            Coating c;
+            if (choice == CoatingChoice::Single) c.kind = Coating::Kind::QuarterWave;
+            if (choice == CoatingChoice::Multi) c.kind = Coating::Kind::Design;
+            s.coating = c;
+        }
+        s.coating.layer_errors.clear();
+        if (s.coating.kind == Coating::Kind::None || spread == 0.0) continue;
+        Random random(seed * 0x9e3779b97f4a7c15ULL + i + 1);
+        for (int k = 0; k < 4; ++k) s.coating.layer_errors.push_back(spread * normal(random));
+        s.coating.layer_errors.resize(std::max<std::size_t>(4, s.coating.layers.size()), 0.0);
+        for (std::size_t k = 4; k < s.coating.layer_errors.size(); ++k) s.coating.layer_errors[k] = spread * normal(random);
+    }
+}
 
 ResolvedCoating resolve_coating(const Coating& coating, const Glass& before, const Glass& after,
                                 double wavelength_nm) {
@@ -139,7 +237,10 @@ ResolvedCoating resolve_coating(const Coating& coating, const Glass& before, con
                 out.layers.push_back({n, L.thickness_nm});
             }
             break;
+        case Coating::Kind::Design: out.layers = design_on(coating, before, after); break;
     }
+    for (std::size_t i = 0; i < out.layers.size() && i < coating.layer_errors.size(); ++i)
+        out.layers[i].thickness_nm *= std::max(0.0, 1.0 + coating.layer_errors[i]);
     return out;
 }
 

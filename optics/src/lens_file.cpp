@@ -12,6 +12,7 @@
 #include <fmt/core.h>
 #include <toml++/toml.h>
 
+#include <optics/coating.h>
 #include <optics/importers.h>
 #include <optics/presets.h>
 
@@ -23,6 +24,7 @@ namespace {
 // The media a lens file may give, whatever its format: refractive index at 587.56 nm and Abbe number.
 constexpr double kMaxIndex = 3.0;
 constexpr double kMaxAbbe = 150.0;
+constexpr const char* kCoatingNames = "\"none\", \"mgf2\", \"v-coat\", \"broadband-3\", \"broadband-4\"";
 
 Coating mgf2() {
     Coating c;
@@ -37,9 +39,11 @@ bool same_glass(const Glass& a, const Glass& b) {
 bool same_coating(const Coating& a, const Coating& b) {
     if (a.kind != b.kind) return false;
     if (a.kind == Coating::Kind::None) return true;
+    if (a.layer_errors != b.layer_errors) return false;
     if (a.kind == Coating::Kind::QuarterWave)
         return a.design_wavelength_nm == b.design_wavelength_nm && a.layer_index == b.layer_index &&
                a.thickness_offset == b.thickness_offset;
+    if (a.kind == Coating::Kind::Design) return a.design == b.design && a.design_wavelength_nm == b.design_wavelength_nm;
     if (a.layers.size() != b.layers.size()) return false;
     for (std::size_t i = 0; i < a.layers.size(); ++i)
         if (!same_glass(a.layers[i].material, b.layers[i].material) || a.layers[i].thickness_nm != b.layers[i].thickness_nm)
@@ -105,13 +109,26 @@ Coating read_coating(const toml::node& n, std::string_view origin, const std::st
         const std::string v = s->get();
         if (v == "none") return {};
         if (v == "mgf2") return mgf2();
-        fail(origin, line_of(n), fmt::format("{}coating: '{}' is not \"mgf2\", \"none\" or a table", context, v));
+        if (const auto design = parse_design(v)) {
+            Coating c;
+            c.kind = Coating::Kind::Design;
+            c.design = *design;
+            return c;
+        }
+        fail(origin, line_of(n), fmt::format("{}coating: '{}' is not {} or a table", context, v, kCoatingNames));
     }
     const auto* t = n.as_table();
-    if (!t) fail(origin, line_of(n), fmt::format("{}coating: expected \"mgf2\", \"none\" or a table", context));
+    if (!t) fail(origin, line_of(n), fmt::format("{}coating: expected {} or a table", context, kCoatingNames));
     Fields f(*t, origin, context + "coating.");
     Coating c;
-    if (const toml::node* layers = f.get("layers")) {
+    if (const auto name = f.opt_string("design")) {
+        const auto design = parse_design(*name);
+        if (!design) f.error("design", fmt::format("'{}' is not \"v-coat\", \"broadband-3\" or \"broadband-4\"", *name));
+        c.kind = Coating::Kind::Design;
+        c.design = *design;
+        if (auto v = f.opt_number("wavelength")) c.design_wavelength_nm = *v;
+        if (c.design_wavelength_nm < 200.0 || c.design_wavelength_nm > 2000.0) f.error("wavelength", "outside 200-2000 nm");
+    } else if (const toml::node* layers = f.get("layers")) {
         const auto* a = layers->as_array();
         if (!a || a->empty()) f.error("layers", "expected an array of { nd = ..., nm = ... } tables");
         c.kind = Coating::Kind::Stack;
@@ -185,6 +202,9 @@ std::string coating_value(const Coating& c) {
             if (same_coating(c, mgf2())) return "\"mgf2\"";
             return fmt::format("{{ index = {}, wavelength = {}, offset = {} }}", num(c.layer_index),
                                num(c.design_wavelength_nm), num(c.thickness_offset));
+        case Coating::Kind::Design:
+            if (c.design_wavelength_nm == 550.0) return fmt::format("\"{}\"", design_name(c.design));
+            return fmt::format("{{ design = \"{}\", wavelength = {} }}", design_name(c.design), num(c.design_wavelength_nm));
         case Coating::Kind::Stack: {
             std::string out = "{ layers = [";
             for (std::size_t i = 0; i < c.layers.size(); ++i)
@@ -370,9 +390,24 @@ std::string write_lens_toml(const Lens& lens) {
         }
         return true;
     };
+    // The candidate: the first air-glass interface's coating.
+    Coating first_air_glass;
+    {
+        Glass before = Glass::air();
+        for (const auto& s : lens.surfaces) {
+            const Glass& after = s.is_stop ? before : s.medium;
+            if (!s.is_stop && air_glass(before, after)) {
+                first_air_glass = s.coating;
+                break;
+            }
+            before = after;
+        }
+    }
     const bool rule_mgf2 = fits(mgf2()), rule_none = !rule_mgf2 && fits(Coating{});
+    const bool rule_other = !rule_mgf2 && !rule_none && fits(first_air_glass);
     if (rule_none) out += "coating = \"none\"\n";
     else if (rule_mgf2) out += "coating = \"mgf2\"  # single MgF2 quarter wave at 550 nm on air-glass interfaces\n";
+    else if (rule_other) out += "coating = " + coating_value(first_air_glass) + "\n";
     else out += "coating = \"none\"  # per surface below\n";
 
     std::vector<std::vector<std::string>> cells;
@@ -386,7 +421,7 @@ std::string write_lens_toml(const Lens& lens) {
         std::string extra;
         if (s.conic != 0.0) extra += fmt::format("k = {}, ", num(s.conic));
         if (!s.aspheric.empty()) extra += fmt::format("asph = {}, ", numbers(s.aspheric));
-        if (!rule_mgf2 && !rule_none) extra += fmt::format("coating = {}, ", coating_value(s.coating));
+        if (!rule_mgf2 && !rule_none && !rule_other) extra += fmt::format("coating = {}, ", coating_value(s.coating));
         c.push_back(extra);
         cells.push_back(std::move(c));
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <numbers>
 #include <stdexcept>
 
 #include <fftw3.h>
@@ -274,6 +275,202 @@ void splat_starburst(const Starburst& sb, double f_number, double cx, double cy,
                 }
         }
     }
+}
+
+namespace {
+
+// The iris's edges as the tail sees them, in stop radii: outward normal angle (upright frame), the spread
+// of a curved edge's normals, its length and its share of the perimeter.
+struct TailEdge {
+    double normal = 0.0;
+    double spread = 0.0;  // 0: straight (a spike); 2 pi: a round iris
+    double length = 0.0;
+    double share = 0.0;
+};
+
+struct IrisOutline {
+    std::vector<TailEdge> edges;
+    double coefficient = 0.0;  // P R / (pi^2 A)
+};
+
+IrisOutline iris_outline(const Aperture& aperture) {
+    IrisOutline out;
+    const double pi = std::numbers::pi;
+    if (aperture.blades < 3) {
+        out.edges.push_back({0.0, 2.0 * pi, 2.0 * pi, 1.0});
+        out.coefficient = 2.0 / (pi * pi);
+        return out;
+    }
+    const int n = aperture.blades;
+    const double half_chord = std::sin(pi / n), apothem = std::cos(pi / n);
+    const double c = std::clamp(aperture.blade_curvature, 0.0, 1.0);
+    const double alpha = c > 1e-9 ? std::asin(std::min(1.0, half_chord * c)) : 0.0;  // half the arc's angle
+    const double length = c > 1e-9 ? 2.0 * alpha / c : 2.0 * half_chord;
+    const double area = n * half_chord * apothem + (c > 1e-9 ? n * 0.5 / (c * c) * (2.0 * alpha - std::sin(2.0 * alpha)) : 0.0);
+    out.coefficient = n * length / (pi * pi * area);
+    const double first = (aperture.rotation_deg - 90.0) * pi / 180.0;
+    for (int k = 0; k < n; ++k) out.edges.push_back({first + 2.0 * pi * k / n, 2.0 * alpha, length, 1.0 / n});
+    return out;
+}
+
+// Per channel, the mean wavelength (nm) of the texture's spectrum (380-780 nm through the CIE functions
+// into linear Rec.709): the tail scales with the wavelength.
+std::array<double, 3> channel_wavelengths() {
+    std::array<double, 3> sum{}, weight{};
+    for (double l = 380.0; l <= 780.0; l += 5.0) {
+        const std::array<double, 3> xyz = cie1931_xyz(l);
+        for (std::size_t c = 0; c < 3; ++c) {
+            const auto& row = kXyzToRec709[c];
+            const double w = std::max(0.0, row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]);
+            sum[c] += w * l;
+            weight[c] += w;
+        }
+    }
+    return {sum[0] / weight[0], sum[1] / weight[1], sum[2] / weight[2]};
+}
+
+// Adds `energy` (per channel, already over the pixel area) bilinearly around continuous pixel position (x, y).
+void deposit(float* rgb, int width, int height, double x, double y, const std::array<double, 3>& energy) {
+    const double px = x - 0.5, py = y - 0.5;
+    const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+    const double ax = px - x0, ay = py - y0;
+    for (int dy = 0; dy < 2; ++dy) {
+        const int yy = y0 + dy;
+        if (yy < 0 || yy >= height) continue;
+        for (int dx = 0; dx < 2; ++dx) {
+            const int xx = x0 + dx;
+            if (xx < 0 || xx >= width) continue;
+            const double w = (dx ? ax : 1.0 - ax) * (dy ? ay : 1.0 - ay);
+            float* p = rgb + (static_cast<std::size_t>(yy) * static_cast<std::size_t>(width) + static_cast<std::size_t>(xx)) * 3;
+            for (std::size_t c = 0; c < 3; ++c) p[c] += static_cast<float>(w * energy[c]);
+        }
+    }
+}
+
+// What the tail adds at radius r (mm) beyond the texture: 1 where the texture has faded out, rising across
+// its fade (the outer third of its radius, smoothstep as in make_starburst).
+struct TailRamp {
+    double fade_begin_mm, fade_end_mm;
+    double operator()(double r) const {
+        const double t = std::clamp((r - fade_begin_mm) / (fade_end_mm - fade_begin_mm), 0.0, 1.0);
+        return t * t * (3.0 - 2.0 * t);
+    }
+};
+
+// The halo of curved edges (a round iris, curved blades): each spreads its share of the tail evenly over
+// the directions of its normals, both ways, so the energy per area is a / r^3 x that density. Drawn pixel
+// by pixel out to where a pixel would hold under 1e-9 of the light (a spike's energy stays on a line and
+// is walked instead).
+void add_curved_tail(const IrisOutline& iris, const std::array<double, 3>& a, const TailRamp& ramp, double cx,
+                     double cy, const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm, float* rgb,
+                     int width, int height) {
+    double densest = 0.0;
+    for (const TailEdge& e : iris.edges)
+        if (e.spread > 0.0) densest = std::max(densest, e.share / e.spread);
+    if (densest == 0.0) return;
+    const double a_max = std::max({a[0], a[1], a[2]});
+    const double r_cut = std::cbrt(a_max * densest * pixel_w_mm * pixel_h_mm / 1e-9);
+    const int x0 = std::max(0, static_cast<int>(std::floor(cx - r_cut / pixel_w_mm)));
+    const int x1 = std::min(width, static_cast<int>(std::ceil(cx + r_cut / pixel_w_mm)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(cy - r_cut / pixel_h_mm)));
+    const int y1 = std::min(height, static_cast<int>(std::ceil(cy + r_cut / pixel_h_mm)));
+    const double two_pi = 2.0 * std::numbers::pi;
+    for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) {
+            const double dx = (x + 0.5 - cx) * pixel_w_mm, dy = (cy - y - 0.5) * pixel_h_mm;
+            const double r = std::hypot(dx, dy);
+            if (r < ramp.fade_begin_mm || r > r_cut) continue;
+            const double theta = std::atan2(dy, dx);
+            double density = 0.0;
+            for (const TailEdge& e : iris.edges) {
+                if (e.spread == 0.0) continue;
+                for (const double direction : {e.normal, e.normal + std::numbers::pi})
+                    if (std::abs(std::remainder(theta - direction, two_pi)) <= 0.5 * e.spread) density += 0.5 * e.share / e.spread;
+            }
+            if (density == 0.0) continue;
+            const double v = density * ramp(r) / (r * r * r);
+            float* p = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
+            for (std::size_t c = 0; c < 3; ++c) p[c] += static_cast<float>(power[c] * a[c] * v);
+        }
+    }
+}
+
+}  // namespace
+
+double starburst_tail_coefficient(const Aperture& aperture) { return iris_outline(aperture).coefficient; }
+
+StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double f_number, double length_scale,
+                             double cx, double cy, const std::array<double, 3>& power, double pixel_w_mm,
+                             double pixel_h_mm, float* rgb, int width, int height, double core_radius_texels) {
+    StarburstTail tail;
+    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return tail;
+    const IrisOutline iris = iris_outline(aperture);
+    const std::array<double, 3> nm = channel_wavelengths();
+    const double texel_mm = sb.texel_per_fnumber_mm * f_number;
+    const TailRamp ramp{2.0 / 3.0 * 0.5 * sb.size * texel_mm, 0.5 * sb.size * texel_mm};
+    // Energy outside r (per unit power, channel c): a[c] / r.
+    std::array<double, 3> a{};
+    for (std::size_t c = 0; c < 3; ++c) a[c] = iris.coefficient * nm[c] * 1e-6 * f_number * length_scale;
+    // The tail's share: the ramp over the fade (midpoint rule), all of it beyond.
+    constexpr int kFadeSteps = 64;
+    double fade = 0.0;
+    const double dr = (ramp.fade_end_mm - ramp.fade_begin_mm) / kFadeSteps;
+    for (int i = 0; i < kFadeSteps; ++i) {
+        const double r0 = ramp.fade_begin_mm + i * dr;
+        fade += ramp(r0 + 0.5 * dr) * (1.0 / r0 - 1.0 / (r0 + dr));
+    }
+    const double outside = fade + 1.0 / ramp.fade_end_mm;
+    std::array<double, 3> texture_power{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        tail.share[c] = std::min(1.0, a[c] * outside);
+        texture_power[c] = power[c] * (1.0 - tail.share[c]);
+    }
+    splat_starburst(sb, f_number, cx, cy, texture_power, pixel_w_mm, pixel_h_mm, rgb, width, height, core_radius_texels);
+
+    const double pixel_area = pixel_w_mm * pixel_h_mm;
+    // The farthest frame corner from the light, in mm: where the walk along a spike ends.
+    double reach = 0.0;
+    for (const double x : {0.0, static_cast<double>(width)})
+        for (const double y : {0.0, static_cast<double>(height)})
+            reach = std::max(reach, std::hypot((x - cx) * pixel_w_mm, (y - cy) * pixel_h_mm));
+    const double step = 0.5 * std::min(pixel_w_mm, pixel_h_mm);
+    for (const TailEdge& edge : iris.edges) {
+        if (edge.spread > 0.0) continue;
+        // Across the spike: the edge's sinc^2 (first zeros at +-2 lambda N R / length) as a Gaussian.
+        const double sigma_mm = 0.376 * 2.0 * nm[1] * 1e-6 * f_number / edge.length;
+        for (const double angle : {edge.normal, edge.normal + std::numbers::pi}) {
+            const double ux = std::cos(angle), uy = std::sin(angle);
+            // Pixels per mm along and across the spike (the image's y runs down).
+            const double sx = ux / pixel_w_mm, sy = -uy / pixel_h_mm;
+            const double tx = -uy / pixel_w_mm, ty = -ux / pixel_h_mm;
+            const double sigma_px = sigma_mm / std::min(pixel_w_mm, pixel_h_mm);
+            std::vector<std::pair<double, double>> across{{0.0, 1.0}};  // (offset mm, weight)
+            if (sigma_px > 0.5) {
+                across.clear();
+                const int taps = static_cast<int>(std::ceil(3.0 * sigma_px / 0.5));
+                double total = 0.0;
+                for (int j = -taps; j <= taps; ++j) {
+                    const double t = j * 0.5 * std::min(pixel_w_mm, pixel_h_mm);
+                    const double w = std::exp(-0.5 * t * t / (sigma_mm * sigma_mm));
+                    across.emplace_back(t, w);
+                    total += w;
+                }
+                for (auto& [t, w] : across) w /= total;
+            }
+            for (double r = ramp.fade_begin_mm; r < reach; r += step) {
+                const double mid = r + 0.5 * step;
+                const double x = cx + mid * sx, y = cy + mid * sy;
+                const double fraction = 0.5 * edge.share * ramp(mid) * (1.0 / r - 1.0 / (r + step));
+                for (const auto& [t, w] : across) {
+                    std::array<double, 3> e{};
+                    for (std::size_t c = 0; c < 3; ++c) e[c] = power[c] * a[c] * fraction * w / pixel_area;
+                    deposit(rgb, width, height, x + t * tx, y + t * ty, e);
+                }
+            }
+        }
+    }
+    add_curved_tail(iris, a, ramp, cx, cy, power, pixel_w_mm, pixel_h_mm, rgb, width, height);
+    return tail;
 }
 
 }  // namespace lensfx::optics

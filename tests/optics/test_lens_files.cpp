@@ -226,12 +226,18 @@ TEST(Presets, NeighbouringSurfacesDoNotCrossWithinTheirApertures) {
     }
 }
 
-TEST(Presets, DefaultCoatingIsMgF2OnAirGlassInterfacesOnly) {
+TEST(Presets, DefaultCoatingGoesOnAirGlassInterfacesOnly) {
     const Lens lens = load_preset("canon-70-200");
-    // Surface 13 is cemented to 14 (N-FK5 | N-SF57): no coating there; surface 1 is air | LAFN7.
-    EXPECT_EQ(lens.surfaces[0].coating.kind, Coating::Kind::QuarterWave);
-    EXPECT_DOUBLE_EQ(lens.surfaces[0].coating.layer_index, 1.38);
+    // Surface 13 is cemented to 14 (N-FK5 | N-SF57): no coating there; surface 1 is air | LAFN7 and
+    // takes the file's default (a four-layer broadband at 550 nm), surface 7 its own.
+    EXPECT_EQ(lens.surfaces[0].coating.kind, Coating::Kind::Design);
+    EXPECT_EQ(lens.surfaces[0].coating.design, Coating::Design::Broadband4);
     EXPECT_DOUBLE_EQ(lens.surfaces[0].coating.design_wavelength_nm, 550.0);
+    EXPECT_DOUBLE_EQ(lens.surfaces[6].coating.design_wavelength_nm, 600.0);
+    // A lens of the 1950s keeps its single MgF2 layer.
+    const Lens tessar = load_preset("brendel-tessar");
+    EXPECT_EQ(tessar.surfaces[0].coating.kind, Coating::Kind::QuarterWave);
+    EXPECT_DOUBLE_EQ(tessar.surfaces[0].coating.layer_index, 1.38);
     EXPECT_EQ(lens.surfaces[13].coating.kind, Coating::Kind::None);
     EXPECT_EQ(lens.surfaces[static_cast<std::size_t>(lens.stop_index())].coating.kind, Coating::Kind::None);
 }

@@ -31,6 +31,8 @@ struct FlareSettings {
     std::string zoom;                 // "0.5" (zoom parameter) or "135mm" (label); empty: the first position
     std::optional<double> fstop;      // sets the stop so the lens's f-number is this
     std::optional<int> blades;        // overrides the lens's iris blade count (0 = round)
+    std::string coating = "lens";     // uncoated, single, multi or lens (optics::CoatingChoice)
+    double coating_spread = 0.03;     // relative thickness spread of every coating layer (seeded)
     std::string threshold = "20";     // detection threshold: absolute luminance, or "+6ev" above the median
     int max_lights = 16;
     std::string sensor = "36";        // sensor width in mm, or WxH; the height defaults to the frame's aspect
@@ -54,11 +56,15 @@ struct FlareSettings {
     AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
 };
 
-// Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
+// Adds --lens, --zoom, --fstop, --blades, --coating, --coating-spread, --threshold, --max-lights, --sensor, --fov, --gain,
 // --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
 // --band-filter, --ringing, --flare-look, --min-light, --layer, the pupil's dirt (add_pupil_options) and
 // the renderer's accelerations (add_acceleration_options).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
+
+// --coating and --coating-spread (both commands), and what they do to a realized system.
+void add_coating_options(CLI::App& app, std::string& coating, double& spread, const std::string& group);
+void apply_coatings(optics::System& system, const std::string& coating, double spread);
 
 // The optical mapping from frame pixels to light directions, and the strength of a light.
 struct FlareGeometry {

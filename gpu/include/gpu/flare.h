@@ -147,4 +147,9 @@ struct FlareError {
 };
 FlareError compare_flare(const FlareImage& image, const FlareImage& reference, const FlareView& view, int block = 8);
 
+// Structure error: the relative L1 of the images' gradients, sum |grad a - grad b| / sum |grad b| over
+// forward differences in x and y and all channels. Flat-shaded cells and stair-stepped rims show here
+// where block sums hide them. 0 when the reference has no gradient.
+double gradient_error(const FlareImage& image, const FlareImage& reference);
+
 }  // namespace lensfx::gpu

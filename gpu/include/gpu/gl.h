@@ -63,7 +63,7 @@ public:
     int width() const { return width_; }
     int height() const { return height_; }
     void bind() const;    // as the draw framebuffer, viewport set
-    void clear() const;   // to zero, whatever the colour mask
+    void clear(float alpha = 0.0f) const;   // RGB to zero, alpha to `alpha`, whatever the colour mask
     std::vector<float> read_rgba() const;  // rows bottom to top as GL stores them, 4 floats per pixel
 
 private:

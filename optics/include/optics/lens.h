@@ -13,7 +13,10 @@ namespace lensfx::optics {
 
 // Anti-reflection coating on one interface.
 struct Coating {
-    enum class Kind { None, QuarterWave, Stack };
+    enum class Kind { None, QuarterWave, Stack, Design };
+    // Standard thin-film designs (optics/coating.h says what each is), laid on the glass side of an
+    // air-glass interface, made for the design wavelength and the glass they sit on.
+    enum class Design { VCoat, QuarterHalfQuarter, Broadband4 };
     struct Layer {
         Glass material;       // layer medium
         double thickness_nm;  // physical thickness
@@ -26,6 +29,10 @@ struct Coating {
     double thickness_offset = 0.0;
     // Stack: layers listed from the incident (object) side.
     std::vector<Layer> layers;
+    Design design = Design::Broadband4;  // Design: which, at design_wavelength_nm
+    // Relative thickness error of each layer (in the order the layers are listed; missing ones 0): real
+    // layers are never exactly at their design thickness (optics::choose_coatings spreads them).
+    std::vector<double> layer_errors;
 };
 
 struct Surface {

@@ -65,6 +65,28 @@ void splat_starburst(const Starburst& starburst, double f_number, double cx, dou
                      const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
                      float* rgb, int width, int height, double core_radius_texels = 0.0);
 
+// The pattern beyond the texture (which reaches some 60 wavelength x f-number): Fraunhofer's asymptotic
+// tail of the iris's edges. Each straight blade edge puts half its share of the light into a spike along
+// its outward normal and half into the opposite one; a curved edge spreads its share evenly over the
+// directions of its normals (a round iris: a faint halo all round). Whatever the shape, the light outside
+// radius r is P R / (pi^2 A) x wavelength x N / r (P, A: the iris's perimeter and area, R its radius;
+// 0.234 / rho for a hexagon, rho = r / (wavelength N)), so a spike's energy per unit length falls as 1 / r^2.
+// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length.
+// length_scale (--starburst-scale) lengthens the tail only: the energy outside r becomes that of r / scale.
+struct StarburstTail {
+    std::array<double, 3> share{};   // of the light, per channel, in the tail (drawn or beyond the frame)
+};
+
+// The texture (at the lens's own f-number) and its tail, together carrying `power` per channel: the
+// texture gets power x (1 - tail share). Arguments as splat_starburst's; the tail is drawn to the frame
+// edge, starting where the texture fades out.
+StarburstTail draw_starburst(const Starburst& starburst, const Aperture& aperture, double f_number, double length_scale,
+                             double cx, double cy, const std::array<double, 3>& power, double pixel_w_mm,
+                             double pixel_h_mm, float* rgb, int width, int height, double core_radius_texels = 0.0);
+
+// Energy of the iris's pattern outside radius rho (in wavelength x f-number), asymptotically: P R / (pi^2 A rho).
+double starburst_tail_coefficient(const Aperture& aperture);
+
 // Radius in texels of the second dark ring of a round iris's pattern at 550 nm (2.23 lambda N), inside
 // which about 91% of the energy lies: the core an image of the light already holds.
 double starburst_core_radius_texels(const Starburst& starburst);

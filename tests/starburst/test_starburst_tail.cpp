@@ -1,0 +1,151 @@
+// The starburst beyond its texture: the energy outside a radius against a Fraunhofer reference computed
+// here (FFTW, a large grid), energy conservation, the spikes' directions, and --starburst-scale, which
+// lengthens the spikes without widening them.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <vector>
+
+#include <cstdio>
+
+#include <fftw3.h>
+#include <gtest/gtest.h>
+
+#include <optics/aperture.h>
+#include <optics/starburst.h>
+
+using namespace lensfx::optics;
+
+namespace {
+
+constexpr int kWidth = 1920, kHeight = 1280;
+constexpr double kPixelMm = 36.0 / kWidth;  // a 36 x 24 mm sensor
+constexpr double kFNumber = 8.0;
+const Aperture kHexagon{6, 0.0, 0.0};
+
+// The Fraunhofer pattern of the iris at one wavelength (FFTW, r samples per stop radius on an m x m grid):
+// the share of its energy outside each radius rho (in wavelength x f-number), as 1 - the share inside.
+// The energy inside comes from the DFT, divided by each bin's sample-box transfer (the samples are the
+// iris's coverage of their squares); the whole energy is the iris's area (Parseval: it passes or not),
+// which the DFT lacks the part of beyond its Nyquist limit.
+std::vector<double> reference_outside(const Aperture& aperture, const std::vector<double>& rho) {
+    const int m = 4096, r = 2000;  // one bin is 2 r / m wavelength x f-number; the largest rho tested is 852
+    const std::size_t half = m / 2 + 1;
+    std::vector<double> in(static_cast<std::size_t>(m) * m);
+    rasterise_aperture(aperture, m, r, in.data());
+    double area = 0.0;
+    for (double v : in) area += v;
+    auto* out = static_cast<fftw_complex*>(fftw_malloc(sizeof(fftw_complex) * m * half));
+    fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.data(), out, FFTW_ESTIMATE);
+    fftw_execute(plan);
+    fftw_destroy_plan(plan);
+    const double bin = 2.0 * r / m;
+    const auto box = [&](double k) {
+        const double x = std::numbers::pi * k / m;
+        return x == 0.0 ? 1.0 : (std::sin(x) / x) * (std::sin(x) / x);
+    };
+    std::vector<double> inside(rho.size(), 0.0);
+    const double largest = *std::max_element(rho.begin(), rho.end());
+    for (int y = 0; y < m; ++y) {
+        const int fy = y <= m / 2 ? y : y - m;
+        if (std::abs(fy) * bin > largest) continue;
+        for (std::size_t x = 0; x < half; ++x) {
+            const double radius = std::hypot(static_cast<double>(x), static_cast<double>(fy)) * bin;
+            if (radius > largest) break;
+            const fftw_complex& c = out[static_cast<std::size_t>(y) * half + x];
+            const double p = (c[0] * c[0] + c[1] * c[1]) * ((x == 0 || static_cast<int>(x) == m / 2) ? 1.0 : 2.0) /
+                             (box(static_cast<double>(x)) * box(static_cast<double>(fy)));
+            for (std::size_t k = 0; k < rho.size(); ++k)
+                if (radius <= rho[k]) inside[k] += p;
+        }
+    }
+    fftw_free(out);
+    std::vector<double> outside;
+    for (double i : inside) outside.push_back(1.0 - i / (static_cast<double>(m) * m * area));
+    return outside;
+}
+
+// The starburst of a light at the frame's centre, power 1 per channel.
+std::vector<float> render(double scale, StarburstTail* tail = nullptr) {
+    static const Starburst texture = make_starburst(kHexagon);
+    std::vector<float> rgb(static_cast<std::size_t>(kWidth) * kHeight * 3, 0.0f);
+    const StarburstTail t = draw_starburst(texture, kHexagon, kFNumber, scale, kWidth / 2.0, kHeight / 2.0, {1.0, 1.0, 1.0},
+                                           kPixelMm, kPixelMm, rgb.data(), kWidth, kHeight);
+    if (tail) *tail = t;
+    return rgb;
+}
+
+// Share of channel c's unit power outside r pixels of the centre.
+double outside(const std::vector<float>& rgb, double r_px, int c) {
+    double sum = 0.0;
+    for (int y = 0; y < kHeight; ++y)
+        for (int x = 0; x < kWidth; ++x)
+            if (std::hypot(x + 0.5 - kWidth / 2.0, y + 0.5 - kHeight / 2.0) > r_px)
+                sum += static_cast<double>(rgb[(static_cast<std::size_t>(y) * kWidth + x) * 3 + static_cast<std::size_t>(c)]);
+    return sum * kPixelMm * kPixelMm;
+}
+
+}  // namespace
+
+TEST(StarburstTail, EnergyOutsideRadiiMatchesFraunhofer) {
+    const std::vector<float> rgb = render(1.0);
+    const std::vector<double> radii_px = {10.0, 20.0, 50.0, 200.0};
+    std::vector<double> rho;
+    for (double r : radii_px) rho.push_back(r * kPixelMm / (550e-6 * kFNumber));
+    const std::vector<double> reference = reference_outside(kHexagon, rho);
+    for (std::size_t k = 0; k < radii_px.size(); ++k) {
+        const double ours = outside(rgb, radii_px[k], 1);  // green: about 550 nm
+        const double ratio = ours / reference[k];
+        std::printf("r %g px rho %g: ours %.4g reference %.4g asymptote %.4g\n", radii_px[k], rho[k], ours, reference[k], 0.234 / rho[k]);
+        RecordProperty("outside_" + std::to_string(static_cast<int>(radii_px[k])) + "px", std::to_string(ratio));
+        EXPECT_GT(ratio, 0.5) << radii_px[k] << " px: " << ours << " against " << reference[k];
+        EXPECT_LT(ratio, 1.8) << radii_px[k] << " px: " << ours << " against " << reference[k];
+    }
+    // The asymptote the tail follows: 0.234 / rho for a hexagon.
+    EXPECT_NEAR(starburst_tail_coefficient(kHexagon), 0.234, 0.002);
+    EXPECT_NEAR(starburst_tail_coefficient(Aperture{}), 2.0 / (std::numbers::pi * std::numbers::pi), 1e-12);
+}
+
+TEST(StarburstTail, ReachesTheFrameEdgeWithEnergyKept) {
+    StarburstTail tail;
+    const std::vector<float> rgb = render(1.0, &tail);
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_GT(outside(rgb, 500.0, c), 0.0);
+        // What is in the frame plus the tail's light beyond its edge (under 1e-3 here) is the light.
+        double sum = 0.0;
+        for (std::size_t i = static_cast<std::size_t>(c); i < rgb.size(); i += 3) sum += static_cast<double>(rgb[i]);
+        EXPECT_NEAR(sum * kPixelMm * kPixelMm, 1.0, 2e-3) << c;
+        EXPECT_GT(tail.share[c], 0.0);
+    }
+    // The spikes run along the edges' normals: straight up (the bottom edge's normal turned), not at 0 degrees.
+    const auto value = [&](int x, int y) { return rgb[(static_cast<std::size_t>(y) * kWidth + x) * 3 + 1]; };
+    float up = 0.0f, side = 0.0f;
+    for (int dx = -2; dx <= 2; ++dx) up += value(kWidth / 2 + dx, kHeight / 2 - 400);
+    for (int dy = -2; dy <= 2; ++dy) side += value(kWidth / 2 + 400, kHeight / 2 + dy);
+    EXPECT_GT(up, 100.0f * std::max(side, 1e-30f));
+}
+
+TEST(StarburstTail, ScaleLengthensWithoutWidening) {
+    const std::vector<float> one = render(1.0), twenty = render(20.0);
+    // Twenty times the length: the light outside 200 px is that of 10 px physically (about 20x).
+    const double ratio = outside(twenty, 200.0, 1) / outside(one, 200.0, 1);
+    EXPECT_GT(ratio, 12.0);
+    EXPECT_LT(ratio, 25.0);
+    // The same width across the vertical spike 300 px out (energy-weighted spread in x).
+    const auto spread = [](const std::vector<float>& rgb) {
+        double s = 0.0, sx = 0.0, sxx = 0.0;
+        for (int dx = -12; dx <= 12; ++dx) {
+            const double v = rgb[(static_cast<std::size_t>(kHeight / 2 - 300) * kWidth + kWidth / 2 + dx) * 3 + 1];
+            s += v;
+            sx += v * dx;
+            sxx += v * dx * dx;
+        }
+        return std::sqrt(std::max(0.0, sxx / s - (sx / s) * (sx / s)));
+    };
+    EXPECT_LT(spread(twenty), 1.5);
+    EXPECT_NEAR(spread(twenty), spread(one), 0.25);
+    // No hole: most of the light stays in the core, at the physical size.
+    EXPECT_LT(outside(twenty, 3.0, 1), 0.5);
+}
