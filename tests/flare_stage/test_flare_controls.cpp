@@ -200,6 +200,23 @@ TEST(FlareControls, MatteOverTheWholeFrameIsAPassThrough) {
     EXPECT_EQ(report.at("frames").at(0).at("figures").at("flare.sources").get<double>(), 1.0);
 }
 
+TEST(FlareControls, MatteSequenceIsReadFrameByFrame) {
+    const fs::path dir = temp_dir("matte_sequence");
+    for (const char* n : {"0001", "0002"}) write_frame(dir / (std::string("in.") + n + ".exr"), {kLamp});
+    write_matte(dir / "roto.0001.exr", 1.0f);
+    write_matte(dir / "roto.0002.exr", 0.0f);
+    const Result r = run("-i " + (dir / "in.####.exr").string() + " -o " + (dir / "out.####.exr").string() + kLens +
+                         " --matte " + (dir / "roto.####.exr").string() + " --report " + (dir / "r.json").string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto report = nlohmann::json::parse(std::ifstream(dir / "r.json"));
+    EXPECT_EQ(report.at("frames").at(0).at("figures").at("flare.lights").get<double>(), 0.0) << "frame 1: matted";
+    EXPECT_EQ(report.at("frames").at(1).at("figures").at("flare.lights").get<double>(), 1.0) << "frame 2: not";
+    const Result missing = run("-i " + (dir / "in.####.exr").string() + " -o " + (dir / "out.####.exr").string() + kLens +
+                               " --matte " + (dir / "nothing.####.exr").string());
+    EXPECT_NE(missing.status, 0);
+    EXPECT_NE(missing.output.find("--matte " + (dir / "nothing.0001.exr").string()), std::string::npos) << missing.output;
+}
+
 TEST(FlareControls, AddedLightFlaresABlackFrameAndLeavesThePlate) {
     const fs::path dir = temp_dir("add_light");
     write_frame(dir / "black.exr", {}, 0.0f);
