@@ -256,6 +256,7 @@ Detection Detector::detect(const ImageView& image) {
     }
     st.total_luminous_flux = total;
     st.invalid_pixels = invalid;
+    cv::minMaxLoc(pooled_, nullptr, &st.max_luminance);  // the block maxima hold the frame's maximum
 
     // Median from the fine histogram (1/16 stop resolution), and the per-stop histogram for cut detection.
     const std::uint64_t n = static_cast<std::uint64_t>(W) * static_cast<std::uint64_t>(H);

@@ -137,6 +137,22 @@ Shape shape_field(const json& js, const std::string& where) {
     return s;
 }
 
+// A track's "gain" and "exclude", written only when they differ from the defaults ("" then).
+std::string track_controls_json(const Track& t) {
+    std::string out;
+    if (t.gain != 1.0) out += fmt::format("\"gain\": {}, ", ojson(t.gain).dump());
+    if (t.exclude) out += "\"exclude\": true, ";
+    return out;
+}
+
+// Reads a track's optional "gain" (a finite number >= 0) and "exclude" (a boolean).
+void read_track_controls(const json& jt, const std::string& where, Track& t) {
+    t.gain = field_or<double>(jt, "gain", 1.0, where);
+    if (!std::isfinite(t.gain) || t.gain < 0.0)
+        throw std::runtime_error(fmt::format("{}: \"gain\" must be a finite number >= 0, not {}", where, t.gain));
+    t.exclude = field_or<bool>(jt, "exclude", false, where);
+}
+
 }  // namespace
 
 void TrackFile::append(std::int64_t frame, const std::vector<Light>& lights) {
@@ -165,7 +181,7 @@ void TrackFile::append(std::int64_t frame, const std::vector<Light>& lights) {
 std::vector<Light> TrackFile::lights_at(std::int64_t frame) const {
     std::vector<Light> out;
     for (const Track& t : tracks) {
-        if (t.keys.empty() || frame < t.keys.front().frame || frame > t.keys.back().frame) continue;
+        if (t.exclude || t.keys.empty() || frame < t.keys.front().frame || frame > t.keys.back().frame) continue;
         const auto hi = std::lower_bound(t.keys.begin(), t.keys.end(), frame, [](const TrackKey& k, std::int64_t f) { return k.frame < f; });
         Light l;
         if (hi->frame == frame) {
@@ -187,6 +203,7 @@ std::vector<Light> TrackFile::lights_at(std::int64_t frame) const {
             l.extent.angle_deg = std::fmod(a.extent.angle_deg + u * da + 180.0, 180.0);
             l.weight = lerp(a.weight, b.weight, u);
         }
+        l.gain = t.gain;
         if (l.weight > 0.0) out.push_back(std::move(l));
     }
     return out;
@@ -210,7 +227,8 @@ std::string to_json_text(const TrackFile& file) {
                                   kFormat, kVersion, file.width, file.height);
     for (std::size_t ti = 0; ti < file.tracks.size(); ++ti) {
         const Track& t = file.tracks[ti];
-        out += fmt::format("{}\n  {{\"id\": {}, \"origin\": {}, \"keys\": [", ti ? "," : "", t.id, ojson(t.origin).dump());
+        out += fmt::format("{}\n  {{\"id\": {}, \"origin\": {}, {}\"keys\": [", ti ? "," : "", t.id, ojson(t.origin).dump(),
+                           track_controls_json(t));
         std::optional<Shape> stored;
         for (std::size_t ki = 0; ki < t.keys.size(); ++ki) {
             const TrackKey& k = t.keys[ki];
@@ -259,6 +277,7 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
         t.id = int_field(jt, "id", INT_MIN, INT_MAX, twhere);
         const std::string where = fmt::format("{}: track id {}", name, t.id);
         t.origin = field_or<std::string>(jt, "origin", "manual", where);
+        read_track_controls(jt, where, t);
         const json keys = field<json>(jt, "keys", where);
         if (!keys.is_array() || keys.empty()) throw std::runtime_error(fmt::format("{}: \"keys\" must be a non-empty array", where));
         std::optional<Shape> carried;

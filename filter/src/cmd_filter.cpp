@@ -47,7 +47,7 @@ void parse_size(const std::string& text, int& width, int& height) {
 // display or back to the input's space) last; the other effects go between them.
 // One GL context serves the flare renderer and the GPU colour transform; the flare is rendered in the
 // working space's primaries, which the colour session knows from the first frame.
-std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
+std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args, const FlareStage*& flare) {
     std::vector<std::unique_ptr<Stage>> stages;
     auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
     auto gpu = std::make_shared<GpuSession>();
@@ -62,7 +62,9 @@ std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args) {
             if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
             return std::nullopt;
         };
-        stages.push_back(std::make_unique<FlareStage>(args.flare, gpu, primaries));
+        auto stage = std::make_unique<FlareStage>(args.flare, gpu, primaries);
+        flare = stage.get();
+        stages.push_back(std::move(stage));
     }
     if (dof.compose) stages.push_back(std::move(dof.compose));
     stages.push_back(std::make_unique<colour::ColourOutputStage>(colour_session, gpu, args.colour.device));
@@ -79,10 +81,12 @@ void run_filter(FilterArgs& args) {
     o.write.display_bits = args.colour.bits;
     o.write.dither = args.colour.dither_mode();
 
-    auto owned = make_stages(args);
+    const FlareStage* flare = nullptr;
+    auto owned = make_stages(args, flare);
     std::vector<Stage*> stages;
     for (auto& s : owned) stages.push_back(s.get());
     const RunReport report = run_pipeline(o, stages);
+    if (flare && !flare->summary().lights_per_frame.empty() && !o.quiet) fmt::print(stderr, "{}\n", describe(flare->summary()));
     if (report.skipped() > 0 && !o.quiet) {
         std::string numbers;  // the first few: a long run's list would fill the terminal
         std::size_t listed = 0;

@@ -2,7 +2,9 @@
 // rendered on the GPU (or by the dense CPU reference with --reference), written as a float EXR, with an
 // optional tone-mapped PNG preview and a per-ghost power listing.
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <numbers>
 #include <memory>
@@ -13,6 +15,7 @@
 
 #include <fmt/core.h>
 #include <filter/colour.h>
+#include <filter/flare_controls.h>
 #include <filter/flare_stage.h>
 #include <filter/image_io.h>
 #include <filter/ghost_options.h>
@@ -58,6 +61,8 @@ struct FlareArgs {
     AccelerationSettings accel;
     std::string parts = "ghosts";
     double starburst_scale = 1.0;
+    double ghost_gain = 1.0;
+    double starburst_gain = 1.0;
     PupilSettings pupil;
     int threads = 2;
     std::string gpu = "auto";
@@ -161,7 +166,9 @@ void run_flare(const FlareArgs& args) {
         view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
     }
 
-    const filter::FlareParts parts = filter::parse_parts(args.parts);
+    filter::FlareParts parts = filter::parse_parts(args.parts);
+    parts.ghosts = parts.ghosts && args.ghost_gain > 0.0;  // as in the filter: a gain of 0 renders nothing
+    parts.starburst = parts.starburst && args.starburst_gain > 0.0;
     const auto start = std::chrono::steady_clock::now();
     gpu::FlareImage image;
     if (!parts.ghosts) {
@@ -190,18 +197,25 @@ void run_flare(const FlareArgs& args) {
                     ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return renderer.render(system, one, options); })
                     : renderer.render(system, view, options);
     }
+    if (parts.ghosts && args.ghost_gain != 1.0) {
+        for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
+        for (gpu::GhostPower& g : image.ghosts)
+            for (double& p : g.power) p *= args.ghost_gain;
+    }
     if (parts.starburst) {
         // The light's own diffraction pattern, whole (no recorded image holds its core here), carrying the
-        // power unit irradiance delivers through the direct path, centred where the lens images the light.
+        // power unit irradiance delivers through the direct path (times --starburst-gain, as in the filter),
+        // centred where the lens images the light.
         const optics::Paraxial paraxial = optics::paraxial(system);
         const double k = std::numbers::pi / 180.0;
         const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
         const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
         const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
+        std::array<double, 3> energy = filter::direct_power(system, view.angle_x_deg, view.angle_y_deg);
+        for (double& e : energy) e *= args.starburst_gain;
         optics::draw_starburst(starburst, system.aperture, paraxial.f_number, args.starburst_scale,
                                (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
-                               filter::direct_power(system, view.angle_x_deg, view.angle_y_deg),
-                               view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
+                               energy, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
                                view.width, view.height);
     }
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -250,6 +264,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--starburst-scale", args->starburst_scale,
                     "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")
         ->capture_default_str()->check(CLI::PositiveNumber);
+    filter::add_part_gain_options(*cmd, args->ghost_gain, args->starburst_gain, "Options");
     add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");

@@ -88,7 +88,8 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--gpu", s.gpu, "EGL platform: auto, device (a GPU driver), surfaceless (Mesa)")->capture_default_str()->group(group)
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
     app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
-    app.add_option("--starburst-gain", s.starburst_gain, "Starburst energy relative to the light's own recorded energy")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
+    add_part_gain_options(app, s.controls.ghost_gain, s.starburst_gain, group);
+    add_flare_control_options(app, s.controls, group);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
         ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
@@ -424,6 +425,10 @@ struct FlareStage::State {
     std::vector<optics::GhostImaging> imaging;   // extended lights, made at the first one
     std::vector<double> axial_power;
     std::vector<std::pair<std::string, double>> times;  // of the last frame
+    std::vector<std::pair<std::string, double>> figures;  // of the last frame
+    std::vector<std::pair<std::string, double>> detected;  // the detector's figures of the last frame
+    DetectionInput detection_input;  // the plate as the detector sees it (--matte, --add-light)
+    LightSummary summary;
     std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
@@ -433,8 +438,11 @@ struct FlareStage::State {
               o.threshold = detect::Threshold::parse(settings.threshold);
               o.max_lights = settings.max_lights;
               return o;
-          }()) {
+          }()),
+          detection_input(settings.controls) {
         gpu_session = g ? std::move(g) : std::make_shared<GpuSession>();
+        summary.threshold_text = settings.threshold;
+        summary.tracks = settings.tracks;
         primaries_source = std::move(primaries);
         check_input_files(settings);
         const optics::Lens lens = optics::load_lens(settings.lens);
@@ -448,6 +456,10 @@ struct FlareStage::State {
         efl_mm = first_order.efl_mm;
         f_number = first_order.f_number;
         parts = parse_parts(settings.parts);
+        parts.ghosts = parts.ghosts && settings.controls.ghost_gain > 0.0;  // a gain of 0 renders nothing
+        parts.starburst = parts.starburst && settings.starburst_gain > 0.0;
+        if (!settings.tracks.empty() && detection_input.changes_the_plate())
+            throw std::invalid_argument("--matte, --matte-channel and --add-light act on detection; with --tracks, edit the track file");
         sensor = parse_sensor(settings.sensor);
         if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
         starburst_options = filter::starburst_options(settings.pupil);
@@ -494,7 +506,22 @@ struct FlareStage::State {
             keep_brightest(found, static_cast<std::size_t>(settings.max_lights));
             return found;
         }
-        return tracker.update(detector.detect(rgb_view(frame)));
+        const detect::Detection found = detector.detect(detection_input.view(frame));
+        const detect::FrameStats& st = found.stats;
+        detected = {{"sources", static_cast<double>(found.sources.size())}, {"brightest", st.max_luminance}, {"threshold", st.threshold}};
+        if (summary.lights_per_frame.empty() || st.max_luminance > summary.brightest_luminance) {
+            summary.brightest_luminance = st.max_luminance;
+            summary.threshold_there = st.threshold;
+        }
+        return tracker.update(found);
+    }
+
+    // The strength of a light's whole flare beyond physics: the artistic gains that apply to it, multiplied
+    // in double (each is finite and >= 0; their product may still overflow, and is then the largest double).
+    double boost(const detect::Light& light, bool extended) const {
+        const double b = (light.clipped ? settings.source_gain : 1.0) * settings.gain * light.weight * light.gain *
+                         (extended ? settings.controls.extended_gain : 1.0);
+        return std::isfinite(b) ? b : std::numeric_limits<double>::max();
     }
 };
 
@@ -503,10 +530,14 @@ FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, 
 FlareStage::~FlareStage() = default;
 
 std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->times; }
+std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { return state_->figures; }
+const LightSummary& FlareStage::summary() const { return state_->summary; }
 
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
     s.times.clear();
+    s.figures.clear();
+    s.detected.clear();
     if (!frame.has_rgb()) {
         std::string names;
         for (const auto& n : frame.spec.channelnames) names += (names.empty() ? "" : ", ") + n;
@@ -527,14 +558,17 @@ void FlareStage::process(Frame& frame) {
         return detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2];
     };
     double brightest = 0.0;
-    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight);
+    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight * l.gain);
     std::erase_if(lights, [&](detect::Light& l) {
-        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight / brightest, s.settings.min_light) : 0.0;
+        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight * l.gain / brightest, s.settings.min_light) : 0.0;
         return !(l.weight > 0.0);
     });
+    s.summary.lights_per_frame.push_back(static_cast<int>(lights.size()));
+    s.figures.emplace_back("lights", static_cast<double>(lights.size()));
+    s.figures.insert(s.figures.end(), s.detected.begin(), s.detected.end());
 
     const bool layer = !s.settings.layer.empty();
-    if (lights.empty() || s.settings.gain == 0.0) {  // no light: nothing is drawn (the context made ahead waits)
+    if (lights.empty() || s.settings.gain == 0.0 || (!parts.ghosts && !parts.starburst)) {  // nothing to draw (the context made ahead waits)
         if (layer) add_rgb_layer(frame, s.settings.layer, std::vector<float>(frame.pixel_count() * 3, 0.0f));
         return;
     }
@@ -576,20 +610,20 @@ void FlareStage::process(Frame& frame) {
         const int traced_before = s.direct.traced();
         const std::array<double, 3> direct = s.direct.at(ax, ay);
         if (s.direct.traced() != traced_before && !s.direct_file.empty()) s.direct.save(s.direct_file, s.direct_key);
-        const double boost = (light.clipped ? s.settings.source_gain : 1.0) * s.settings.gain * light.weight;
-        std::array<float, 3> scale{};
+        const double boost = s.boost(light, extended);
+        std::array<float, 3> scale{};  // of the ghosts
         bool any = false;
         for (std::size_t c = 0; c < 3; ++c) {
             // Irradiance of the light at the lens: the energy its image recorded over what unit irradiance gives.
             if (direct[c] <= 0.0) continue;
             const double irradiance = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / direct[c];
-            scale[c] = to_float_within(std::min(irradiance * boost, kMaxLightScale));
-            any = any || scale[c] > 0.0f;
+            scale[c] = to_float_within(std::min(irradiance * boost * s.settings.controls.ghost_gain, kMaxLightScale));
+            any = any || irradiance * boost > 0.0;
         }
         direct_ms += ms_since(t);
         if (!any) continue;  // outside what the lens images: nothing reaches the sensor
 
-        if (parts.starburst && s.settings.starburst_gain > 0.0) {
+        if (parts.starburst) {
             t = Clock::now();
             if (!s.starburst) {
                 optics::StarburstOptions starburst_options = s.starburst_options;

@@ -344,6 +344,8 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     rec.stage_ms.emplace_back(std::string(stage->name()), ms_since(ts));
                     for (const auto& [part, ms] : stage->part_times())
                         rec.stage_ms.emplace_back(fmt::format("{}.{}", stage->name(), part), ms);
+                    for (const auto& [figure, value] : stage->frame_figures())
+                        rec.figures.emplace_back(fmt::format("{}.{}", stage->name(), figure), value);
                 }
                 if (load) {
                     store_rgb(frame);
@@ -386,6 +388,11 @@ void write_report(const RunReport& report, const std::string& path) {
                             {"output", f.output},     {"status", f.written ? "written" : "skipped"},
                             {"read_ms", f.read_ms},   {"process_ms", f.process_ms}, {"write_ms", f.write_ms},
                             {"stages_ms", stages}};
+        if (!f.figures.empty()) {
+            nlohmann::ordered_json figures = nlohmann::ordered_json::object();
+            for (const auto& [name, value] : f.figures) figures[name] = value;
+            j["figures"] = std::move(figures);
+        }
         if (!f.error.empty()) j["error"] = f.error;
         frames.push_back(std::move(j));
     }

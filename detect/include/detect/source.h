@@ -53,6 +53,7 @@ struct FrameStats {
     int width = 0;
     int height = 0;
     double median_luminance = 0.0;
+    double max_luminance = 0.0;        // the brightest pixel's (sanitised) luminance
     double total_luminous_flux = 0.0;  // of the whole frame (finite, non-negative pixels)
     double threshold = 0.0;            // resolved birth threshold (luminance)
     double low_threshold = 0.0;        // resolved continuation threshold: threshold / 2^hysteresis_ev
@@ -77,6 +78,7 @@ struct Light {
     std::array<double, 3> flux{};
     Extent extent;
     double weight = 1.0;  // fade in [0, 1]: multiply the flare by it
+    double gain = 1.0;    // artistic scale of this light's flare (a track file's per-track "gain"), >= 0
     bool clipped = false;
     std::optional<Shape> shape;
     friend bool operator==(const Light&, const Light&) = default;

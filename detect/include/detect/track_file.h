@@ -30,6 +30,8 @@ struct TrackKey {
 struct Track {
     int id = 0;
     std::string origin = "detected";  // "detected" or "manual"; informative
+    double gain = 1.0;                // scales this track's flare (finite, >= 0); 1 = as detected
+    bool exclude = false;             // the track gives no light (kept in the file, not rendered)
     std::vector<TrackKey> keys;
     friend bool operator==(const Track&, const Track&) = default;
 };
@@ -52,7 +54,8 @@ struct TrackFile {
     void append(std::int64_t frame, const std::vector<Light>& lights);
 
     // The lights of frame f: every track whose keys span f, linearly interpolated between the two keys
-    // around f (the shape is the one of the key at or before f), weight > 0 only, by increasing id.
+    // around f (the shape is the one of the key at or before f), weight > 0 only, by increasing id;
+    // excluded tracks give none, the others carry their gain.
     [[nodiscard]] std::vector<Light> lights_at(std::int64_t frame) const;
 
     // First and last frame with a key; {0, -1} when empty.

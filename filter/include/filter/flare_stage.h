@@ -17,6 +17,7 @@
 
 #include <detect/source.h>
 #include <filter/frame.h>
+#include <filter/flare_controls.h>
 #include <filter/ghost_options.h>
 #include <filter/gpu_session.h>
 #include <filter/pupil_options.h>
@@ -54,12 +55,13 @@ struct FlareSettings {
     double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
     std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
     AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
+    FlareControls controls;           // --ghost-gain, --extended-gain, --matte, --matte-channel, --add-light
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --coating, --coating-spread, --threshold, --max-lights, --sensor, --fov, --gain,
 // --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
-// --band-filter, --ringing, --flare-look, --min-light, --layer, the pupil's dirt (add_pupil_options) and
-// the renderer's accelerations (add_acceleration_options).
+// --band-filter, --ringing, --flare-look, --min-light, --layer, the pupil's dirt (add_pupil_options), the
+// renderer's accelerations (add_acceleration_options) and the compositor's controls (flare_controls.h).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 
 // --coating and --coating-spread (both commands), and what they do to a realized system.
@@ -158,6 +160,10 @@ public:
     void process(Frame& frame) override;
     // detect, direct (light strengths), starburst, ghosts, extended (footprint convolution), composite.
     std::vector<std::pair<std::string, double>> part_times() const override;
+    // lights (rendered), and when the detector ran: sources, brightest (luminance), threshold.
+    std::vector<std::pair<std::string, double>> frame_figures() const override;
+    // Lights per frame so far, and the brightest luminance seen (for the end-of-run line).
+    [[nodiscard]] const LightSummary& summary() const;
 
 private:
     struct State;

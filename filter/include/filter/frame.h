@@ -100,6 +100,9 @@ public:
     virtual void process(Frame& frame) = 0;
     // Milliseconds spent in named parts of the last process() call; the report lists them as NAME.PART.
     virtual std::vector<std::pair<std::string, double>> part_times() const { return {}; }
+    // Figures of the last process() call (what it found: lights, the brightest luminance...); the report
+    // lists them as NAME.FIGURE.
+    virtual std::vector<std::pair<std::string, double>> frame_figures() const { return {}; }
 };
 
 }  // namespace lensfx::filter

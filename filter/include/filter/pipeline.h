@@ -44,6 +44,7 @@ struct FrameRecord {
     std::string error;  // why it was skipped, when it was
     double read_ms = 0, process_ms = 0, write_ms = 0;
     std::vector<std::pair<std::string, double>> stage_ms;  // process_ms broken down by effect stage
+    std::vector<std::pair<std::string, double>> figures;   // what the stages found (Stage::frame_figures)
 };
 
 struct RunReport {

@@ -1,0 +1,99 @@
+// A compositor's controls of the flare on footage, beside the physical model: gains for the ghosts, the
+// starburst and extended sources; a matte that keeps parts of the plate from becoming lights; lights added
+// by hand; and what the run found (lights per frame, the brightest luminance when none was found).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include <detect/image_view.h>
+#include <filter/frame.h>
+
+namespace lensfx::filter {
+
+// A disc of `value` (R = G = B) and `radius` px at display-window pixel position (x, y) (pixel centres at
+// i + 0.5): what `--add-light X,Y,VALUE[,RADIUS]` puts into the image the detector sees.
+struct AddedLight {
+    double x = 0.0;
+    double y = 0.0;
+    double value = 0.0;
+    double radius = 2.0;
+};
+
+// "X,Y,VALUE" or "X,Y,VALUE,RADIUS"; throws std::invalid_argument naming the option and the text.
+AddedLight parse_added_light(std::string_view text);
+
+struct FlareControls {
+    double ghost_gain = 1.0;     // scales the ghosts (1 = physical)
+    double extended_gain = 1.0;  // scales the whole flare of extended sources (those with a shape)
+    std::string matte;           // image or sequence pattern: white pixels never become lights
+    std::string matte_channel;   // a channel of the input used as such a matte
+    std::vector<std::string> add_lights;  // --add-light texts, parsed by DetectionInput
+};
+
+// A CLI11 check: a finite number >= 0 (CLI::NonNegativeNumber lets "inf" through).
+const CLI::Validator& finite_non_negative();
+
+// Adds --ghost-gain and --starburst-gain, worded the same for `lensfx` and `lensfx flare`.
+void add_part_gain_options(CLI::App& app, double& ghost_gain, double& starburst_gain, const std::string& group);
+
+// Adds --extended-gain, --matte, --matte-channel and --add-light (--ghost-gain comes with
+// add_part_gain_options).
+void add_flare_control_options(CLI::App& app, FlareControls& controls, const std::string& group);
+
+// The image the detector sees: the plate with the matte's white taken out (each pixel times 1 - matte,
+// the matte clamped to [0, 1]) and the added lights painted in (antialiased discs over the result), over
+// the data window grown to hold the discs. The frame itself is never changed. Without a matte or added
+// lights it is the frame's own RGB buffer, at no cost.
+class DetectionInput {
+public:
+    explicit DetectionInput(const FlareControls& controls);  // parses --add-light, reads a still matte
+    [[nodiscard]] bool changes_the_plate() const { return !matte_.empty() || !matte_channel_.empty() || !lights_.empty(); }
+    // The view for this frame (valid until the next call). Throws naming the matte file or channel.
+    detect::ImageView view(const Frame& frame);
+
+private:
+    struct Matte {
+        int width = 0, height = 0;  // the display window it covers (must be the frame's)
+        std::vector<float> value;   // over the display window, row 0 at the top, in [0, 1]
+    };
+    std::string matte_;           // file or pattern
+    bool matte_is_sequence_ = false;
+    std::optional<Matte> still_;  // a matte without a frame token, read once
+    std::string matte_channel_;
+    std::vector<AddedLight> lights_;
+    std::vector<float> buffer_;
+
+    Matte matte_for(const Frame& frame);
+    void apply_matte(const Matte& matte, const Frame& frame, int x0, int y0, int width);
+    void apply_matte_channel(const Frame& frame, int x0, int y0, int width);
+};
+
+// Reads a matte image over its display window: the mean of its colour channels (or its one channel, or A
+// when it has nothing else), clamped to [0, 1], NaN as 0; outside its data window 0. Sets width and height
+// to its display window's size. Throws naming the file.
+std::vector<float> read_matte(const std::string& path, int& width, int& height);
+
+// Adds `light`, antialiased, over a float RGB buffer of width x height whose pixel (0, 0) lies at
+// display-window position (x0, y0): each pixel becomes mix(pixel, value, covered fraction).
+void paint_light(const AddedLight& light, float* rgb, int x0, int y0, int width, int height);
+
+// What the flare stage found over a run: lights per frame, and the brightest luminance when none.
+struct LightSummary {
+    std::vector<int> lights_per_frame;   // lights rendered (after --min-light), per processed frame
+    double brightest_luminance = 0.0;    // over every frame the detector saw
+    double threshold_there = 0.0;        // the resolved threshold on the frame holding that luminance
+    std::string threshold_text;          // as given: "20", "+6ev"
+    std::string tracks;                  // the track file, when lights came from one
+};
+
+// The one stderr line for the end of a run: "lensfx: 24 frames, lights per frame min 1, median 2, max 2",
+// or, when no frame had a light, why (the brightest luminance against the threshold, or the track file).
+std::string describe(const LightSummary& summary);
+
+}  // namespace lensfx::filter
