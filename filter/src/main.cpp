@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
     lensfx::filter::register_flare_command(app);
     lensfx::filter::register_track_command(app);
     lensfx::filter::register_bench_command(app);
+    lensfx::filter::register_farm_command(app);
 
     try {
         app.parse(argc, argv);
