@@ -425,8 +425,10 @@ public:
 
 private:
     static std::string submit(const FarmPlan& plan, const std::vector<int>& chunks, int attempt) {
-        const CommandOutput r = run_command({"sbatch", "--parsable", "--array=" + chunk_ids(chunks),
-                                             "--export=ALL,LENSFX_FARM_ATTEMPT=" + std::to_string(attempt), plan.script.string()});
+        // The try number travels in sbatch's own environment (exported by default): `--export=ALL,VAR=x` would
+        // make slurmd load the user's login environment for each task (seconds each, measured).
+        const CommandOutput r = run_command({"env", "LENSFX_FARM_ATTEMPT=" + std::to_string(attempt), "sbatch", "--parsable",
+                                             "--array=" + chunk_ids(chunks), plan.script.string()});
         if (r.status != 0) throw std::runtime_error(fmt::format("farm: sbatch rejected the job: {}", last_line(r.text)));
         const std::string job = last_line(r.text).substr(0, last_line(r.text).find(';'));
         if (job.empty() || job.find_first_not_of("0123456789") != std::string::npos)

@@ -172,7 +172,7 @@ INSTANTIATE_TEST_SUITE_P(Engines, FarmTest, ::testing::Values("slurm", "local"),
 // With no controller to answer, a Slurm submission ends in one `lensfx:` line naming sbatch, exit non-zero.
 TEST(FarmErrors, NoSchedulerIsOneClearLine) {
     const fs::path dir = lensfx::test::scratch_dir("farm-errors");
-    std::ofstream(dir / "slurm.conf") << "ClusterName=none\nSlurmctldHost=localhost\nSlurmctldPort=1\nNodeName=localhost\nPartitionName=p Nodes=localhost\n";
+    std::ofstream(dir / "slurm.conf") << "ClusterName=none\nSlurmctldHost=localhost\nSlurmctldPort=1\nMessageTimeout=1\nNodeName=localhost\nPartitionName=p Nodes=localhost\n";
     const auto r = run(fmt::format("SLURM_CONF={}/slurm.conf {} farm -i {} -o {}/pan.####.exr --frames 1-2 --chunk 1 --engine slurm --tracks /dev/null 1>&2", dir.string(),
                                    lensfx_cmd(), kInput, dir.string()));
     EXPECT_NE(r.exit_code, 0);
