@@ -529,6 +529,29 @@ void print_report(const FarmPlan& plan, const std::map<int, ChunkRecord>& record
     std::fflush(stdout);  // before the one-line error, if one follows
 }
 
+// Removes the temporaries that killed tasks left beside the frames (".pan.0014.lensfx-PID.exr", see
+// image_io.cpp); called once no task of the shot runs.
+std::size_t remove_stale_temporaries(const FarmPlan& plan) {
+    std::vector<std::pair<std::string, std::string>> names;  // ".<stem>.lensfx-" and the extension
+    for (auto f : plan.frames) {
+        const fs::path p(plan.out.path(f));
+        names.emplace_back("." + p.stem().string() + ".lensfx-", p.extension().string());
+    }
+    std::size_t removed = 0;
+    const fs::path dir = fs::absolute(fs::path(plan.out.path(plan.frames.front())).parent_path());
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        for (const auto& [prefix, ext] : names) {
+            if (name.starts_with(prefix) && name.ends_with(ext)) {
+                removed += fs::remove(e.path(), ec) ? 1 : 0;
+                break;
+            }
+        }
+    }
+    return removed;
+}
+
 std::string failure_text(const TaskResult& r, int attempt) { return fmt::format("try {} {} (log {})", attempt, r.state, r.log); }
 
 // Runs the missing chunks, then the failed ones again, up to `retries` more times.
@@ -563,6 +586,8 @@ void run_farm(FarmSettings& s) {
         }
         std::sort(todo.begin(), todo.end());
     }
+    if (const std::size_t n = remove_stale_temporaries(plan); n > 0)
+        fmt::print(stderr, "lensfx farm: removed {} temporary files left by killed tasks\n", n);
     print_report(plan, records, std::chrono::duration<double>(Clock::now() - start).count());
     if (!todo.empty()) {
         const ChunkRecord& rec = records[todo.front()];

@@ -133,6 +133,8 @@ TEST_P(FarmTest, KilledChunkIsRetriedAndFramesMatchOneProcess) {
     std::size_t logs = 0;
     for (const auto& e : fs::directory_iterator(dir / "logs")) logs += e.path().filename().string().starts_with("chunk-") ? 1 : 0;
     EXPECT_EQ(logs, 5u);  // four chunks, one of them twice
+    for (const auto& e : fs::directory_iterator(out_))
+        EXPECT_FALSE(e.path().filename().string().starts_with(".")) << e.path() << ": a temporary of the killed task was left";
 
     // Nothing left to do: nothing is submitted, no frame is touched.
     const auto before = complete_frames();
