@@ -221,7 +221,9 @@ output_printf={output_printf}
 tracks={tracks}
 filter_options=({filter_options})
 
-chunk=${{SLURM_ARRAY_TASK_ID:?set by sbatch --array, or by hand: SLURM_ARRAY_TASK_ID=1 bash $0}}
+# The chunk: the array index of Slurm, PBS Pro, Torque, SGE or LSF, or SLURM_ARRAY_TASK_ID=N by hand.
+chunk=${{SLURM_ARRAY_TASK_ID:-${{PBS_ARRAY_INDEX:-${{PBS_ARRAYID:-${{SGE_TASK_ID:-${{LSB_JOBINDEX:-}}}}}}}}}}
+[ -n "$chunk" ] || {{ echo "lensfx-farm: no array index: submit with sbatch --array, or run SLURM_ARRAY_TASK_ID=1 bash $0" >&2; exit 2; }}
 case "$chunk" in
 {cases}  *) echo "lensfx-farm: chunk $chunk: no such chunk (1-{chunks})" >&2; exit 2 ;;
 esac
