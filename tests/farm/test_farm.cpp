@@ -6,14 +6,17 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdlib>
-#include <functional>
-#include <stdexcept>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <fmt/core.h>
@@ -118,10 +121,34 @@ protected:
     fs::path out_;
 };
 
+// Cancels chunk 2's Slurm task (scancel JOB_2) once it has written its first frame, as an operator or a
+// lost node would; the job id is read from the task's log name (logs/chunk-2.JOB.log).
+void cancel_chunk_two_midway(const fs::path& out, const std::atomic<bool>& done) {
+    const fs::path logs = out / "lensfx-farm/pan/logs";
+    while (!done) {
+        std::error_code ec;
+        for (const auto& e : fs::directory_iterator(logs, ec)) {
+            const std::string name = e.path().filename().string();
+            if (!name.starts_with("chunk-2.") || !fs::exists(out / frame_name(7))) continue;
+            const std::string job = name.substr(8, name.size() - 8 - 4);
+            EXPECT_EQ(std::system(("scancel " + job + "_2").c_str()), 0);
+            return;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+}
+
 TEST_P(FarmTest, KilledChunkIsRetriedAndFramesMatchOneProcess) {
-    const auto r = farm("--retries 1", "LENSFX_FARM_TEST_KILL=2");
+    // Slurm: chunk 2 cancelled by scancel; local: killed by the job script's test hook (SIGKILL).
+    std::atomic<bool> done{false};
+    std::thread canceller;
+    if (GetParam() == "slurm") canceller = std::thread(cancel_chunk_two_midway, out_, std::cref(done));
+    const auto r = farm("--retries 1", GetParam() == "slurm" ? "" : "LENSFX_FARM_TEST_KILL=2");
+    done = true;
+    if (canceller.joinable()) canceller.join();
     ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
-    EXPECT_NE(r.stderr_text.find("chunk 2 failed: try 1"), std::string::npos) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find(GetParam() == "slurm" ? "chunk 2 failed: try 1 CANCELLED" : "chunk 2 failed: try 1 KILLED"), std::string::npos)
+        << r.stderr_text;
     EXPECT_NE(r.stderr_text.find("24 of 24 frames complete: 24 rendered, 0 complete already; 4 chunks, 1 retried"), std::string::npos) << r.stderr_text;
     EXPECT_EQ(differences(), "");
 
