@@ -49,10 +49,9 @@ TaskPlugin=task/none
 JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
 JobCompType=jobcomp/none
-# Array tasks share the node, one CPU each unless asked for more.
+# Array tasks share the node, one core each unless asked for more; memory is not booked (nor limited).
 SelectType=select/cons_tres
-SelectTypeParameters=CR_Core_Memory
-DefMemPerCPU=512
+SelectTypeParameters=CR_Core
 ReturnToService=2
 MinJobAge=3600
 SchedulerType=sched/backfill

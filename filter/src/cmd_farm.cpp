@@ -441,7 +441,8 @@ private:
     // Polls until every task of the job has ended. The scheduler may be briefly unreachable; a minute
     // without an answer is an error.
     static std::vector<TaskResult> follow(const FarmPlan& plan, const std::string& job) {
-        auto last_answer = Clock::now();
+        const auto started = Clock::now();
+        auto last_answer = started;
         for (;;) {
             const CommandOutput r = run_command({"scontrol", "show", "job", "-o", job});
             if (r.status != 0) {
@@ -471,7 +472,9 @@ private:
                 results.push_back(t);
             }
             if (all_final) return results;
-            std::this_thread::sleep_for(std::chrono::seconds(1));
+            // Every second at first, then less often (at most every 10 s) for long jobs on a busy controller.
+            const auto waited = std::chrono::duration_cast<std::chrono::seconds>(Clock::now() - started).count();
+            std::this_thread::sleep_for(std::chrono::seconds(std::clamp<long>(static_cast<long>(waited / 30), 1, 10)));
         }
     }
     bool wait_;
