@@ -4,6 +4,7 @@
 // a chunk is killed midway and retried, and after an interrupted run resumed with --resume, which must
 // leave the frames complete before it untouched.
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -59,19 +60,27 @@ std::string last_line(const std::string& text) {
 bool slurm_answers() { return std::system("timeout 20 sinfo -h -o %a >/dev/null 2>&1") == 0; }
 
 // The reference: `lensfx track`, then one `lensfx` process over the whole shot. Made once for all the
-// test processes of this binary (ctest runs each test alone): kept in the temp folder under a name of the
-// program's build time and the options, written aside and renamed into place.
+// test processes of this build (ctest runs each test alone): kept in the build folder under a name of the
+// program's build time and the options (earlier ones removed), written aside and renamed into place.
 fs::path reference_dir() {
     const auto built = fs::last_write_time(LENSFX_BINARY).time_since_epoch().count();
-    const fs::path dir = fs::temp_directory_path() / fmt::format("lensfx-test-farm-ref-{:x}", std::hash<std::string>{}(std::to_string(built) + kFilterOptions));
+    const fs::path build = fs::path(LENSFX_BINARY).parent_path();
+    const std::string name = fmt::format("farm-test-reference-{:x}", std::hash<std::string>{}(std::to_string(built) + kFilterOptions));
+    const fs::path dir = build / name;
     if (fs::exists(dir)) return dir;
-    const fs::path tmp = lensfx::test::scratch_dir("farm-ref");
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(build)) {
+        const std::string other = e.path().filename().string();
+        if (other.starts_with("farm-test-reference-") && !other.starts_with(name)) fs::remove_all(e.path(), ec);
+    }
+    const fs::path tmp = build / fmt::format("{}.{}", name, ::getpid());
+    fs::create_directories(tmp);
     const auto t = run(fmt::format("{} track -i {} --tracks-out {}/tracks.json -q && {} -i {} -o {}/pan.####.exr --tracks {}/tracks.json {} -q", lensfx_cmd(), kInput,
                                    tmp.string(), lensfx_cmd(), kInput, tmp.string(), tmp.string(), kFilterOptions));
     if (t.exit_code != 0) throw std::runtime_error("the reference run failed: " + t.stderr_text);
-    std::error_code ec;
     fs::rename(tmp, dir, ec);  // another test process may have been first: its frames are the same
     if (ec) fs::remove_all(tmp);
+    if (!fs::exists(dir)) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", tmp.string(), dir.string(), ec.message()));
     return dir;
 }
 
