@@ -14,6 +14,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libfmt-dev
   ffmpeg
   clang-14 libclang-rt-14-dev
+  slurm-wlm munge
 )
 
 missing=()

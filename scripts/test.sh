@@ -5,7 +5,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
+# The farm test submits to a one-node Slurm cluster on this machine, stopped again however the run ends.
+trap 'bash scripts/slurm-local.sh stop' EXIT
+bash scripts/slurm-local.sh start
 ctest --test-dir build --output-on-failure -j 2
+bash scripts/slurm-local.sh stop
 
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLENSFX_WERROR=ON -DLENSFX_SANITIZE=ON -DLENSFX_BUILD_BENCH=OFF
 cmake --build build-asan

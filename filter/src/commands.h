@@ -24,5 +24,7 @@ void register_flare_command(CLI::App& app);
 void register_track_command(CLI::App& app);
 // `lensfx bench time-vs-error --csv FILE`: the ghost renderer's time per flare next to its error.
 void register_bench_command(CLI::App& app);
+// `lensfx farm -i IN -o OUT --chunk N --engine slurm|local`: a shot as a job array (cmd_farm.cpp).
+void register_farm_command(CLI::App& app);
 
 }  // namespace lensfx::filter
