@@ -15,9 +15,17 @@
 #include <optics/importers.h>
 #include <optics/presets.h>
 
+#include "regular_file.h"
 #include "toml_fields.h"
 
 namespace lensfx::optics {
+
+void require_regular_file(const std::filesystem::path& path) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw LensFileError(fmt::format("{}: not a regular file (a directory, device or named pipe)", path.string()));
+}
 namespace {
 
 Coating mgf2() {
@@ -193,6 +201,7 @@ std::string coating_value(const Coating& c) {
 }
 
 std::string read_text(const std::filesystem::path& path) {
+    require_regular_file(path);
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
     std::string text(static_cast<std::size_t>(in.tellg()), '\0');
