@@ -328,6 +328,10 @@ void write_track_file(const std::filesystem::path& path, const TrackFile& file) 
 }
 
 TrackFile read_track_file(const std::filesystem::path& path) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))  // a FIFO would block
+        throw std::runtime_error(fmt::format("{}: not a regular file (a directory, device or named pipe)", path.string()));
     std::ifstream in(path, std::ios::binary);
     if (!in) throw std::runtime_error(fmt::format("{}: cannot open track file", path.string()));
     std::ostringstream ss;

@@ -9,6 +9,7 @@
 
 #include <optics/random.h>
 
+#include "regular_file.h"
 #include "toml_fields.h"
 
 namespace lensfx::optics {
@@ -81,6 +82,7 @@ FlareLook parse_flare_look(std::string_view text, std::string_view origin) {
 }
 
 FlareLook read_flare_look(const std::string& path) {
+    require_regular_file(path);
     std::ifstream in(path);
     if (!in) throw LensFileError(fmt::format("{}: cannot read the flare look", path));
     std::stringstream text;

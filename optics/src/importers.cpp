@@ -10,6 +10,7 @@
 
 #include <optics/lens_file.h>
 #include <optics/system.h>
+#include "regular_file.h"
 
 namespace lensfx::optics {
 namespace {
@@ -94,6 +95,7 @@ Glass constant_glass(double n) {
 }
 
 std::string read_text(const std::filesystem::path& path) {
+    require_regular_file(path);
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
     std::string text(static_cast<std::size_t>(in.tellg()), '\0');

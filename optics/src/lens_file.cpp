@@ -16,9 +16,17 @@
 #include <optics/importers.h>
 #include <optics/presets.h>
 
+#include "regular_file.h"
 #include "toml_fields.h"
 
 namespace lensfx::optics {
+
+void require_regular_file(const std::filesystem::path& path) {
+    std::error_code ec;
+    const auto status = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw LensFileError(fmt::format("{}: not a regular file (a directory, device or named pipe)", path.string()));
+}
 namespace {
 
 // The media a lens file may give, whatever its format: refractive index at 587.56 nm and Abbe number.
@@ -217,6 +225,7 @@ std::string coating_value(const Coating& c) {
 }
 
 std::string read_text(const std::filesystem::path& path) {
+    require_regular_file(path);
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
     std::string text(static_cast<std::size_t>(in.tellg()), '\0');
