@@ -29,6 +29,9 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
+// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at full resolution (at 1/2 the
+// upsampling softens a rim by a pixel or two; their rim passes cost more than they show).
+constexpr int kRimReduce = 4;
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
@@ -747,7 +750,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             bound = true;
                         }
                         if (reduce > 1) ++s.stats.ghosts_reduced;
-                        ghost_uniforms(job, reduce, reduce > 1 ? 1 : 0);
+                        ghost_uniforms(job, reduce, reduce >= kRimReduce ? 1 : 0);
                         glUseProgram(s.raster.get());
                         glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
                         glUseProgram(s.splat.get());
@@ -771,7 +774,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 bool rims_bound = false;
                 for (const Job& job : batch) {
                     const GhostPlan& plan = plans[job.ghost];
-                    if (plan.reduce == 1) continue;
+                    if (plan.reduce < kRimReduce) continue;
                     if (!rims_bound) target.bind();
                     rims_bound = true;
                     ghost_uniforms(job, plan.reduce, 2);
