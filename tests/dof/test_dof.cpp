@@ -181,6 +181,35 @@ TEST(DofReference, TiltedSensorBlursTheFocusPlaneAwayFromTheAxis) {
     EXPECT_LT(spread(tilted, 160), 0.2);
 }
 
+// Cat's-eye bokeh: towards the frame's edge the lens's clear apertures clip the pupil, so a defocused
+// point's bokeh narrows along the radius (here x) and keeps its height.
+TEST(DofReference, BokehBecomesACatsEyeTowardsTheEdge) {
+    constexpr int w = 640, h = 48;
+    std::vector<float> rgb(3 * w * h, 0.0f), depth(w * h, 3.0f);
+    for (int x : {320, 600})
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * static_cast<std::size_t>(h / 2 * w + x) + c] = 1000.0f;
+    Camera cam;
+    cam.system = optics::realize(optics::load_lens("pbrt-dgauss-50"), 0.0, 2.1);
+    cam.system.aperture.blades = 0;
+    cam.focus_m = 1.0;
+    cam.width = w, cam.height = h, cam.centre_x = 0.5 * w, cam.centre_y = 0.5 * h;
+    cam.sensor_width_mm = 36.0;  // the point at x = 600 is 15.8 mm off the axis
+    const std::vector<float> out = render_reference(layers_from_flat(rgb.data(), depth.data(), w, h), make_ray_table(cam, 512, 17));
+    // second moments along x and y of the energy within 30 px of column `near`
+    const auto aspect = [&](int near) {
+        double s = 0, mx = 0, my = 0, xx = 0, yy = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = near - 30; x <= std::min(w - 1, near + 30); ++x) {
+                const double v = at(out, w, x, y, 1);
+                s += v, mx += v * x, my += v * y, xx += v * x * x, yy += v * y * y;
+            }
+        mx /= s, my /= s;
+        return (xx / s - mx * mx) / (yy / s - my * my);
+    };
+    EXPECT_NEAR(aspect(320), 1.0, 0.05) << "round on the axis";
+    EXPECT_LT(aspect(620), 0.85) << "narrower along the radius at the edge";
+}
+
 TEST(DofLayers, FlatImageGetsTheHiddenSurfaceUnderItsNearerNeighbour) {
     std::vector<float> rgb(3 * 16 * 4, 1.0f), depth(16 * 4, 5.0f);
     for (int y = 0; y < 4; ++y)
