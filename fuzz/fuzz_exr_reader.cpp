@@ -30,7 +30,7 @@ bool write_file(const std::string& path, const std::uint8_t* data, std::size_t s
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     if (!write_file(scratch_path(), data, size)) return 0;
     try {
-        lensfx::filter::Frame frame = lensfx::filter::read_exr(scratch_path());
+        lensfx::filter::Frame frame = lensfx::filter::read_exr(scratch_path() LENSFX_FUZZ_BUDGET);
         if (frame.has_rgb()) lensfx::filter::load_rgb(frame);
     } catch (const std::runtime_error&) {
     }

@@ -7,6 +7,10 @@
 #include <memory>
 #include <string_view>
 
+#if __has_include(<optics/memory_budget.h>)
+#include <optics/memory_budget.h>
+#endif
+
 namespace lensfx::fuzz {
 
 inline std::string_view as_text(const std::uint8_t* data, std::size_t size) {
@@ -24,5 +28,14 @@ inline File memory_stream(const std::uint8_t* data, std::size_t size) {
     if (size == 0) return File(fmemopen(const_cast<char*>(&empty), 0, "rb"));
     return File(fmemopen(const_cast<std::uint8_t*>(data), size, "rb"));
 }
+
+#if __has_include(<optics/memory_budget.h>)
+// The memory budget the readers get (as --memory-limit 256M would give): an image larger than this is
+// the readers' expected refusal, not a finding. Inputs are at most a few KB.
+inline MemoryBudget fuzz_budget() { return MemoryBudget{std::size_t{256} << 20}; }
+#define LENSFX_FUZZ_BUDGET , lensfx::fuzz::fuzz_budget()
+#else
+#define LENSFX_FUZZ_BUDGET
+#endif
 
 }  // namespace lensfx::fuzz

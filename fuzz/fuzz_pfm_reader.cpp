@@ -35,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const bool top_first = size % 2 == 0;
     try {
         for (int images = 0; images < 8; ++images) {
-            const std::optional<Frame> frame = lensfx::filter::read_pfm(in.get(), top_first);
+            const std::optional<Frame> frame = lensfx::filter::read_pfm(in.get(), top_first LENSFX_FUZZ_BUDGET);
             if (!frame) break;
             check_round_trip(*frame, top_first);
         }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -113,21 +114,52 @@ std::string layer_of(const std::string& name) {
 
 using File = std::unique_ptr<std::FILE, int (*)(std::FILE*)>;
 
-// A null-terminated name of at most `max` characters; nothing at the end of the file or when longer
-// (OpenEXR reports those itself).
-std::optional<std::string> header_name(std::FILE* f, std::size_t max) {
+// A header name as OpenEXR 3.1 reads it (Xdr::read with Name::MAX_LENGTH, whatever the long-names flag):
+// up to a zero byte, or 256 characters without one. Nothing at the end of the file.
+std::optional<std::string> header_name(std::FILE* f) {
     std::string name;
-    for (int c = std::fgetc(f); c != 0; c = std::fgetc(f)) {
-        if (c == EOF || name.size() == max) return std::nullopt;
+    for (int n = 0; n < 256; ++n) {
+        const int c = std::fgetc(f);
+        if (c == EOF) return std::nullopt;
+        if (c == 0) break;
         name.push_back(static_cast<char>(c));
     }
     return name;
 }
 
-// OpenEXR 3.1 allocates every header attribute at the size the file declares before reading it, so an
-// 800-byte file declaring a 2 GB string took gigabytes and seconds (found by fuzz/fuzz_exr_reader.cpp).
-// Checks each declared size against the bytes left in the file, reading the headers only; throws
-// std::runtime_error naming the attribute. A damaged layout is left to OpenEXR to report.
+// The size OpenEXR's C++ reader consumes for an attribute of a fixed-size type, whatever the size the file
+// declares (0 for the types read by their declared size).
+std::int32_t fixed_attribute_size(const std::string& type) {
+    static const std::map<std::string, std::int32_t> sizes{
+        {"box2i", 16}, {"box2f", 16}, {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1}, {"double", 8},
+        {"envmap", 1}, {"float", 4}, {"int", 4}, {"keycode", 28}, {"lineOrder", 1}, {"m33f", 36}, {"m33d", 72},
+        {"m44f", 64}, {"m44d", 128}, {"rational", 8}, {"tiledesc", 9}, {"timecode", 8}, {"v2i", 8}, {"v2f", 8},
+        {"v2d", 16}, {"v3i", 12}, {"v3f", 12}, {"v3d", 24}};
+    const auto it = sizes.find(type);
+    return it == sizes.end() ? 0 : it->second;
+}
+
+// Whether `size` bytes at the file's position hold a channel list that ends exactly there (name, 16
+// bytes, ..., an empty name): OpenEXR's C++ reader reads a channel list up to its empty name, whatever
+// its declared size, and goes on reading attributes from wherever that ends.
+bool channel_list_fits(std::FILE* f, std::int32_t size) {
+    std::int64_t used = 0;
+    while (true) {
+        const std::optional<std::string> name = header_name(f);
+        if (!name) return false;
+        used += static_cast<std::int64_t>(name->size()) + 1;
+        if (name->empty()) return used == size;
+        if (std::fseek(f, 16, SEEK_CUR) != 0) return false;
+        used += 16;
+        if (used > size) return false;
+    }
+}
+
+// OpenEXR 3.1's C++ reader allocates every header attribute at the size the file declares before reading
+// it, and reads channel lists and fixed-size values by their own layout whatever the size declared, so an
+// 800-byte file could make it allocate and clear gigabytes for seconds (found by fuzz/fuzz_exr_reader.cpp).
+// Walks the headers first: each declared size must fit in the file and agree with the attribute's own
+// layout. Throws std::runtime_error naming the attribute; a layout cut short is left to OpenEXR to report.
 void check_attribute_sizes(const std::string& path) {
     File f(std::fopen(path.c_str(), "rb"), &std::fclose);
     unsigned char start[8];
@@ -135,21 +167,24 @@ void check_attribute_sizes(const std::string& path) {
     const long file_size = std::ftell(f.get());
     std::rewind(f.get());
     if (std::fread(start, 1, 8, f.get()) != 8) return;
-    const bool multipart = (start[5] & 0x10) != 0, long_names = (start[5] & 0x04) != 0;
-    const std::size_t max_name = long_names ? 255 : 31;
+    const bool multipart = (start[5] & 0x10) != 0;
     for (bool more = true; more;) {
         more = false;
-        for (std::optional<std::string> name; (name = header_name(f.get(), max_name)) && !name->empty();) {
+        for (std::optional<std::string> name; (name = header_name(f.get())) && !name->empty();) {
             more = multipart;  // a multi-part file's headers end with an empty one
-            const std::optional<std::string> type = header_name(f.get(), max_name);
-            unsigned char size_bytes[4];
-            if (!type || std::fread(size_bytes, 1, 4, f.get()) != 4) return;
-            const std::int32_t size = static_cast<std::int32_t>(static_cast<std::uint32_t>(size_bytes[0]) | static_cast<std::uint32_t>(size_bytes[1]) << 8 |
-                                                                static_cast<std::uint32_t>(size_bytes[2]) << 16 | static_cast<std::uint32_t>(size_bytes[3]) << 24);
-            const long left = file_size - std::ftell(f.get());
-            if (size < 0 || size > left)
-                throw std::runtime_error(fmt::format("header attribute \"{}\" ({}) declares {} bytes where the file has {} left", *name, *type, size, left));
-            if (std::fseek(f.get(), size, SEEK_CUR) != 0) return;
+            const std::optional<std::string> type = header_name(f.get());
+            unsigned char b[4];
+            if (!type || std::fread(b, 1, 4, f.get()) != 4) return;
+            const auto size = static_cast<std::int32_t>(static_cast<std::uint32_t>(b[0]) | static_cast<std::uint32_t>(b[1]) << 8 |
+                                                        static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24);
+            const long value = std::ftell(f.get()), left = file_size - value;
+            const std::int32_t fixed = fixed_attribute_size(*type);
+            const bool fits = size >= 0 && size <= left && (fixed == 0 || size == fixed) &&
+                              (*type != "chlist" || channel_list_fits(f.get(), size));
+            if (!fits)
+                throw std::runtime_error(fmt::format("header attribute \"{}\" of type {} declares {} bytes, which do not fit the file ({} left) or the type",
+                                                     *name, *type, size, left));
+            if (std::fseek(f.get(), value + size, SEEK_SET) != 0) return;
         }
     }
 }
