@@ -3,7 +3,11 @@
 // naming the file, frame or surface at fault, and main() turns them into "lensfx: <message>", exit 1.
 #pragma once
 
+#include <string>
+
 #include <CLI/CLI.hpp>
+
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
@@ -19,5 +23,10 @@ void register_flare_command(CLI::App& app);
 void register_track_command(CLI::App& app);
 // `lensfx bench time-vs-error --csv FILE`: the ghost renderer's time per flare next to its error.
 void register_bench_command(CLI::App& app);
+
+// --memory-limit's value: parse_memory_limit(text), or default_memory_budget() when it was not given.
+inline MemoryBudget memory_budget_option(const std::string& text) {
+    return text.empty() ? default_memory_budget() : parse_memory_limit(text);
+}
 
 }  // namespace lensfx::filter

@@ -161,6 +161,16 @@ FlareRenderer::~FlareRenderer() = default;
 
 namespace {
 
+// The steps of all ghosts together: a ghost reflecting at j, then at i < j, visits n + 2 (j - i) interfaces.
+double ghost_steps(const System& system) {
+    const std::vector<int> reflecting = optics::reflecting_interfaces(system);
+    const double n = static_cast<double>(system.interfaces.size());
+    double steps = 0.0;
+    for (std::size_t a = 0; a < reflecting.size(); ++a)
+        for (std::size_t b = a + 1; b < reflecting.size(); ++b) steps += n + 2.0 * (reflecting[b] - reflecting[a]);
+    return steps;
+}
+
 GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
     GhostSequences out;
     // Ghosts share their surfaces: each (interface, direction, reflect or transmit) table is computed once.
@@ -331,6 +341,24 @@ struct Readback {
 // from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
 // source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
 // widened rows (a loop the compiler vectorises), so the image is read and written once.
+// Adds a full-size target into the top-down RGB image w x h, read back a band of rows at a time: no copy
+// of the whole target is made (at 8K it would be 1 GB).
+void add_full_target(const FloatTarget& target, std::vector<float>& rgb, int w, int h) {
+    constexpr int kBandRows = 64;
+    const auto width = static_cast<std::size_t>(w);
+    std::vector<float> band(width * kBandRows * 4);
+    for (int first = 0; first < h; first += kBandRows) {  // GL rows, bottom up
+        const int rows = std::min(kBandRows, h - first);
+        target.read_rgba_rows(first, rows, band.data());
+        for (int r = 0; r < rows; ++r) {
+            const float* in = band.data() + static_cast<std::size_t>(r) * width * 4;
+            float* out = rgb.data() + static_cast<std::size_t>(h - 1 - (first + r)) * width * 3;
+            for (std::size_t x = 0; x < width; ++x)
+                for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
+        }
+    }
+}
+
 void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
@@ -393,15 +421,20 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
     }
     if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
+    check_ghost_tables(system, view.passes().size(), options.memory);
     State& s = *state_;
     const Acceleration& accel = options.accel;
     s.stats = {};
     std::vector<Ghost> ghosts = selected_ghosts(system, view);
     if (accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
-    FloatTarget& target = s.target(1, view.width, view.height);
-    target.bind();
-    target.clear();
+    // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it is 1 GB,
+    // and a frame whose ghosts are all drawn reduced never needs it.
+    auto full_target = [&]() -> FloatTarget& { return s.target(1, view.width, view.height); };
+    if (options.per_ghost_power) {
+        full_target().bind();
+        full_target().clear();
+    }
     bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
@@ -691,7 +724,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             const std::size_t slot = State::slot(reduce);
                             FloatTarget& t = s.target(reduce, view.width, view.height);
                             t.bind();
-                            if (slot > 0 && !drawn_into[slot]) t.clear();
+                            if (!drawn_into[slot]) t.clear();
                             drawn_into[slot] = true;
                             bound = true;
                         }
@@ -732,7 +765,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
 
                         if (options.per_ghost_power) {
-                            const std::vector<float> rgba = target.read_rgba();
+                            const std::vector<float> rgba = full_target().read_rgba();
                             for (std::size_t i = 0; i < pixels; ++i) {
                                 for (std::size_t c = 0; c < 3; ++c) {
                                     const double value = rgba[i * 4 + c];
@@ -740,14 +773,14 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                                     powers[g].power[c] += value * pixel_area;
                                 }
                             }
-                            target.clear();
+                            full_target().clear();
                         }
                     }
                 }
             }
         }
     }
-    target.bind();
+    if (drawn_into[0]) full_target().bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     if (options.per_ghost_power) {
@@ -759,8 +792,9 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         }
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
-        std::vector<Readback> readbacks;
-        for (int slot : {0, 1, 2, 3, 4}) {
+        if (drawn_into[0]) add_full_target(s.target(1, view.width, view.height), rgb, view.width, view.height);
+        std::vector<Readback> readbacks;  // the reduced targets: a quarter of the image or less, read whole
+        for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
             readbacks.push_back({t.read_rgba(), t.width(), t.height()});
@@ -791,5 +825,22 @@ void FlareRenderer::render_add(const System& system, const FlareView& view, std:
 }
 
 const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }
+
+void FlareRenderer::release_targets() {
+    for (std::optional<FloatTarget>& t : state_->targets) t.reset();
+}
+
+double ghost_table_bytes(const System& system, std::size_t passes) {
+    const double ghosts = static_cast<double>(optics::ghost_count(system));
+    const double per_step = sizeof(optics::Step) + 2.0 * static_cast<double>(passes) * (sizeof(StepData) + kTableSize * sizeof(float));
+    return ghosts * (sizeof(Ghost) + 4.0 * sizeof(int)) + ghost_steps(system) * per_step;
+}
+
+void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget) {
+    if (!budget.limited()) return;
+    budget.check(ghost_table_bytes(system, passes),
+                 fmt::format("lens {}: the ghost tables of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
+                             system.interfaces.size(), optics::ghost_count(system), passes));
+}
 
 }  // namespace lensfx::gpu

@@ -22,6 +22,7 @@
 #include <filter/pupil_options.h>
 #include <gpu/flare.h>
 #include <optics/lens.h>
+#include <optics/memory_budget.h>
 #include <optics/starburst.h>
 
 namespace lensfx::filter {
@@ -52,6 +53,7 @@ struct FlareSettings {
     double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
     std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
     AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
+    MemoryBudget memory;              // --memory-limit: the lens tables and each frame's flare are sized against it
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --threshold, --max-lights, --sensor, --fov, --gain,
