@@ -330,36 +330,48 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     return out;
 }
 
-// A render target's read-back: RGBA rows bottom to top, as GL stores them, covering the whole sensor.
-struct Readback {
-    std::vector<float> rgba;
-    int width = 0;
-    int height = 0;
+// A render target read back a band of rows at a time (RGBA, rows bottom to top as GL stores them): rows are
+// asked for from the top of the image down, so a band is read ending just above the row asked for.
+class BandReader {
+public:
+    explicit BandReader(const FloatTarget& target) : target_(&target) {}
+    int width() const { return target_->width(); }
+    int height() const { return target_->height(); }
+    const float* row(int r) {
+        if (r < first_ || r >= first_ + rows_) {
+            first_ = std::max(0, r + 2 - kBandRows);
+            rows_ = std::min(kBandRows, height() - first_);
+            band_.resize(static_cast<std::size_t>(width()) * static_cast<std::size_t>(rows_) * 4);
+            target_->read_rgba_rows(first_, rows_, band_.data());
+        }
+        return band_.data() + static_cast<std::size_t>(r - first_) * static_cast<std::size_t>(width()) * 4;
+    }
+
+private:
+    static constexpr int kBandRows = 64;
+    const FloatTarget* target_;
+    std::vector<float> band_;
+    int first_ = 0, rows_ = 0;
 };
 
-// Adds read-backs into a top-down RGB image of w x h: copied where of the same size, upsampled bilinearly
-// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
-// source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
-// widened rows (a loop the compiler vectorises), so the image is read and written once.
 // Adds a full-size target into the top-down RGB image w x h, read back a band of rows at a time: no copy
 // of the whole target is made (at 8K it would be 1 GB).
 void add_full_target(const FloatTarget& target, std::vector<float>& rgb, int w, int h) {
-    constexpr int kBandRows = 64;
+    BandReader reader(target);
     const auto width = static_cast<std::size_t>(w);
-    std::vector<float> band(width * kBandRows * 4);
-    for (int first = 0; first < h; first += kBandRows) {  // GL rows, bottom up
-        const int rows = std::min(kBandRows, h - first);
-        target.read_rgba_rows(first, rows, band.data());
-        for (int r = 0; r < rows; ++r) {
-            const float* in = band.data() + static_cast<std::size_t>(r) * width * 4;
-            float* out = rgb.data() + static_cast<std::size_t>(h - 1 - (first + r)) * width * 3;
-            for (std::size_t x = 0; x < width; ++x)
-                for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
-        }
+    for (int y = 0; y < h; ++y) {
+        const float* in = reader.row(h - 1 - y);  // GL rows run bottom-up
+        float* out = rgb.data() + static_cast<std::size_t>(y) * width * 3;
+        for (std::size_t x = 0; x < width; ++x)
+            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
     }
 }
 
-void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
+// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, upsampled bilinearly (pixel
+// centres aligned, the edge pixels held beyond the outer centres). Separably: each source row is widened to
+// w RGB pixels once, and each output row adds, for every source, a blend of two widened rows (a loop the
+// compiler vectorises), so the image is read and written once.
+void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
         float f;
@@ -375,19 +387,19 @@ void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, 
     };
     const std::size_t row_values = static_cast<std::size_t>(w) * 3;
     struct Source {
-        const Readback* readback;
+        BandReader* readback;
         std::vector<Tap> xs, ys;
         std::vector<float> wide[2];  // two widened source rows
         int held[2] = {-1, -1};      // which rows they hold
     };
     std::vector<Source> srcs;
-    for (const Readback& r : sources)
-        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(row_values), std::vector<float>(row_values)}});
+    for (BandReader& r : sources)
+        srcs.push_back({&r, taps(w, r.width()), taps(h, r.height()), {std::vector<float>(row_values), std::vector<float>(row_values)}});
     auto widened = [&](Source& src, int row, int keep) -> const float* {
         for (int k = 0; k < 2; ++k)
             if (src.held[k] == row) return src.wide[k].data();
         const int k = src.held[0] == keep ? 1 : 0;
-        const float* in = src.readback->rgba.data() + static_cast<std::size_t>(row) * static_cast<std::size_t>(src.readback->width) * 4;
+        const float* in = src.readback->row(row);
         float* out = src.wide[k].data();
         for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
             const Tap t = src.xs[x];
@@ -793,11 +805,11 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
         if (drawn_into[0]) add_full_target(s.target(1, view.width, view.height), rgb, view.width, view.height);
-        std::vector<Readback> readbacks;  // the reduced targets: a quarter of the image or less, read whole
+        std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
         for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
-            readbacks.push_back({t.read_rgba(), t.width(), t.height()});
+            readbacks.emplace_back(t);
         }
         add_targets(readbacks, rgb, view.width, view.height);
     }
