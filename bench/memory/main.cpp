@@ -22,6 +22,8 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 
+#include "plate_lens.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -87,20 +89,10 @@ void make_frame(const fs::path& path, int n) {
         throw std::runtime_error(fmt::format("cannot write {}", path.string()));
 }
 
-// A lens of `surfaces` surfaces: flat N-BK7 plates (two surfaces each) in front of a Cooke triplet (7).
+// A lens of `surfaces` surfaces (tests/memory/plate_lens.h) written to `dir`.
 fs::path make_lens(const fs::path& dir, int surfaces) {
-    std::string rows;
-    for (int k = 0; k < (surfaces - 7) / 2; ++k)
-        rows += "  { r = 0, t = 1, sd = 12, glass = \"schott:N-BK7\" },\n  { r = 0, t = 1, sd = 12 },\n";
     const fs::path path = dir / fmt::format("plates-{}.toml", surfaces);
-    std::ofstream(path) << "name = \"plates and a triplet\"\nsource = \"bench_memory\"\nsurfaces = [\n" << rows
-                        << "  { r = 22.01359, t = 3.25896, sd = 9.5, glass = \"hikari:SK16\" },\n"
-                           "  { r = -435.76044, t = 6.00755, sd = 8 },\n"
-                           "  { r = -22.21328, t = 0.99997, sd = 4.5, glass = \"schott:F2\" },\n"
-                           "  { r = 20.29192, t = 0, sd = 4 },\n"
-                           "  { stop = true, t = 4.75041, sd = 3.805 },\n"
-                           "  { r = 79.6836, t = 2.95208, sd = 6.5, glass = \"hikari:SK16\" },\n"
-                           "  { r = -18.39533, t = 42.20778, sd = 7.5 },\n]\n";
+    std::ofstream(path) << lensfx::test::plate_lens_toml(surfaces);
     return path;
 }
 

@@ -840,6 +840,12 @@ const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }
 
 void FlareRenderer::release_targets() {
     for (std::optional<FloatTarget>& t : state_->targets) t.reset();
+    // The driver (llvmpipe) keeps the last framebuffer's textures until another framebuffer is drawn to:
+    // a clear of a 1 x 1 target lets them go now.
+    const FloatTarget tiny(1, 1);
+    tiny.bind();
+    glClear(GL_COLOR_BUFFER_BIT);
+    glFinish();
 }
 
 double ghost_table_bytes(const System& system, std::size_t passes) {
