@@ -1,6 +1,6 @@
 // bench_memory: the peak resident memory (max RSS, from wait4's rusage of each child) and wall time of the
 // lensfx program on the cases of issue 14: an 8K half RGB frame passed through, with a flare written as EXR
-// and as PNG, an 8K sequence with --queue-depth 1 (and under --memory-limit 2G), and `lensfx flare` on
+// and as PNG, an 8K sequence with --queue-depth 1 (and under --memory-limit 2500M), and `lensfx flare` on
 // lenses of many surfaces (a Cooke triplet behind flat plates). Each case is one run of the program.
 //   bench_memory [--binary PATH] [--size N (8192)] [--frames N (3)] [--lens NAME (angenieux-double-gauss)]
 //                [--surfaces 100,300,1000 (empty: none)] [--no-limit-cases] [--dir DIR]
@@ -158,8 +158,8 @@ int main(int argc, char** argv) {
              fmt::format("{} -i {} -o {} --queue-depth 1{}", bin, seq, out("seq.####.exr"), lens)},
         };
         if (o.limit_cases) {
-            cases.push_back({fmt::format("{0}x{0} x {1} frames, flare, --memory-limit 2G", o.size, o.frames),
-                             fmt::format("{} -i {} -o {} --memory-limit 2G{}", bin, seq, out("lim.####.exr"), lens)});
+            cases.push_back({fmt::format("{0}x{0} x {1} frames, flare, --memory-limit 2500M", o.size, o.frames),
+                             fmt::format("{} -i {} -o {} --memory-limit 2500M{}", bin, seq, out("lim.####.exr"), lens)});
         }
         for (int n : o.surfaces) {
             const fs::path lens_file = make_lens(dir, n);

@@ -336,20 +336,20 @@ std::string passes_key(const std::vector<gpu::SpectralPass>& passes) {
 
 namespace {
 
-// Bytes a frame holds while its flare is made: its own pixels and R, G, B as float; the flare image over
-// the display window unless the flare goes into the frame directly; the GL targets (RGBA float at full
-// size and at 1/2..1/16, the reduced ones read back whole) for ghosts, and a single-light image for
-// extended lights; at most the data window's growth to the display window with its R, G, B; a layer's copy.
+// Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
+// `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
+// frame directly; the GL targets (RGBA float at full size and at 1/2..1/16, read back in bands) for
+// ghosts, and a single-light image for extended lights; at most the data window's growth to the display
+// window with its R, G, B; a layer's copy.
 double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool extended, bool layer) {
     const ImageSpec& spec = frame.spec;
     const double display = bytes_of(spec.full_width, spec.full_height, 1.0);
     const double data = static_cast<double>(spec.pixel_count());
     const double pixel = static_cast<double>(spec.pixel_bytes()), rgb = 3.0 * sizeof(float);
     constexpr double kTargets = 16.0 * (1.0 + 1.0 / 4 + 1.0 / 16 + 1.0 / 64 + 1.0 / 256);
-    constexpr double kReducedReadback = 16.0 * (1.0 / 4 + 1.0 / 16 + 1.0 / 64 + 1.0 / 256);
-    double bytes = data * (pixel + rgb);
+    double bytes = static_cast<double>(frame.pixels.size()) + data * rgb;
     if (!into_frame) bytes += display * rgb + display * (pixel + rgb);  // the flare image; growth at most
-    if (ghosts) bytes += display * (kTargets + kReducedReadback);
+    if (ghosts) bytes += display * kTargets;
     if (extended) bytes += display * rgb;
     if (layer) bytes += display * (rgb + pixel + rgb);
     return bytes;

@@ -857,7 +857,7 @@ double ghost_table_bytes(const System& system, std::size_t passes) {
 void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget) {
     if (!budget.limited()) return;
     budget.check(ghost_table_bytes(system, passes),
-                 fmt::format("lens {}: the ghost tables of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
+                 fmt::format("lens {}: the ghost data of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
                              system.interfaces.size(), optics::ghost_count(system), passes));
 }
 

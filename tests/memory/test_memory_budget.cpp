@@ -125,7 +125,7 @@ TEST(MemoryBudget, GhostTablesOfManySurfaces) {
     EXPECT_GT(c / b, 20.0);
     EXPECT_EQ(refusal([&] { gpu::check_ghost_tables(small, 3, MemoryBudget{kGiB}); }), "");
     const std::string message = refusal([&] { gpu::check_ghost_tables(huge, 3, MemoryBudget{4 * kGiB}); });
-    EXPECT_NE(message.find("the ghost tables of its 301 surfaces"), std::string::npos) << message;
+    EXPECT_NE(message.find("the ghost data of its 301 surfaces"), std::string::npos) << message;
     EXPECT_NE(message.find("over the memory limit of 4.3 GB"), std::string::npos) << message;
     fs::remove_all(dir);
 }
@@ -220,9 +220,9 @@ TEST(MemoryBudgetEndToEnd, LensOfManySurfaces) {
     make_windowed_exr(dir / "in.exr", 8, 16);
     expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --lens {} --memory-limit 4G", quoted(dir / "in.exr"),
                                                    quoted(dir / "out.exr"), quoted(lens))),
-                    "the ghost tables of its 301 surfaces");
+                    "the ghost data of its 301 surfaces");
     expect_one_line(run(lensfx_cmd() + fmt::format(" flare --lens {} --angle 5,0 -o {} --memory-limit 4G", quoted(lens), quoted(dir / "f.exr"))),
-                    "the ghost tables of its 301 surfaces");
+                    "the ghost data of its 301 surfaces");
     expect_one_line(run(lensfx_cmd() + fmt::format(" flare --lens cooke-triplet --angle 5,0 --size 16384x16384 -o {} --memory-limit 1G",
                                                    quoted(dir / "f.exr"))),
                     "a 16384x16384 flare image needs");
