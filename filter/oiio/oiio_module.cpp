@@ -45,7 +45,7 @@ OIIO::TypeDesc oiio_type(PixelType t) {
     return OIIO::TypeDesc::FLOAT;
 }
 
-Frame read(const std::string& path) {
+Frame read(const std::string& path, const MemoryBudget& budget) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         std::string message = OIIO::geterror();
@@ -56,6 +56,8 @@ Frame read(const std::string& path) {
     if (s.nchannels < 1 || s.width < 1 || s.height < 1 || s.depth != 1)
         throw std::runtime_error(fmt::format("unsupported image shape {}x{}x{}, {} channels", s.width, s.height, s.depth, s.nchannels));
     const OIIO::imagesize_t bytes = s.image_bytes(true);
+    budget.check(bytes_of(s.width, s.height, static_cast<double>(s.nchannels) * sizeof(float)),
+                 fmt::format("its {}x{} data window with {} channels", s.width, s.height, s.nchannels));
     if (bytes == 0 || bytes > kMaxFrameBytes)
         throw std::runtime_error(fmt::format("implausible image size {}x{} with {} channels", s.width, s.height, s.nchannels));
 

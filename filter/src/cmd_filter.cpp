@@ -23,6 +23,7 @@ struct FilterArgs {
     std::string pfm_order = "auto";
     std::string pix_fmt;
     std::string size;
+    std::string memory_limit;  // empty: default_memory_budget()
     bool progress = false;
     colour::ColourArgs colour;
     FlareSettings flare;
@@ -77,6 +78,8 @@ void run_filter(FilterArgs& args) {
     o.write.pfm_order = o.pfm_order;
     if (!args.pix_fmt.empty()) o.pix_fmt = parse_raw_pix_fmt(args.pix_fmt);
     if (!args.size.empty()) parse_size(args.size, o.raw_width, o.raw_height);
+    o.memory = memory_budget_option(args.memory_limit);
+    args.flare.memory = o.memory;
     if (args.progress) o.progress = Progress::on;
     o.write.display_bits = args.colour.bits;
     o.write.dither = args.colour.dither_mode();
@@ -127,6 +130,7 @@ void register_filter(CLI::App& app) {
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
     app.add_flag("--progress", args->progress, "Show progress even when stderr is not a terminal");
     app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");
+    app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
     colour::add_colour_options(app, args->colour);
     add_flare_options(app, args->flare);
     add_dof_options(app, args->dof);

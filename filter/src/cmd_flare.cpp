@@ -65,6 +65,7 @@ struct FlareArgs {
     double starburst_gain = 1.0;
     PupilSettings pupil;
     int threads = 2;
+    std::string memory_limit;  // empty: default_memory_budget()
     std::string gpu = "auto";
     bool ringing = false;
     std::string flare_look;
@@ -156,6 +157,11 @@ void run_flare(const FlareArgs& args) {
     view.wavelength_nm = args.wavelength;
     view.bands = args.bands;
     view.passes();  // checks --bands before any work
+    const MemoryBudget memory = memory_budget_option(args.memory_limit);
+    // The image, the GL targets at full and reduced sizes and a band of read-back rows.
+    memory.check(bytes_of(view.width, view.height, 3 * sizeof(float) + 16.0 * (1.0 + 1.0 / 3)),
+                 fmt::format("a {}x{} flare image", view.width, view.height));
+    gpu::check_ghost_tables(system, view.passes().size(), memory);
     for (const std::string& g : args.ghosts) {
         const auto [a, b] = parse_pair(g, ',', "--ghost");
         const int count = static_cast<int>(system.interfaces.size());
@@ -191,6 +197,7 @@ void run_flare(const FlareArgs& args) {
         options.per_ghost_power = args.list;
         options.accel = args.accel.acceleration();
         options.ringing = args.ringing;
+        options.memory = memory;
         if (!args.flare_look.empty())
             options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
         image = args.band_filter
@@ -277,6 +284,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
+    cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
     cmd->callback([args] {

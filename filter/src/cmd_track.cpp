@@ -34,6 +34,7 @@ struct TrackSettings {
     int fade_frames = detect::TrackerOptions{}.fade_in_frames;
     bool quiet = false;
     bool allow_empty = false;
+    std::string memory_limit;  // empty: default_memory_budget()
 };
 
 class ShotTracker {
@@ -82,10 +83,11 @@ void run_track(TrackSettings& s) {
     s.tracker.fade_out_frames = s.fade_frames;
     refuse_overwrite(s.tracks_out, "--tracks-out", s.input);
     ShotTracker shot(s);
+    const MemoryBudget memory = memory_budget_option(s.memory_limit);
     if (s.input == "-") {
         if (!s.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
         for (std::int64_t n = 1;; ++n) {
-            std::optional<Frame> frame = read_pfm(stdin, true);
+            std::optional<Frame> frame = read_pfm(stdin, true, memory);
             if (!frame) break;
             frame->number = n;
             shot.add(*frame, "stdin");
@@ -96,7 +98,7 @@ void run_track(TrackSettings& s) {
         for (std::uint64_t i = 0; i < numbers.size(); ++i) {
             const std::string path = pattern.path(numbers[i]);
             try {
-                Frame frame = read_image(path);
+                Frame frame = read_image(path, PfmOrder::automatic, memory);
                 frame.number = numbers[i];
                 frame.index = i;
                 shot.add(frame, path);
@@ -137,6 +139,7 @@ void register_track_command(CLI::App& app) {
     cmd->add_option("--cut-threshold", s->tracker.cut_threshold, "Histogram change (L1, 0-2) between frames that is a cut")
         ->check(CLI::PositiveNumber);
     cmd->add_flag("--allow-empty", s->allow_empty, "An input stream of no frames writes an empty track file (default: an error)");
+    cmd->add_option("--memory-limit", s->memory_limit, kMemoryLimitHelp);
     cmd->add_flag("-q,--quiet", s->quiet, "No summary line");
     cmd->callback([s] { run_track(*s); });
 }

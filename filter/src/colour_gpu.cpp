@@ -1,6 +1,7 @@
 // The GPU path of a colour transform: OCIO's GLSL (gpu_shader) in a compute shader over packed RGB.
 #include <filter/colour.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <epoxy/gl.h>
@@ -75,27 +76,34 @@ GpuColourTransform::~GpuColourTransform() = default;
 GpuColourTransform::GpuColourTransform(GpuColourTransform&&) noexcept = default;
 GpuColourTransform& GpuColourTransform::operator=(GpuColourTransform&&) noexcept = default;
 
+// Pixels sent to the GPU at a time: the buffer stays at 48 MB whatever the frame (an 8K frame whole
+// would hold 0.8 GB in the driver for the rest of the run).
+constexpr std::size_t kChunkPixels = std::size_t{1} << 22;
+
 void GpuColourTransform::apply_rgb(float* rgb, std::size_t count) {
     if (!state_ || count == 0) return;
-    if (count > 0xffffffffu / 3u) throw std::invalid_argument(fmt::format("GPU colour transform: {} pixels is too many", count));
     State& s = *state_;
-    const std::size_t floats = count * 3;
     glUseProgram(s.program.get());
     for (std::size_t k = 0; k < s.textures.size(); ++k) {
         glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(k));
         glBindTexture(s.targets[k], s.textures[k].get());
     }
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, s.buffer.get());
-    if (floats > s.capacity) {
-        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(floats * sizeof(float)), nullptr, GL_DYNAMIC_COPY);
-        s.capacity = floats;
+    const std::size_t capacity = std::min(count, kChunkPixels) * 3;
+    if (capacity > s.capacity) {
+        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(capacity * sizeof(float)), nullptr, GL_DYNAMIC_COPY);
+        s.capacity = capacity;
     }
-    glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(floats * sizeof(float)), rgb);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, s.buffer.get());
-    glUniform1ui(s.program.uniform("count"), static_cast<GLuint>(count));
-    glDispatchCompute(static_cast<GLuint>((count + 63) / 64), 1, 1);
-    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-    glGetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(floats * sizeof(float)), rgb);
+    for (std::size_t first = 0; first < count; first += kChunkPixels) {
+        const std::size_t n = std::min(kChunkPixels, count - first);
+        const auto bytes = static_cast<GLsizeiptr>(n * 3 * sizeof(float));
+        glBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, bytes, rgb + first * 3);
+        glUniform1ui(s.program.uniform("count"), static_cast<GLuint>(n));
+        glDispatchCompute(static_cast<GLuint>((n + 63) / 64), 1, 1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        glGetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, bytes, rgb + first * 3);
+    }
     gpu::check_gl("the GPU colour transform");
     glUseProgram(0);
 }

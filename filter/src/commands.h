@@ -4,8 +4,11 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include <CLI/CLI.hpp>
+
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
@@ -26,5 +29,10 @@ void register_track_command(CLI::App& app);
 void register_bench_command(CLI::App& app);
 // `lensfx farm -i IN -o OUT --chunk N --engine slurm|local`: a shot as a job array (cmd_farm.cpp).
 void register_farm_command(CLI::App& app);
+
+// --memory-limit's value: parse_memory_limit(text), or default_memory_budget() when it was not given.
+inline MemoryBudget memory_budget_option(const std::string& text) {
+    return text.empty() ? default_memory_budget() : parse_memory_limit(text);
+}
 
 }  // namespace lensfx::filter

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -189,6 +190,15 @@ void check_attribute_sizes(const std::string& path) {
     }
 }
 
+// A window's width or height from its inclusive bounds, in 64 bits: a hostile header's bounds near the int
+// limits would overflow. Throws when it is beyond what any frame can hold (2^31 - 1 pixels).
+int window_extent(int min, int max, const char* window) {
+    const std::int64_t extent = static_cast<std::int64_t>(max) - min + 1;
+    if (extent > std::numeric_limits<int>::max())
+        throw std::runtime_error(fmt::format("{} {}..{} is too large", window, min, max));
+    return static_cast<int>(std::max<std::int64_t>(extent, 0));
+}
+
 }  // namespace
 
 bool is_exr_file(const std::string& path) {
@@ -198,7 +208,7 @@ bool is_exr_file(const std::string& path) {
            magic[3] == 0x01;
 }
 
-Frame read_exr(const std::string& path) {
+Frame read_exr(const std::string& path, const MemoryBudget& budget) {
     try {
         check_attribute_sizes(path);
         Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
@@ -211,12 +221,12 @@ Frame read_exr(const std::string& path) {
         const Imath::Box2i dw = header.dataWindow(), disp = header.displayWindow();
         spec.x = dw.min.x;
         spec.y = dw.min.y;
-        spec.width = dw.max.x - dw.min.x + 1;
-        spec.height = dw.max.y - dw.min.y + 1;
+        spec.width = window_extent(dw.min.x, dw.max.x, "data window");
+        spec.height = window_extent(dw.min.y, dw.max.y, "data window");
         spec.full_x = disp.min.x;
         spec.full_y = disp.min.y;
-        spec.full_width = disp.max.x - disp.min.x + 1;
-        spec.full_height = disp.max.y - disp.min.y + 1;
+        spec.full_width = window_extent(disp.min.x, disp.max.x, "display window");
+        spec.full_height = window_extent(disp.min.y, disp.max.y, "display window");
         if (spec.width < 1 || spec.height < 1 || spec.full_width < 1 || spec.full_height < 1)
             throw std::runtime_error(fmt::format("empty window {}x{}", spec.width, spec.height));
 
@@ -239,7 +249,8 @@ Frame read_exr(const std::string& path) {
             spec.channelnames.push_back(c.name);
             spec.channeltypes.push_back(c.type);
         }
-        const double bytes = static_cast<double>(spec.width) * static_cast<double>(spec.height) * static_cast<double>(spec.pixel_bytes());
+        const double bytes = bytes_of(spec.width, spec.height, static_cast<double>(spec.pixel_bytes()));
+        budget.check(bytes, fmt::format("its {}x{} data window with {} channels", spec.width, spec.height, spec.nchannels()));
         if (bytes > static_cast<double>(kMaxFrameBytes))
             throw std::runtime_error(fmt::format("implausible image size {}x{} with {} channels", spec.width, spec.height,
                                                  spec.nchannels()));
@@ -313,8 +324,13 @@ Imf::Header output_header(const ImageSpec& spec, const std::string& compression)
 
 }  // namespace
 
-void write_exr(const Frame& frame, const std::string& path, const std::string& compression) {
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget) {
     const ImageSpec& spec = frame.spec;
+    double widened_bytes = 0.0;
+    for (int c = 0; c < spec.nchannels(); ++c)
+        if (spec.channel_type(c) == PixelType::uint8 || spec.channel_type(c) == PixelType::uint16)
+            widened_bytes += bytes_of(spec.width, spec.height, sizeof(Imath::half) + sizeof(float));
+    budget.check(widened_bytes, "EXR output's half copies of the 8- and 16-bit channels");
     const std::vector<std::size_t> offsets = channel_offsets(spec);
     const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
     try {

@@ -7,6 +7,7 @@
 #include <OpenEXR/ImfHeader.h>
 
 #include <filter/frame.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
@@ -22,13 +23,14 @@ bool is_exr_file(const std::string& path);
 
 // Reads the first part of an EXR at its full resolution (tiles and mip levels: level 0 as scanlines).
 // Channels keep their types (half, float, uint) and come R, G, B, A first within each layer, as
-// OpenImageIO orders them. Throws std::runtime_error for damaged, deep or subsampled files.
-Frame read_exr(const std::string& path);
+// OpenImageIO orders them. Throws std::runtime_error for damaged, deep or subsampled files, and
+// MemoryLimitError (before allocating) when the data window does not fit `budget`.
+Frame read_exr(const std::string& path, const MemoryBudget& budget = {});
 
 // Writes every channel (8- and 16-bit ones as half) as a scanline EXR with the frame's windows and the
-// given compression ("piz", "zip", "dwaa:45"...). Attributes: the input's header when it was an EXR,
+// given compression ("piz", "zip", "dwaa:45"...); the widened copies are sized against `budget`. Attributes: the input's header when it was an EXR,
 // then the spec's chromaticities, pixel aspect and text attributes.
-void write_exr(const Frame& frame, const std::string& path, const std::string& compression);
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget = {});
 
 // OpenEXR's worker threads for decoding and encoding (0: none).
 void set_exr_threads(int threads);

@@ -399,6 +399,69 @@ void check_input_files(const FlareSettings& s) {
         throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *s.blades));
 }
 
+namespace {
+
+// Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
+// `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
+// frame directly; the GL targets (RGBA float at full size and at 1/2..1/16, read back in bands) for
+// ghosts, and a single-light image for extended lights; at most the data window's growth to the display
+// window with its R, G, B; a layer's copy.
+double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool extended, bool layer) {
+    const ImageSpec& spec = frame.spec;
+    const double display = bytes_of(spec.full_width, spec.full_height, 1.0);
+    const double data = static_cast<double>(spec.pixel_count());
+    const double pixel = static_cast<double>(spec.pixel_bytes()), rgb = 3.0 * sizeof(float);
+    constexpr double kTargets = 16.0 * (1.0 + 1.0 / 4 + 1.0 / 16 + 1.0 / 64 + 1.0 / 256);
+    double bytes = static_cast<double>(frame.pixels.size()) + data * rgb;
+    if (!into_frame) bytes += display * rgb + display * (pixel + rgb);  // the flare image; growth at most
+    if (ghosts) bytes += display * kTargets;
+    if (extended) bytes += display * rgb;
+    if (layer) bytes += display * (rgb + pixel + rgb);
+    return bytes;
+}
+
+// The flare image over the display window added to the frame: the data window grows to hold the flare
+// where it lands; into R, G, B, or as channels LAYER.R/G/B when `layer` is not empty.
+void composite(Frame& frame, const std::vector<float>& flare_rgb, const FlareGeometry& geo, const std::string& layer_name) {
+    const bool layer = !layer_name.empty();
+    int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
+    for (int y = 0; y < geo.height; ++y) {
+        const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
+        auto lit = [&](int x) { return row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f; };
+        int first = 0;
+        while (first < geo.width && !lit(first)) ++first;
+        if (first == geo.width) continue;
+        int last = geo.width - 1;
+        while (!lit(last)) --last;
+        bx0 = std::min(bx0, first);
+        bx1 = std::max(bx1, last + 1);
+        by0 = std::min(by0, y);
+        by1 = y + 1;
+    }
+    if (bx1 > bx0)
+        grow_data_window(frame, frame.spec.full_x + bx0, frame.spec.full_y + by0, frame.spec.full_x + bx1,
+                         frame.spec.full_y + by1);
+    const int dx0 = frame.spec.x - frame.spec.full_x;
+    const int dy0 = frame.spec.y - frame.spec.full_y;
+    std::vector<float> layer_rgb;
+    if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
+    float* target = layer ? layer_rgb.data() : frame.rgb.data();
+    // Where the data window and the display window overlap, row by row.
+    const int x0 = std::max(0, -dx0), x1 = std::min(frame.spec.width, geo.width - dx0);
+    for (int y = 0; y < frame.spec.height && x1 > x0; ++y) {
+        const int fy = y + dy0;
+        if (fy < 0 || fy >= geo.height) continue;
+        float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) + static_cast<std::size_t>(x0)) * 3;
+        const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
+                                             static_cast<std::size_t>(x0 + dx0)) * 3;
+        const std::size_t n = static_cast<std::size_t>(x1 - x0) * 3;
+        for (std::size_t i = 0; i < n; ++i) px[i] = added_within_float(px[i], f[i]);
+    }
+    if (layer) add_rgb_layer(frame, layer_name, layer_rgb);
+}
+
+}  // namespace
+
 struct FlareStage::State {
     FlareSettings settings;
     optics::System system;
@@ -466,6 +529,9 @@ struct FlareStage::State {
         render_options.grid = settings.grid;
         render_options.ringing = settings.ringing;
         render_options.accel = settings.accel.acceleration();
+        render_options.memory = settings.memory;
+        // A lens of many surfaces has ghosts by the square of them: refused here, before any table is built.
+        gpu::check_ghost_tables(system, settings.bands == 0 ? 3 : static_cast<std::size_t>(settings.bands), settings.memory);
         if (!settings.flare_look.empty())
             render_options.styles =
                 optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
@@ -578,10 +644,18 @@ void FlareStage::process(Frame& frame) {
     if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
     const gpu::GpuFlareOptions& render_options = s.render_options;
 
-    // The flare over the display window, composited into the frame once every light is in.
+    // The flare over the display window, composited into the frame once every light is in; when the data
+    // window is the display window (and R, G, B are the target), added into the frame's R, G, B directly.
     const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
-    std::vector<float>& flare_rgb = s.flare_rgb;
-    flare_rgb.assign(display_px * 3, 0.0f);
+    const bool into_frame = frame.spec.data_is_display() && !layer;
+    const bool any_extended = std::any_of(lights.begin(), lights.end(), [](const detect::Light& l) {
+        return l.shape && !l.shape->weights.empty();
+    });
+    s.settings.memory.check(flare_frame_bytes(frame, into_frame, parts.ghosts, any_extended, layer),
+                            fmt::format("the flare over the {}x{} display window", geo.width, geo.height));
+    if (into_frame) s.flare_rgb = {};
+    std::vector<float>& flare_rgb = into_frame ? frame.rgb : s.flare_rgb;
+    if (!into_frame) flare_rgb.assign(display_px * 3, 0.0f);
     double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     gpu::FlareView view;  // the frame as the lens sees it; each light sets the angles
     view.sensor_width_mm = geo.sensor_width_mm;
@@ -701,47 +775,17 @@ void FlareStage::process(Frame& frame) {
         s.renderer->render_add(s.system, view, point_lights, render_options, flare_rgb);
         ghosts_ms += ms_since(t);
     }
+    // Above 4K the GL targets (over 300 MB) are not kept for the next frame: making them again costs
+    // little against rendering at that size, and the frame is stored and written without them.
+    constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
+    if (s.renderer && display_px > kKeepTargetsPixels) s.renderer->release_targets();
     s.times.emplace_back("direct", direct_ms);
     s.times.emplace_back("starburst", starburst_ms);
     s.times.emplace_back("ghosts", ghosts_ms);
     s.times.emplace_back("extended", extended_ms);
 
-    // The data window grows to hold the flare where it lands in the display window.
     t = Clock::now();
-    int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
-    for (int y = 0; y < geo.height; ++y) {
-        const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
-        auto lit = [&](int x) { return row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f; };
-        int first = 0;
-        while (first < geo.width && !lit(first)) ++first;
-        if (first == geo.width) continue;
-        int last = geo.width - 1;
-        while (!lit(last)) --last;
-        bx0 = std::min(bx0, first);
-        bx1 = std::max(bx1, last + 1);
-        by0 = std::min(by0, y);
-        by1 = y + 1;
-    }
-    if (bx1 > bx0)
-        grow_data_window(frame, frame.spec.full_x + bx0, frame.spec.full_y + by0, frame.spec.full_x + bx1,
-                         frame.spec.full_y + by1);
-    const int dx0 = frame.spec.x - frame.spec.full_x;
-    const int dy0 = frame.spec.y - frame.spec.full_y;
-    std::vector<float> layer_rgb;
-    if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
-    float* target = layer ? layer_rgb.data() : frame.rgb.data();
-    // Where the data window and the display window overlap, row by row.
-    const int x0 = std::max(0, -dx0), x1 = std::min(frame.spec.width, geo.width - dx0);
-    for (int y = 0; y < frame.spec.height && x1 > x0; ++y) {
-        const int fy = y + dy0;
-        if (fy < 0 || fy >= geo.height) continue;
-        float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) + static_cast<std::size_t>(x0)) * 3;
-        const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
-                                             static_cast<std::size_t>(x0 + dx0)) * 3;
-        const std::size_t n = static_cast<std::size_t>(x1 - x0) * 3;
-        for (std::size_t i = 0; i < n; ++i) px[i] = added_within_float(px[i], f[i]);
-    }
-    if (layer) add_rgb_layer(frame, s.settings.layer, layer_rgb);
+    if (!into_frame) composite(frame, flare_rgb, geo, s.settings.layer);
     s.times.emplace_back("composite", ms_since(t));
 }
 

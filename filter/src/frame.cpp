@@ -215,12 +215,18 @@ void channel_from_float(Frame& frame, int channel, std::size_t first, std::size_
 // instead of one per channel). `floats` holds the channels interleaved in the order given.
 constexpr std::size_t kBlockPixels = 2048;
 
-void channels_to_floats(const Frame& frame, std::span<const int> channels, float* floats) {
-    const std::size_t n = frame.pixel_count(), k = channels.size();
-    for (std::size_t first = 0; first < n; first += kBlockPixels) {
-        const std::size_t count = std::min(kBlockPixels, n - first);
-        for (std::size_t c = 0; c < k; ++c) channel_to_float(frame, channels[c], first, count, floats + first * k + c, k);
+// Pixels [begin, end) of the data window; floats[0] is pixel `begin`'s first channel.
+void channels_to_floats(const Frame& frame, std::span<const int> channels, std::size_t begin, std::size_t end, float* floats) {
+    const std::size_t k = channels.size();
+    for (std::size_t first = begin; first < end; first += kBlockPixels) {
+        const std::size_t count = std::min(kBlockPixels, end - first);
+        for (std::size_t c = 0; c < k; ++c)
+            channel_to_float(frame, channels[c], first, count, floats + (first - begin) * k + c, k);
     }
+}
+
+void channels_to_floats(const Frame& frame, std::span<const int> channels, float* floats) {
+    channels_to_floats(frame, channels, 0, frame.pixel_count(), floats);
 }
 
 void channels_from_floats(Frame& frame, std::span<const int> channels, const float* floats) {
@@ -255,13 +261,26 @@ void store_rgb(Frame& frame) {
         throw std::runtime_error(fmt::format("the RGB working buffer holds {} values, the data window needs {}",
                                              frame.rgb.size(), frame.pixel_count() * 3));
     }
+    if (frame.pixels.size() != frame.spec.image_bytes()) frame.pixels = PixelBuffer(frame.spec.image_bytes());
     channels_from_floats(frame, frame.rgb_channels, frame.rgb.data());
+}
+
+bool release_rgb_pixels(Frame& frame) {
+    if (frame.spec.nchannels() != 3 || !frame.has_rgb() || frame.rgb.size() != frame.pixel_count() * 3) return false;
+    frame.pixels = PixelBuffer();
+    return true;
 }
 
 std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels) {
     std::vector<float> out(frame.pixel_count() * channels.size());
     channels_to_floats(frame, channels, out.data());
     return out;
+}
+
+void rows_as_float(const Frame& frame, const std::vector<int>& channels, int first_row, int rows, float* out) {
+    const auto w = static_cast<std::size_t>(frame.spec.width);
+    channels_to_floats(frame, channels, static_cast<std::size_t>(first_row) * w,
+                       static_cast<std::size_t>(first_row + rows) * w, out);
 }
 
 void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1) {
@@ -273,12 +292,14 @@ void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1) {
     const auto new_w = static_cast<std::size_t>(nx1 - nx0), new_h = static_cast<std::size_t>(ny1 - ny0);
     const auto old_w = static_cast<std::size_t>(spec.width);
     const auto dx = static_cast<std::size_t>(spec.x - nx0), dy = static_cast<std::size_t>(spec.y - ny0);
-    PixelBuffer pixels(new_w * new_h * px_bytes);
-    std::memset(pixels.data(), 0, pixels.size());
+    const bool released = frame.pixels.size() == 0;  // release_rgb_pixels(): `rgb` holds every channel
+    PixelBuffer pixels(released ? 0 : new_w * new_h * px_bytes);
+    if (!released) std::memset(pixels.data(), 0, pixels.size());
     std::vector<float> rgb(frame.rgb.empty() ? 0 : new_w * new_h * 3, 0.0f);
     for (std::size_t y = 0; y < static_cast<std::size_t>(spec.height); ++y) {
-        std::memcpy(pixels.data() + ((y + dy) * new_w + dx) * px_bytes, frame.pixels.data() + y * old_w * px_bytes,
-                    old_w * px_bytes);
+        if (!released)
+            std::memcpy(pixels.data() + ((y + dy) * new_w + dx) * px_bytes, frame.pixels.data() + y * old_w * px_bytes,
+                        old_w * px_bytes);
         if (!rgb.empty())
             std::copy_n(frame.rgb.data() + y * old_w * 3, old_w * 3, rgb.data() + ((y + dy) * new_w + dx) * 3);
     }
@@ -294,6 +315,7 @@ void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<flo
     if (rgb.size() != frame.pixel_count() * 3)
         throw std::invalid_argument(fmt::format("layer {}: {} values for a data window of {} pixels", layer, rgb.size(),
                                                 frame.pixel_count()));
+    if (frame.pixels.size() != frame.spec.image_bytes()) store_rgb(frame);  // made again after release_rgb_pixels()
     ImageSpec spec = frame.spec;
     const PixelType type = frame.rgb_channels[0] >= 0 ? spec.channel_type(frame.rgb_channels[0]) : PixelType::half;
     for (const char* c : {".R", ".G", ".B"}) {

@@ -47,7 +47,7 @@ void write_pfm_file(const Frame& frame, const std::string& path, const WriteOpti
     TempFile tmp(path);
     File f(std::fopen(tmp.path().c_str(), "wb"));
     if (!f) throw std::runtime_error(fmt::format("cannot create {}: {}", tmp.path(), std::strerror(errno)));
-    write_pfm(f.get(), frame, options.pfm_order == PfmOrder::top_first);
+    write_pfm(f.get(), frame, options.pfm_order == PfmOrder::top_first, options.memory);
     if (std::fclose(f.release()) != 0) throw std::runtime_error(fmt::format("cannot write {}", tmp.path()));
     tmp.commit();
 }
@@ -63,21 +63,48 @@ std::string output_compression(const Frame& frame, const WriteOptions& options) 
     return frame.format != "openexr" || kept.empty() || lossy ? "piz" : kept;
 }
 
+// Rows converted and quantised at a time for a display format: a multiple of the dither patterns' periods
+// (blue noise 64, Bayer 16), so the strips give exactly the values the whole image would.
+constexpr int kStripRows = 256;
+
+// R, G, B (and A) of the data window quantised to T (8 or 16 bits) with the output's dither, a strip of
+// rows at a time: no float copy of the whole frame is made.
+template <typename T>
+std::vector<T> quantised_display(const Frame& frame, const std::vector<int>& channels, const WriteOptions& options,
+                                 const std::string& format) {
+    const auto w = static_cast<std::size_t>(frame.spec.width), k = channels.size();
+    const int height = frame.spec.height, strip = std::min(kStripRows, height);
+    options.memory.check(bytes_of(w, height, static_cast<double>(k * sizeof(T))) + bytes_of(w, strip, static_cast<double>(k * sizeof(float))),
+                         fmt::format("{} output of the {}x{} data window", format, w, height));
+    std::vector<T> out(w * static_cast<std::size_t>(height) * k);
+    std::vector<float> floats(w * static_cast<std::size_t>(strip) * k);
+    for (int y = 0; y < height; y += strip) {
+        const int rows = std::min(strip, height - y);
+        rows_as_float(frame, channels, y, rows, floats.data());
+        const colour::PixelSpan span{floats.data(), w, static_cast<std::size_t>(rows), static_cast<int>(k), 0};
+        std::vector<T> q;
+        if constexpr (sizeof(T) == 1) q = colour::quantise8(span, options.dither, frame.index);
+        else q = colour::quantise16(span, options.dither, frame.index);
+        std::copy(q.begin(), q.end(), out.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * w * k));
+    }
+    return out;
+}
+
 }  // namespace
 
-Frame read_image(const std::string& path, PfmOrder pfm_order) {
+Frame read_image(const std::string& path, PfmOrder pfm_order, const MemoryBudget& budget) {
     if (!fs::exists(path)) throw std::runtime_error("file does not exist");
     require_regular_file(path, "");  // /dev/zero or a named pipe would never end
     if (is_pfm_file(path)) {
         File f(std::fopen(path.c_str(), "rb"));
         if (!f) throw std::runtime_error(fmt::format("cannot open: {}", std::strerror(errno)));
-        auto frame = read_pfm(f.get(), pfm_order == PfmOrder::top_first);
+        auto frame = read_pfm(f.get(), pfm_order == PfmOrder::top_first, budget);
         if (!frame) throw std::runtime_error("empty PFM file");
         frame->source = path;
         return std::move(*frame);
     }
-    if (is_exr_file(path)) return read_exr(path);
-    Frame frame = oiio_module().read(path);
+    if (is_exr_file(path)) return read_exr(path, budget);
+    Frame frame = oiio_module().read(path, budget);
     find_rgb_channels(frame);
     return frame;
 }
@@ -105,7 +132,7 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
     if (is_exr_extension(ext)) {
         const std::string compression = output_compression(frame, options);
         TempFile tmp(path);
-        write_exr(frame, tmp.path(), compression);
+        write_exr(frame, tmp.path(), compression, options.memory);
         tmp.commit();
         return;
     }
@@ -115,13 +142,15 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
 
     ImageSpec spec = frame.spec;
     const void* data = frame.pixels.data();
-    std::vector<float> converted;
+    std::vector<float> converted;  // TIFF and HDR: the channels written, as float
     std::vector<std::uint8_t> quantised8;
     std::vector<std::uint16_t> quantised16;
     // Only these channels, as float; `type` is what `data` holds when the writer gets it.
     auto select = [&](const std::vector<int>& channels, PixelType type) {
         std::vector<std::string> names;
         for (int c : channels) names.push_back(frame.spec.channel_name(c));
+        options.memory.check(bytes_of(spec.width, spec.height, static_cast<double>(channels.size() * sizeof(float))),
+                             fmt::format("{} output's float copy of the {}x{} data window", format, spec.width, spec.height));
         converted = channels_as_float(frame, channels);
         spec.channelnames = names;
         spec.channeltypes.assign(channels.size(), type);
@@ -146,14 +175,15 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
         select(rgb(false), PixelType::float32);
     } else {
         const bool wide = options.display_bits == 16 && (format == "png" || format == "pnm" || format == "dpx");
-        select(rgb(true), wide ? PixelType::uint16 : PixelType::uint8);
-        const colour::PixelSpan span{converted.data(), static_cast<std::size_t>(spec.width),
-                                     static_cast<std::size_t>(spec.height), spec.nchannels(), 0};
+        const std::vector<int> channels = rgb(true);
+        spec.channelnames.clear();
+        for (int c : channels) spec.channelnames.push_back(frame.spec.channel_name(c));
+        spec.channeltypes.assign(channels.size(), wide ? PixelType::uint16 : PixelType::uint8);
         if (wide) {
-            quantised16 = colour::quantise16(span, options.dither, frame.index);
+            quantised16 = quantised_display<std::uint16_t>(frame, channels, options, format);
             data = quantised16.data();
         } else {
-            quantised8 = colour::quantise8(span, options.dither, frame.index);
+            quantised8 = quantised_display<std::uint8_t>(frame, channels, options, format);
             data = quantised8.data();
         }
     }

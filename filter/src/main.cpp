@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <new>
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -17,6 +18,10 @@ int main(int argc, char** argv) {
         app->parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         return app->exit(e);
+    } catch (const std::bad_alloc&) {
+        // An allocation no budget check foresaw: still one line, with what to do about it.
+        fmt::print(stderr, "lensfx: out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses earlier\n");
+        return 1;
     } catch (const std::exception& e) {
         fmt::print(stderr, "lensfx: {}\n", e.what());
         return 1;

@@ -7,12 +7,14 @@
 #include <string>
 
 #include <filter/frame.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
 struct OiioModule {
-    // Reads the first subimage at full resolution, channels in their native types; throws std::runtime_error.
-    Frame (*read)(const std::string& path);
+    // Reads the first subimage at full resolution, channels in their native types; throws std::runtime_error,
+    // and MemoryLimitError before allocating when the image does not fit the budget.
+    Frame (*read)(const std::string& path, const MemoryBudget& budget);
     // Writes spec.nchannels() channels of one type (spec.channeltypes[0]) interleaved in `data`, with the
     // spec's text attributes; throws std::runtime_error.
     void (*write)(const std::string& path, const ImageSpec& spec, const void* data);

@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <condition_variable>
 #include <mutex>
+#include <new>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -39,12 +41,92 @@ namespace {
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
+// The bytes of the frames between reader and writer, against the memory limit: the reader waits before
+// reading another frame while those held and the next would exceed it. A frame is always let through when
+// nothing is held, so one that fits the limit alone never waits forever (the readers refuse larger ones).
+class FrameBytes {
+public:
+    // Bytes held for one frame until it is written or dropped; moves with the frame through the queues.
+    class Hold {
+    public:
+        Hold() = default;
+        Hold(FrameBytes* owner, std::size_t bytes) : owner_(owner), bytes_(bytes) {}
+        Hold(Hold&& other) noexcept : owner_(std::exchange(other.owner_, nullptr)), bytes_(other.bytes_) {}
+        Hold& operator=(Hold&& other) noexcept {
+            if (this != &other) {
+                release();
+                owner_ = std::exchange(other.owner_, nullptr);
+                bytes_ = other.bytes_;
+            }
+            return *this;
+        }
+        Hold(const Hold&) = delete;
+        Hold& operator=(const Hold&) = delete;
+        ~Hold() { release(); }
+        // The frame turned out to need `bytes` (known once it is read): held without waiting.
+        void resize(std::size_t bytes) {
+            if (owner_) owner_->change(bytes_, bytes);
+            bytes_ = bytes;
+        }
+
+    private:
+        void release() {
+            if (owner_) owner_->change(bytes_, 0);
+            owner_ = nullptr;
+        }
+        FrameBytes* owner_ = nullptr;
+        std::size_t bytes_ = 0;
+    };
+
+    explicit FrameBytes(std::size_t limit) : limit_(limit) {}
+
+    // Waits until `bytes` more fit under the limit (or nothing is held); nothing when cancelled.
+    std::optional<Hold> acquire(std::size_t bytes) {
+        std::unique_lock lock(mutex_);
+        freed_.wait(lock, [&] { return cancelled_ || limit_ == 0 || held_ == 0 || held_ + bytes <= limit_; });
+        if (cancelled_) return std::nullopt;
+        held_ += bytes;
+        return Hold(this, bytes);
+    }
+    void cancel() {
+        std::lock_guard lock(mutex_);
+        cancelled_ = true;
+        freed_.notify_all();
+    }
+
+private:
+    void change(std::size_t from, std::size_t to) {
+        std::lock_guard lock(mutex_);
+        held_ = held_ - from + to;
+        if (to < from) freed_.notify_all();
+    }
+    std::size_t limit_;
+    std::size_t held_ = 0;
+    bool cancelled_ = false;
+    std::mutex mutex_;
+    std::condition_variable freed_;
+};
+
 // A frame on its way through the queues; `frame` is empty when the input was bad (record.error says why).
 struct Item {
     std::optional<Frame> frame;
     FrameRecord record;
     bool fatal = false;  // a bad stream cannot be resynchronised: never skipped
+    FrameBytes::Hold held;  // its bytes against the memory limit, released when it is written or dropped
 };
+
+// What a frame holds while it is in the pipeline: its pixels, and R, G, B as float while the stages run.
+std::size_t frame_bytes(const Frame& frame, bool wants_rgb) {
+    return frame.spec.image_bytes() + (wants_rgb && frame.has_rgb() ? frame.pixel_count() * 3 * sizeof(float) : 0);
+}
+
+// An exception's text for the one-line report; std::bad_alloc (an allocation the budget did not foresee)
+// in words, with what to do about it.
+std::string error_text(const std::exception& e) {
+    if (dynamic_cast<const std::bad_alloc*>(&e))
+        return "out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses or waits earlier";
+    return e.what();
+}
 
 // One line: library messages (OpenImageIO's) may hold several.
 std::string one_line(std::string text) {
@@ -222,12 +304,26 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     bool wants_rgb = false;
     for (const Stage* s : stages) wants_rgb = wants_rgb || s->wants_rgb();
 
+    FrameBytes frame_bytes_held(o.memory.limit);  // before the queues: their items release into it
     BoundedQueue<Item> read_queue(o.queue_depth), write_queue(o.queue_depth);
     Failure failure;
     auto fail = [&](std::string message) {
         failure.set(std::move(message));
+        frame_bytes_held.cancel();
         read_queue.cancel();
         write_queue.cancel();
+    };
+    // The reader's wait for memory, expecting the size of the frame before; then what the frame holds.
+    std::size_t expected_bytes = 0;
+    auto hold_memory = [&](Item& item) {
+        std::optional<FrameBytes::Hold> hold = frame_bytes_held.acquire(expected_bytes);
+        if (hold) item.held = std::move(*hold);
+        return hold.has_value();
+    };
+    auto account = [&](Item& item) {
+        if (!item.frame) return;
+        expected_bytes = frame_bytes(*item.frame, wants_rgb);
+        item.held.resize(expected_bytes);
     };
 
     std::thread reader([&] {
@@ -238,17 +334,19 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 item.record.number = static_cast<std::int64_t>(i) + 1;
                 item.record.input = "-";
                 item.record.output = plan.output_path(item.record.number);
+                if (!hold_memory(item)) break;
                 const auto t0 = Clock::now();
                 try {
-                    item.frame = o.pix_fmt ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height)
-                                           : read_pfm(stdin, plan.in_order == PfmOrder::top_first);
+                    item.frame = o.pix_fmt ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height, o.memory)
+                                           : read_pfm(stdin, plan.in_order == PfmOrder::top_first, o.memory);
                     if (!item.frame) break;
                     item.frame->source = "-";
                 } catch (const std::exception& e) {
                     item.frame.reset();
-                    item.record.error = one_line(e.what());
+                    item.record.error = one_line(error_text(e));
                     item.fatal = true;
                 }
+                account(item);
                 item.record.read_ms = ms_since(t0);
                 if (item.frame) {
                     item.frame->index = i;
@@ -264,15 +362,17 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 item.record.number = plan.numbers[i];
                 item.record.input = plan.input_path(item.record.number);
                 item.record.output = plan.output_path(item.record.number);
+                if (!hold_memory(item)) break;
                 const auto t0 = Clock::now();
                 try {
-                    item.frame = read_image(item.record.input, plan.in_order);
+                    item.frame = read_image(item.record.input, plan.in_order, o.memory);
                     item.frame->index = i;
                     item.frame->number = item.record.number;
                 } catch (const std::exception& e) {
                     item.frame.reset();
-                    item.record.error = one_line(e.what());
+                    item.record.error = one_line(error_text(e));
                 }
+                account(item);
                 item.record.read_ms = ms_since(t0);
                 if (!read_queue.push(std::move(item))) break;
             }
@@ -294,9 +394,9 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
             try {
                 if (plan.stream_out) {
                     if (o.pix_fmt) {
-                        write_raw(stdout, *item->frame, *o.pix_fmt);
+                        write_raw(stdout, *item->frame, *o.pix_fmt, o.memory);
                     } else {
-                        write_pfm(stdout, *item->frame, plan.out_order == PfmOrder::top_first);
+                        write_pfm(stdout, *item->frame, plan.out_order == PfmOrder::top_first, o.memory);
                     }
                     if (std::fflush(stdout) != 0) throw std::runtime_error("write failed");
                 } else {
@@ -308,10 +408,11 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     }
                     WriteOptions w = o.write;
                     w.pfm_order = plan.out_order;
+                    w.memory = o.memory;
                     write_image(*item->frame, rec.output, w);
                 }
             } catch (const std::exception& e) {
-                fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, e.what()));
+                fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, error_text(e)));
                 break;
             }
             rec.write_ms = ms_since(t0);
@@ -337,7 +438,10 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                                                          first->full_width, first->full_height));
                 }
                 const bool load = wants_rgb && frame.has_rgb();
-                if (load) load_rgb(frame);
+                if (load) {
+                    load_rgb(frame);
+                    release_rgb_pixels(frame);  // an RGB-only frame is held once, as float, until store_rgb
+                }
                 for (Stage* stage : stages) {
                     const auto ts = Clock::now();
                     stage->process(frame);
@@ -353,13 +457,14 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 }
             } catch (const std::exception& e) {
                 item->frame.reset();
-                rec.error = one_line(e.what());
+                rec.error = one_line(error_text(e));
             }
             rec.process_ms = ms_since(t0);
         }
         if (!item->frame && (item->fatal || !o.skip_bad_frames)) {
             // The frames before this one are complete: let the writer finish them, read nothing more.
             failure.set(fmt::format("{}: frame {}: {}", rec.input == "-" ? "stdin" : rec.input, rec.number, rec.error));
+            frame_bytes_held.cancel();
             read_queue.cancel();
             break;
         }

@@ -166,7 +166,7 @@ std::string_view to_string(RawPixFmt fmt) { return fmt == RawPixFmt::gbrpf32le ?
 
 int channel_count(RawPixFmt fmt) { return fmt == RawPixFmt::gbrpf32le ? 3 : 4; }
 
-std::optional<Frame> read_pfm(std::FILE* in, bool top_first) {
+std::optional<Frame> read_pfm(std::FILE* in, bool top_first, const MemoryBudget& budget) {
     int c = std::fgetc(in);
     while (c != EOF && std::isspace(c)) c = std::fgetc(in);
     if (c == EOF) {
@@ -186,6 +186,7 @@ std::optional<Frame> read_pfm(std::FILE* in, bool top_first) {
     if (end != scale_token.c_str() + scale_token.size() || scale == 0.0 || !std::isfinite(scale)) {
         throw std::runtime_error(fmt::format("malformed PFM header: scale \"{}\"", scale_token));
     }
+    budget.check(bytes_of(width, height, channels * sizeof(float)), fmt::format("a {}x{} PFM image", width, height));
     Frame frame;
     const std::size_t count = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(channels);
     const auto allocate = [&] {
@@ -203,7 +204,9 @@ std::optional<Frame> read_pfm(std::FILE* in, bool top_first) {
     return frame;
 }
 
-void write_pfm(std::FILE* out, const Frame& frame, bool top_first) {
+void write_pfm(std::FILE* out, const Frame& frame, bool top_first, const MemoryBudget& budget) {
+    budget.check(bytes_of(frame.spec.full_width, frame.spec.full_height, 3 * sizeof(float)),
+                 fmt::format("PFM output of the {}x{} display window", frame.spec.full_width, frame.spec.full_height));
     int channels = 0;
     std::vector<float> data = output_channels(frame, channels);
     if (std::endian::native != std::endian::little) swap_bytes(data.data(), data.size());
@@ -218,28 +221,35 @@ void write_pfm(std::FILE* out, const Frame& frame, bool top_first) {
     }
 }
 
-std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int height) {
+std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int height, const MemoryBudget& budget) {
     const int channels = channel_count(fmt);
-    const std::size_t plane = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-    std::vector<float> planes(plane * static_cast<std::size_t>(channels));
-    if (!read_exact(in, planes.data(), planes.size() * sizeof(float), fmt::format("a {}x{} {} frame", width, height, to_string(fmt)))) {
-        return std::nullopt;
-    }
-    if (std::endian::native != std::endian::little) swap_bytes(planes.data(), planes.size());
-    Frame frame = float_frame(width, height, channels, "raw");
-    auto* px = reinterpret_cast<float*>(frame.pixels.data());
-    // Planes G, B, R[, A] -> interleaved R, G, B[, A].
-    constexpr std::size_t source_plane[4] = {2, 0, 1, 3};
-    const auto n = static_cast<std::size_t>(channels);
-    for (std::size_t c = 0; c < n; ++c) {
-        const float* src = planes.data() + source_plane[c] * plane;
-        for (std::size_t i = 0; i < plane; ++i) px[i * n + c] = src[i];
+    const std::string what = fmt::format("a {}x{} {} frame", width, height, to_string(fmt));
+    budget.check(bytes_of(width, height, channels * sizeof(float)), fmt::format("{} (--size)", what));
+    const auto w = static_cast<std::size_t>(width), n = static_cast<std::size_t>(channels);
+    // Planes G, B, R[, A] -> interleaved R, G, B[, A], a row at a time (no second copy of the frame).
+    constexpr std::size_t target_channel[4] = {1, 2, 0, 3};
+    std::vector<float> row(w);
+    std::optional<Frame> frame;
+    for (std::size_t plane = 0; plane < n; ++plane) {
+        for (int y = 0; y < height; ++y) {
+            if (!read_exact(in, row.data(), w * sizeof(float), what)) {
+                if (frame) throw std::runtime_error(fmt::format("stream ended inside {}", what));
+                return std::nullopt;
+            }
+            if (!frame) frame = float_frame(width, height, channels, "raw");
+            if (std::endian::native != std::endian::little) swap_bytes(row.data(), row.size());
+            auto* px = reinterpret_cast<float*>(frame->pixels.data()) + static_cast<std::size_t>(y) * w * n;
+            const std::size_t c = target_channel[plane];
+            for (std::size_t x = 0; x < w; ++x) px[x * n + c] = row[x];
+        }
     }
     return frame;
 }
 
-void write_raw(std::FILE* out, const Frame& frame, RawPixFmt fmt) {
+void write_raw(std::FILE* out, const Frame& frame, RawPixFmt fmt, const MemoryBudget& budget) {
     if (!frame.has_rgb()) throw std::runtime_error("the image has no R, G, B channels to write");
+    budget.check(bytes_of(frame.spec.full_width, frame.spec.full_height, 2.0 * channel_count(fmt) * sizeof(float)),
+                 fmt::format("raw output of the {}x{} display window", frame.spec.full_width, frame.spec.full_height));
     std::vector<int> channels{frame.rgb_channels[1], frame.rgb_channels[2], frame.rgb_channels[0]};
     const auto alpha = std::find(frame.spec.channelnames.begin(), frame.spec.channelnames.end(), "A");
     const bool has_alpha = alpha != frame.spec.channelnames.end();

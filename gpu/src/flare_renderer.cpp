@@ -166,6 +166,16 @@ FlareRenderer::~FlareRenderer() = default;
 
 namespace {
 
+// The steps of all ghosts together: a ghost reflecting at j, then at i < j, visits n + 2 (j - i) interfaces.
+double ghost_steps(const System& system) {
+    const std::vector<int> reflecting = optics::reflecting_interfaces(system);
+    const double n = static_cast<double>(system.interfaces.size());
+    double steps = 0.0;
+    for (std::size_t a = 0; a < reflecting.size(); ++a)
+        for (std::size_t b = a + 1; b < reflecting.size(); ++b) steps += n + 2.0 * (reflecting[b] - reflecting[a]);
+    return steps;
+}
+
 GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
     GhostSequences out;
     // Ghosts share their surfaces: each (interface, direction, reflect or transmit) table is computed once.
@@ -325,18 +335,48 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     return out;
 }
 
-// A render target's read-back: RGBA rows bottom to top, as GL stores them, covering the whole sensor.
-struct Readback {
-    std::vector<float> rgba;
-    int width = 0;
-    int height = 0;
+// A render target read back a band of rows at a time (RGBA, rows bottom to top as GL stores them): rows are
+// asked for from the top of the image down, so a band is read ending just above the row asked for.
+class BandReader {
+public:
+    explicit BandReader(const FloatTarget& target) : target_(&target) {}
+    int width() const { return target_->width(); }
+    int height() const { return target_->height(); }
+    const float* row(int r) {
+        if (r < first_ || r >= first_ + rows_) {
+            first_ = std::max(0, r + 2 - kBandRows);
+            rows_ = std::min(kBandRows, height() - first_);
+            band_.resize(static_cast<std::size_t>(width()) * static_cast<std::size_t>(rows_) * 4);
+            target_->read_rgba_rows(first_, rows_, band_.data());
+        }
+        return band_.data() + static_cast<std::size_t>(r - first_) * static_cast<std::size_t>(width()) * 4;
+    }
+
+private:
+    static constexpr int kBandRows = 64;
+    const FloatTarget* target_;
+    std::vector<float> band_;
+    int first_ = 0, rows_ = 0;
 };
 
-// Adds read-backs into a top-down RGB image of w x h: copied where of the same size, upsampled bilinearly
-// from reduced ones (pixel centres aligned, the edge pixels held beyond the outer centres). Separably: each
-// source row is widened to w RGB pixels once, and each output row adds, for every source, a blend of two
-// widened rows (a loop the compiler vectorises), so the image is read and written once.
-void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, int w, int h) {
+// Adds a full-size target into the top-down RGB image w x h, read back a band of rows at a time: no copy
+// of the whole target is made (at 8K it would be 1 GB).
+void add_full_target(const FloatTarget& target, std::vector<float>& rgb, int w, int h) {
+    BandReader reader(target);
+    const auto width = static_cast<std::size_t>(w);
+    for (int y = 0; y < h; ++y) {
+        const float* in = reader.row(h - 1 - y);  // GL rows run bottom-up
+        float* out = rgb.data() + static_cast<std::size_t>(y) * width * 3;
+        for (std::size_t x = 0; x < width; ++x)
+            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
+    }
+}
+
+// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, upsampled bilinearly (pixel
+// centres aligned, the edge pixels held beyond the outer centres). Separably: each source row is widened to
+// w RGB pixels once, and each output row adds, for every source, a blend of two widened rows (a loop the
+// compiler vectorises), so the image is read and written once.
+void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
     struct Tap {
         int i0, i1;
         float f;
@@ -352,19 +392,19 @@ void add_targets(const std::vector<Readback>& sources, std::vector<float>& rgb, 
     };
     const std::size_t row_values = static_cast<std::size_t>(w) * 3;
     struct Source {
-        const Readback* readback;
+        BandReader* readback;
         std::vector<Tap> xs, ys;
         std::vector<float> wide[2];  // two widened source rows
         int held[2] = {-1, -1};      // which rows they hold
     };
     std::vector<Source> srcs;
-    for (const Readback& r : sources)
-        srcs.push_back({&r, taps(w, r.width), taps(h, r.height), {std::vector<float>(row_values), std::vector<float>(row_values)}});
+    for (BandReader& r : sources)
+        srcs.push_back({&r, taps(w, r.width()), taps(h, r.height()), {std::vector<float>(row_values), std::vector<float>(row_values)}});
     auto widened = [&](Source& src, int row, int keep) -> const float* {
         for (int k = 0; k < 2; ++k)
             if (src.held[k] == row) return src.wide[k].data();
         const int k = src.held[0] == keep ? 1 : 0;
-        const float* in = src.readback->rgba.data() + static_cast<std::size_t>(row) * static_cast<std::size_t>(src.readback->width) * 4;
+        const float* in = src.readback->row(row);
         float* out = src.wide[k].data();
         for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
             const Tap t = src.xs[x];
@@ -398,15 +438,20 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
     }
     if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
+    check_ghost_tables(system, view.passes().size(), options.memory);
     State& s = *state_;
     const Acceleration& accel = options.accel;
     s.stats = {};
     std::vector<Ghost> ghosts = selected_ghosts(system, view);
     if (accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
-    FloatTarget& target = s.target(1, view.width, view.height);
-    target.bind();
-    target.clear();
+    // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it is 1 GB,
+    // and a frame whose ghosts are all drawn reduced never needs it.
+    auto full_target = [&]() -> FloatTarget& { return s.target(1, view.width, view.height); };
+    if (options.per_ghost_power) {
+        full_target().bind();
+        full_target().clear();
+    }
     bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
     s.upload_iris(system.aperture);
 
@@ -745,7 +790,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                             const std::size_t slot = State::slot(reduce);
                             FloatTarget& t = s.target(reduce, view.width, view.height);
                             t.bind();
-                            if (slot > 0 && !drawn_into[slot]) t.clear();
+                            if (!drawn_into[slot]) t.clear();
                             drawn_into[slot] = true;
                             bound = true;
                         }
@@ -758,7 +803,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
 
                         if (options.per_ghost_power) {
-                            const std::vector<float> rgba = target.read_rgba();
+                            const std::vector<float> rgba = full_target().read_rgba();
                             for (std::size_t i = 0; i < pixels; ++i) {
                                 for (std::size_t c = 0; c < 3; ++c) {
                                     const auto value = static_cast<double>(rgba[i * 4 + c]);
@@ -766,7 +811,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                                     powers[g].power[c] += value * pixel_area;
                                 }
                             }
-                            target.clear();
+                            full_target().clear();
                         }
                     }
                 }
@@ -785,7 +830,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             }
         }
     }
-    target.bind();
+    if (drawn_into[0]) full_target().bind();
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     if (options.per_ghost_power) {
@@ -797,11 +842,12 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         }
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
-        std::vector<Readback> readbacks;
-        for (int slot : {0, 1, 2, 3, 4}) {
+        if (drawn_into[0]) add_full_target(s.target(1, view.width, view.height), rgb, view.width, view.height);
+        std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
+        for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
             const FloatTarget& t = s.target(1 << slot, view.width, view.height);
-            readbacks.push_back({t.read_rgba(), t.width(), t.height()});
+            readbacks.emplace_back(t);
         }
         add_targets(readbacks, rgb, view.width, view.height);
     }
@@ -829,5 +875,28 @@ void FlareRenderer::render_add(const System& system, const FlareView& view, std:
 }
 
 const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }
+
+void FlareRenderer::release_targets() {
+    for (std::optional<FloatTarget>& t : state_->targets) t.reset();
+    // The driver (llvmpipe) keeps the last framebuffer's textures until another framebuffer is drawn to:
+    // a clear of a 1 x 1 target lets them go now.
+    const FloatTarget tiny(1, 1);
+    tiny.bind();
+    glClear(GL_COLOR_BUFFER_BIT);
+    glFinish();
+}
+
+double ghost_table_bytes(const System& system, std::size_t passes) {
+    const double ghosts = static_cast<double>(optics::ghost_count(system));
+    const double per_step = sizeof(optics::Step) + 2.0 * static_cast<double>(passes) * (sizeof(StepData) + kTableSize * sizeof(float));
+    return ghosts * (sizeof(Ghost) + 4.0 * sizeof(int)) + ghost_steps(system) * per_step;
+}
+
+void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget) {
+    if (!budget.limited()) return;
+    budget.check(ghost_table_bytes(system, passes),
+                 fmt::format("lens {}: the ghost data of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
+                             system.interfaces.size(), optics::ghost_count(system), passes));
+}
 
 }  // namespace lensfx::gpu

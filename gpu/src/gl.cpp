@@ -166,11 +166,15 @@ void FloatTarget::clear(float alpha) const {
 
 std::vector<float> FloatTarget::read_rgba() const {
     std::vector<float> pixels(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4);
+    read_rgba_rows(0, height_, pixels.data());
+    return pixels;
+}
+
+void FloatTarget::read_rgba_rows(int first_row, int rows, float* out) const {
     glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_.get());
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, pixels.data());
+    glReadPixels(0, first_row, width_, rows, GL_RGBA, GL_FLOAT, out);
     check_gl("reading back the float render target");
-    return pixels;
 }
 
 }  // namespace lensfx::gpu

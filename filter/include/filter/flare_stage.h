@@ -23,6 +23,7 @@
 #include <filter/pupil_options.h>
 #include <gpu/flare.h>
 #include <optics/lens.h>
+#include <optics/memory_budget.h>
 #include <optics/starburst.h>
 
 namespace lensfx::filter {
@@ -56,6 +57,7 @@ struct FlareSettings {
     std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
     AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
     FlareControls controls;           // --ghost-gain, --extended-gain, --matte, --matte-channel, --add-light
+    MemoryBudget memory;              // --memory-limit: the lens tables and each frame's flare are sized against it
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --coating, --coating-spread, --threshold, --max-lights, --sensor, --fov, --gain,

@@ -72,10 +72,18 @@ std::vector<std::size_t> channel_offsets(const ImageSpec& spec);
 detect::ImageView rgb_view(const Frame& frame);
 // Copies the R, G, B channels of `pixels` into `rgb` as float. Throws if the frame has no R, G, B.
 void load_rgb(Frame& frame);
-// Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types.
+// Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types (making
+// `pixels` again when release_rgb_pixels() released them).
 void store_rgb(Frame& frame);
+// When R, G, B are all of the frame's channels and `rgb` is loaded, releases `pixels` (they hold nothing
+// `rgb` does not) until store_rgb(): a half RGB frame is then held once while the stages run, not twice.
+// Returns whether it did. grow_data_window() and add_rgb_layer() work on a frame in this state.
+bool release_rgb_pixels(Frame& frame);
 // The given channels of `pixels` as float, interleaved in the order given.
 std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels);
+// The same for `rows` rows of the data window from `first_row` (0: its top), into `out`
+// (rows x width x channels.size() floats): for converting an output a strip at a time.
+void rows_as_float(const Frame& frame, const std::vector<int>& channels, int first_row, int rows, float* out);
 // Grows the data window to also cover the rectangle [x0, x1) x [y0, y1) (absolute pixel coordinates, as
 // spec.x / spec.y); new pixels are 0 in every channel, and `rgb`, when loaded, grows with `pixels`.
 void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1);

@@ -8,13 +8,15 @@
 #include <filter/colour.h>
 #include <filter/frame.h>
 #include <filter/stream.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
 // Reads the first part (subimage) of a file at its full resolution (mip level 0); tiles are read into
 // scanline order. Every channel keeps its native type. Throws std::runtime_error on a missing, damaged
-// or unrecognised file, and for deep images.
-Frame read_image(const std::string& path, PfmOrder pfm_order = PfmOrder::automatic);
+// or unrecognised file, and for deep images; MemoryLimitError, before the pixels are allocated, when the
+// data window does not fit `budget`.
+Frame read_image(const std::string& path, PfmOrder pfm_order = PfmOrder::automatic, const MemoryBudget& budget = {});
 
 struct WriteOptions {
     // EXR compression ("piz", "zip", "dwaa:45", ...). Empty: the input's own when it was a losslessly
@@ -25,6 +27,8 @@ struct WriteOptions {
     // quantised with this dither (the frame's index moves the pattern over time).
     int display_bits = 8;
     colour::Dither dither = colour::Dither::BlueNoise;
+    // What the conversion buffers of an output may take (display formats are converted in strips).
+    MemoryBudget memory;
 };
 
 // Writes a frame; the format follows the extension. EXR: every channel, type, window and attribute as

@@ -13,6 +13,7 @@
 #include <filter/frame.h>
 #include <filter/image_io.h>
 #include <filter/stream.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
@@ -33,6 +34,9 @@ struct PipelineOptions {
     PfmOrder pfm_order = PfmOrder::automatic;   // for PFM input and output (streams and files)
     std::optional<RawPixFmt> pix_fmt;           // raw planar float on "-" instead of PFM
     int raw_width = 0, raw_height = 0;          // raw input frame size (--size)
+    // --memory-limit: every frame is sized against it before it is read, and the reader waits before
+    // reading another while the frames held (pixels and R, G, B as float) and the next would exceed it.
+    MemoryBudget memory;
 };
 
 // What happened to one frame. Times are wall-clock milliseconds spent in each stage on this frame.

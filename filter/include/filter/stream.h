@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include <filter/frame.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::filter {
 
@@ -24,15 +25,18 @@ int channel_count(RawPixFmt fmt);
 
 // Reads the next PFM image ("PF": R, G, B; "Pf": one channel "Y"). Returns nothing at a clean end of
 // stream (no byte before the header); throws std::runtime_error on a malformed header or a short read.
-// The frame's spec is float, its format "pfm"; `top_first` says how the rows are stored.
-std::optional<Frame> read_pfm(std::FILE* in, bool top_first);
+// The frame's spec is float, its format "pfm"; `top_first` says how the rows are stored. A header whose
+// size does not fit `budget` is refused (MemoryLimitError) before the pixels are allocated.
+std::optional<Frame> read_pfm(std::FILE* in, bool top_first, const MemoryBudget& budget = {});
 // Writes a PFM (little endian) of R, G, B (or "PF" of Y repeated when the frame has one channel only
-// and no RGB: "Pf"). Throws std::runtime_error if the frame has neither or the write fails.
-void write_pfm(std::FILE* out, const Frame& frame, bool top_first);
+// and no RGB: "Pf"). Throws std::runtime_error if the frame has neither or the write fails, and
+// MemoryLimitError when the display window's float copy does not fit `budget`.
+void write_pfm(std::FILE* out, const Frame& frame, bool top_first, const MemoryBudget& budget = {});
 
-// Reads one raw planar frame of width x height; nothing at a clean end of stream; throws on a short frame.
-std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int height);
+// Reads one raw planar frame of width x height; nothing at a clean end of stream; throws on a short frame,
+// and MemoryLimitError (before reading) when a frame of that size does not fit `budget`.
+std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int height, const MemoryBudget& budget = {});
 // Writes the frame's R, G, B (and A, or 1 where it has none) as planes G, B, R[, A].
-void write_raw(std::FILE* out, const Frame& frame, RawPixFmt fmt);
+void write_raw(std::FILE* out, const Frame& frame, RawPixFmt fmt, const MemoryBudget& budget = {});
 
 }  // namespace lensfx::filter

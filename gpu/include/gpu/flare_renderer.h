@@ -14,6 +14,7 @@
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <optics/flare_look.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::gpu {
 
@@ -27,7 +28,16 @@ struct GpuFlareOptions {
     // order eq. 5 at each pass's wavelength and the lens's f-number) instead of the sharp iris.
     bool ringing = false;
     std::vector<GhostStyle> styles;  // ghosts not listed keep their physical look
+    MemoryBudget memory;             // the per-lens tables are sized against it (check_ghost_tables)
 };
+
+// Bytes of the per-lens tables the renderer builds for `system` at `passes` wavelengths: the ghost list,
+// every ghost's interface sequence and its Fresnel/coating tables, on the CPU and in GL buffers. Ghosts
+// grow with the square of the surfaces and their sequences with the surfaces, so a lens of a few hundred
+// surfaces asks for tens of GB; this is known before any of it is made.
+double ghost_table_bytes(const System& system, std::size_t passes);
+// Throws MemoryLimitError naming the lens, its surfaces and ghosts when those tables do not fit `budget`.
+void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget);
 
 // One light of a frame for render_add: its direction (as FlareView's angles) and the factor per channel its
 // ghosts are added with.
@@ -51,6 +61,9 @@ public:
     void render_add(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
                     const GpuFlareOptions& options, std::vector<float>& rgb);
     const RenderStats& last_stats() const;  // of the last render or render_add (summed over its lights)
+    // Frees the render targets (made again by the next render): a large frame's (at 8K over 1 GB) are
+    // then not held while the frame is stored and written.
+    void release_targets();
 
 private:
     void draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,

@@ -65,6 +65,8 @@ public:
     void bind() const;    // as the draw framebuffer, viewport set
     void clear(float alpha = 0.0f) const;   // RGB to zero, alpha to `alpha`, whatever the colour mask
     std::vector<float> read_rgba() const;  // rows bottom to top as GL stores them, 4 floats per pixel
+    // Rows [first_row, first_row + rows) (GL's order: 0 is the bottom) into `out`, 4 floats per pixel.
+    void read_rgba_rows(int first_row, int rows, float* out) const;
 
 private:
     int width_;

@@ -1,0 +1,250 @@
+// The memory budget (--memory-limit): parsing, the checks and their messages, the lens tables' estimate,
+// and end-to-end runs of the lensfx program on small hostile inputs made here: each is refused in one
+// `lensfx:` line naming what was too big (never a bare std::bad_alloc), or runs within the budget.
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+
+#include <filter/colour.h>
+#include <filter/image_io.h>
+#include <gpu/flare_renderer.h>
+#include <optics/lens_file.h>
+#include <optics/memory_budget.h>
+#include <optics/system.h>
+
+#include "../filter/filter_test_util.h"
+#include "plate_lens.h"
+
+namespace fs = std::filesystem;
+using namespace lensfx;
+using namespace lensfx::test;
+
+namespace {
+
+constexpr std::size_t kGiB = std::size_t{1} << 30;
+
+// The message of the MemoryLimitError `f` throws ("" when it throws none).
+template <typename F>
+std::string refusal(F&& f) {
+    try {
+        f();
+    } catch (const MemoryLimitError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// One line on stderr, starting "lensfx: ", that holds `needle` and no bare bad_alloc.
+void expect_one_line(const RunResult& r, const std::string& needle) {
+    EXPECT_NE(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+    EXPECT_EQ(r.stderr_text.rfind("lensfx: ", 0), 0u) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find(needle), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(r.stderr_text.find("bad_alloc"), std::string::npos) << r.stderr_text;
+}
+
+// A half RGB EXR whose data window is `data` x `data` pixels at (4, 4) inside a display window of
+// `display` x `display`: a file of a few KB that declares a frame of display^2 pixels. The data holds one
+// bright light (1000) on a dim ground (0.1), so the flare stage finds it.
+void make_windowed_exr(const fs::path& path, int data, int display) {
+    OIIO::ImageSpec spec(data, data, 3, OIIO::TypeHalf);
+    spec.x = 4;
+    spec.y = 4;
+    spec.full_width = display;
+    spec.full_height = display;
+    std::vector<float> px(static_cast<std::size_t>(data) * static_cast<std::size_t>(data) * 3, 0.1f);
+    for (int c = 0; c < 3; ++c) px[static_cast<std::size_t>((data / 2 * data + data / 2) * 3 + c)] = 1000.0f;
+    auto out = OIIO::ImageOutput::create(path.string());
+    ASSERT_TRUE(out && out->open(path.string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeFloat, px.data()));
+    ASSERT_TRUE(out->close());
+}
+
+// A lens of about `surfaces` surfaces (plate_lens.h) written to `dir`.
+fs::path make_many_surface_lens(const fs::path& dir, int surfaces) {
+    const fs::path path = dir / fmt::format("many-{}.toml", surfaces);
+    std::ofstream(path) << plate_lens_toml(surfaces);
+    return path;
+}
+
+std::string quoted(const fs::path& p) { return fmt::format("\"{}\"", p.string()); }
+
+}  // namespace
+
+TEST(MemoryBudget, ParsesSizesAndNone) {
+    EXPECT_EQ(parse_memory_limit("4G").limit, 4 * kGiB);
+    EXPECT_EQ(parse_memory_limit("512M").limit, std::size_t{512} << 20);
+    EXPECT_EQ(parse_memory_limit("1.5g").limit, kGiB + kGiB / 2);
+    EXPECT_EQ(parse_memory_limit("800K").limit, std::size_t{800} << 10);
+    EXPECT_EQ(parse_memory_limit("4GB").limit, 4 * kGiB);
+    EXPECT_EQ(parse_memory_limit("4GiB").limit, 4 * kGiB);
+    EXPECT_EQ(parse_memory_limit("1000000").limit, 1000000u);
+    EXPECT_FALSE(parse_memory_limit("none").limited());
+    EXPECT_FALSE(parse_memory_limit("0").limited());
+    for (const char* bad : {"", "G", "abc", "-1G", "4X", "nan", "1e3", "0.1", "1G2"})
+        EXPECT_THROW(parse_memory_limit(bad), std::invalid_argument) << bad;
+}
+
+TEST(MemoryBudget, RefusalNamesWhatAndBothSizes) {
+    const MemoryBudget budget{kGiB};
+    EXPECT_EQ(refusal([&] { budget.check(static_cast<double>(kGiB), "a buffer"); }), "");
+    EXPECT_EQ(refusal([&] { budget.check(2e9, "the thing"); }),
+              "the thing needs 2.0 GB, over the memory limit of 1.1 GB (--memory-limit)");
+    // Products of hostile sizes stay finite and are still refused.
+    EXPECT_NE(refusal([&] { budget.check(bytes_of(1e6, 1e6, 12), "a window"); }).find("12 TB"), std::string::npos);
+    EXPECT_EQ(refusal([&] { MemoryBudget{}.check(1e30, "anything"); }), "");  // no limit
+    EXPECT_EQ(format_bytes(512), "512 bytes");
+    EXPECT_EQ(format_bytes(10.8e9), "11 GB");
+}
+
+TEST(MemoryBudget, DefaultIsHalfOfTheMachine) {
+    const MemoryBudget budget = default_memory_budget();
+    ASSERT_TRUE(budget.limited());
+    const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
+    EXPECT_LE(static_cast<double>(budget.limit), physical / 2.0 + 1.0);
+    EXPECT_GT(budget.limit, std::size_t{64} << 20);
+}
+
+// The tables of a lens grow with the cube of its surfaces (ghosts by the square, their sequences by the
+// surfaces); the estimate follows and the check names the lens, surfaces and ghosts.
+TEST(MemoryBudget, GhostTablesOfManySurfaces) {
+    const fs::path dir = scratch_dir("memory-lens");
+    auto system_of = [&](int surfaces) { return optics::realize(optics::load_lens(make_many_surface_lens(dir, surfaces).string())); };
+    const optics::System small = system_of(21), large = system_of(101), huge = system_of(301);
+    const double a = gpu::ghost_table_bytes(small, 3), b = gpu::ghost_table_bytes(large, 3), c = gpu::ghost_table_bytes(huge, 3);
+    EXPECT_LT(a, 64e6);
+    EXPECT_GT(b, 3e9);  // measured: 5.5 GB for 100 surfaces before the budget
+    EXPECT_GT(c / b, 20.0);
+    EXPECT_EQ(refusal([&] { gpu::check_ghost_tables(small, 3, MemoryBudget{kGiB}); }), "");
+    const std::string message = refusal([&] { gpu::check_ghost_tables(huge, 3, MemoryBudget{4 * kGiB}); });
+    EXPECT_NE(message.find("the ghost data of its 301 surfaces"), std::string::npos) << message;
+    EXPECT_NE(message.find("over the memory limit of 4.3 GB"), std::string::npos) << message;
+    fs::remove_all(dir);
+}
+
+// Display formats are converted a strip of rows at a time: the strips give exactly what the whole
+// image quantised at once gives, dither included.
+TEST(MemoryBudget, PngWrittenInStripsEqualsWholeImage) {
+    const fs::path dir = scratch_dir("memory-png");
+    const int w = 37, h = 700;  // more than two strips, the last one short
+    std::vector<float> px(static_cast<std::size_t>(w) * h * 3);
+    for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<float>((i * 7919) % 1000) / 999.0f;
+    filter::Frame frame = filter::image_frame(w, h, 3, filter::PixelType::float32, px.data());
+    frame.index = 5;
+    filter::WriteOptions options;
+    options.memory = MemoryBudget{std::size_t{1} << 20};
+    filter::write_image(frame, (dir / "out.png").string(), options);
+    const std::vector<std::uint8_t> expected = colour::quantise8({px.data(), static_cast<std::size_t>(w), static_cast<std::size_t>(h), 3, 0},
+                                                                 options.dither, frame.index);
+    auto in = OIIO::ImageInput::open((dir / "out.png").string());
+    ASSERT_TRUE(in);
+    std::vector<std::uint8_t> got(expected.size());
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeUInt8, got.data()));
+    EXPECT_EQ(got, expected);
+    // The 8-bit copy alone does not fit 64 KB: refused, naming the output.
+    options.memory = MemoryBudget{std::size_t{64} << 10};
+    EXPECT_NE(refusal([&] { filter::write_image(frame, (dir / "small.png").string(), options); }).find("png output of the 37x700 data window"),
+              std::string::npos);
+    EXPECT_FALSE(fs::exists(dir / "small.png"));
+    fs::remove_all(dir);
+}
+
+// A 2 KB EXR declaring a 30000 x 30000 display window: a pass-through stays small (the display window is
+// never materialised), a flare over it is refused by the budget before anything is allocated, and so is a
+// PFM output (PFM has no windows: the display window would be written whole).
+TEST(MemoryBudgetEndToEnd, HugeDisplayWindowOfATinyFile) {
+    const fs::path dir = scratch_dir("memory-window");
+    make_windowed_exr(dir / "in.exr", 8, 30000);
+    ASSERT_LT(fs::file_size(dir / "in.exr"), 4096u);
+    const std::string in = quoted(dir / "in.exr");
+    const auto pass = run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 16M", in, quoted(dir / "pass.exr")));
+    ASSERT_EQ(pass.exit_code, 0) << pass.stderr_text;
+    const filter::Frame out = filter::read_image((dir / "pass.exr").string());
+    EXPECT_EQ(out.spec.full_width, 30000);
+    EXPECT_EQ(out.spec.width, 8);
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --lens cooke-triplet --memory-limit 4G", in, quoted(dir / "flare.exr"))),
+                    "frame 1: the flare over the 30000x30000 display window needs");
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 1G", in, quoted(dir / "out.pfm"))),
+                    "PFM output of the 30000x30000 display window needs 11 GB, over the memory limit of 1.1 GB");
+    EXPECT_EQ(file_count(dir), 2u);  // nothing written by the refused runs
+    fs::remove_all(dir);
+}
+
+// 1e6 x 1e6 windows: the default budget (half of any machine) refuses a flare over the display window; a
+// header whose data window is that large is refused before its pixels are allocated.
+TEST(MemoryBudgetEndToEnd, MillionPixelWindows) {
+    const fs::path dir = scratch_dir("memory-million");
+    make_windowed_exr(dir / "display.exr", 8, 1000000);
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --lens cooke-triplet", quoted(dir / "display.exr"), quoted(dir / "o.exr"))),
+                    "the flare over the 1000000x1000000 display window needs");
+    const auto pass = run(lensfx_cmd() + fmt::format(" -i {} -o {}", quoted(dir / "display.exr"), quoted(dir / "pass.exr")));
+    EXPECT_EQ(pass.exit_code, 0) << pass.stderr_text;
+
+    // The data window's bounds patched in the header of a 4 x 4 file: 1000000 x 1000000 declared.
+    make_windowed_exr(dir / "data.exr", 4, 16);
+    std::stringstream read;
+    read << std::ifstream(dir / "data.exr", std::ios::binary).rdbuf();
+    std::string bytes = read.str();
+    const std::string attribute("dataWindow\0box2i\0", 17);
+    const auto at = bytes.find(attribute);
+    ASSERT_NE(at, std::string::npos);
+    const std::int32_t window[4] = {0, 0, 999999, 999999};
+    std::memcpy(bytes.data() + at + attribute.size() + 4, window, sizeof window);
+    std::ofstream(dir / "data.exr", std::ios::binary) << bytes;
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 1G", quoted(dir / "data.exr"), quoted(dir / "d.exr")));
+    expect_one_line(r, "data.exr: frame 1: ");
+    fs::remove_all(dir);
+}
+
+// Stream headers and --size are sized before a byte is allocated.
+TEST(MemoryBudgetEndToEnd, StreamSizes) {
+    expect_one_line(run(": | " + lensfx_cmd() + " -i - -o - --pix-fmt gbrpf32le --size 99999x99999 --memory-limit 4G > /dev/null"),
+                    "stdin: frame 1: a 99999x99999 gbrpf32le frame (--size) needs 120 GB, over the memory limit of 4.3 GB");
+    expect_one_line(run("printf 'PF\\n65536 65536\\n-1.0\\n' | " + lensfx_cmd() + " -i - -o - --memory-limit 1G > /dev/null"),
+                    "stdin: frame 1: a 65536x65536 PFM image needs 52 GB");
+}
+
+// A lens of 300 surfaces asks for some 140 GB of ghost tables: refused at the start, in one line, by the
+// filter and by `lensfx flare`; the bad value of the option itself is one line too.
+TEST(MemoryBudgetEndToEnd, LensOfManySurfaces) {
+    const fs::path dir = scratch_dir("memory-lens-e2e");
+    const fs::path lens = make_many_surface_lens(dir, 301);
+    make_windowed_exr(dir / "in.exr", 8, 16);
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --lens {} --memory-limit 4G", quoted(dir / "in.exr"),
+                                                   quoted(dir / "out.exr"), quoted(lens))),
+                    "the ghost data of its 301 surfaces");
+    expect_one_line(run(lensfx_cmd() + fmt::format(" flare --lens {} --angle 5,0 -o {} --memory-limit 4G", quoted(lens), quoted(dir / "f.exr"))),
+                    "the ghost data of its 301 surfaces");
+    expect_one_line(run(lensfx_cmd() + fmt::format(" flare --lens cooke-triplet --angle 5,0 --size 16384x16384 -o {} --memory-limit 1G",
+                                                   quoted(dir / "f.exr"))),
+                    "a 16384x16384 flare image needs");
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 4X", quoted(dir / "in.exr"), quoted(dir / "o.exr"))),
+                    "--memory-limit must be a size such as 4G, 512M or none, not \"4X\"");
+    fs::remove_all(dir);
+}
+
+// A sequence under a limit that holds one frame but not two runs with the reader waiting for the writer
+// (no deadlock), and writes what an unlimited run writes.
+TEST(MemoryBudgetEndToEnd, SequenceFitsALimitOfOneFrame) {
+    const fs::path dir = scratch_dir("memory-sequence");
+    for (int i = 1; i <= 4; ++i) make_windowed_exr(dir / fmt::format("in.{:04d}.exr", i), 64, 64);
+    // A frame: 64 x 64 half RGB (24 KB) and its float R, G, B (48 KB).
+    const std::string in = quoted(dir / "in.####.exr");
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {} -o {} --exposure 1 --memory-limit 100K --queue-depth 3", in, quoted(dir / "a.####.exr")));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {} -o {} --exposure 1 --memory-limit none", in, quoted(dir / "b.####.exr"))).exit_code, 0);
+    for (int i = 1; i <= 4; ++i)
+        EXPECT_EQ(compare_images((dir / fmt::format("b.{:04d}.exr", i)).string(), (dir / fmt::format("a.{:04d}.exr", i)).string()), "");
+    // A limit below one frame: refused by the reader, naming the frame.
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 16K", in, quoted(dir / "c.####.exr"))),
+                    "in.0001.exr: frame 1: its 64x64 data window with 3 channels needs");
+    fs::remove_all(dir);
+}
