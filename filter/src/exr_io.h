@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <OpenEXR/ImfHeader.h>
 
@@ -25,10 +26,19 @@ bool is_exr_file(const std::string& path);
 // OpenImageIO orders them. Throws std::runtime_error for damaged, deep or subsampled files.
 Frame read_exr(const std::string& path);
 
+// The same from a whole EXR held in memory (one image of a stream); `source` names it in messages.
+Frame read_exr_memory(const std::string& bytes, const std::string& source);
+
 // Writes every channel (8- and 16-bit ones as half) as a scanline EXR with the frame's windows and the
 // given compression ("piz", "zip", "dwaa:45"...). Attributes: the input's header when it was an EXR,
 // then the spec's chromaticities, pixel aspect and text attributes.
 void write_exr(const Frame& frame, const std::string& path, const std::string& compression);
+
+// The same EXR as write_exr() would write, into memory (one image of a stream on stdout).
+std::string write_exr_memory(const Frame& frame, const std::string& compression);
+
+// The views of a multi-view EXR (its multiView attribute), default first; empty for other frames.
+std::vector<std::string> exr_views(const ImageSpec& spec);
 
 // OpenEXR's worker threads for decoding and encoding (0: none).
 void set_exr_threads(int threads);

@@ -1,5 +1,9 @@
-// Entry point of the lensfx program: parses the command line and reports failures as one line on stderr.
+// Entry point of the lensfx program: parses the command line and reports failures as one line on stderr
+// (usage errors exit 2, failures of a run exit 1).
+#include <algorithm>
 #include <cstdio>
+#include <string>
+#include <vector>
 #include <exception>
 
 #include <CLI/CLI.hpp>
@@ -8,21 +12,28 @@
 #include "commands.h"
 
 int main(int argc, char** argv) {
-    CLI::App app{"lensfx: physically based lens flare for HDR frames and streams"};
-    app.set_version_flag("--version", LENSFX_VERSION);
-    app.require_subcommand(0, 1);
-
-    lensfx::filter::register_filter(app);
-    lensfx::filter::register_lens_commands(app);
-    lensfx::filter::register_gpu_command(app);
-    lensfx::filter::register_flare_command(app);
-    lensfx::filter::register_track_command(app);
-    lensfx::filter::register_bench_command(app);
-
+    using namespace lensfx::filter;
+    if (const int version = wants_version(argc, argv)) {
+        fmt::print("{}", version_text(version == 2));
+        return 0;
+    }
+    if (const std::string empty = empty_value_option(argc, argv); !empty.empty()) {
+        fmt::print(stderr, "lensfx: {}= has no value (write {}=VALUE or {} VALUE)\n", empty, empty, empty);
+        return 2;
+    }
+    const std::unique_ptr<CLI::App> app = build_app();
     try {
-        app.parse(argc, argv);
+        std::vector<std::string> args = normalise_spelling(*app, argc, argv);
+        std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+        app->parse(args);
+    } catch (const CLI::CallForHelp& e) {
+        return app->exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app->exit(e);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        if (e.get_exit_code() == 0) return app->exit(e);
+        fmt::print(stderr, "lensfx: {}\n", usage_error_message(*app, e));
+        return 2;
     } catch (const std::exception& e) {
         fmt::print(stderr, "lensfx: {}\n", e.what());
         return 1;

@@ -29,6 +29,21 @@ bool all_digits(std::string_view text) {
     return !text.empty() && std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
+// A frame list written just before the frame-number token ("pan.1-5#.exr", "pan.1-10x2#.exr"; oiiotool's
+// syntax): digits, ',', 'x', 'y' and a '-' between numbers, holding a range or a list, after the start of
+// the name or a '.', '_' or '-'. "" when there is none ("shot.#.exr", "take2#.exr").
+std::string_view embedded_frames(std::string_view before_token) {
+    std::size_t begin = before_token.size();
+    while (begin > 0 && std::string_view("0123456789,xy-").find(before_token[begin - 1]) != std::string_view::npos) --begin;
+    // Not a separator of the name in front: "v2-10#" is version 2, frame 10.
+    while (begin < before_token.size() && (before_token[begin] < '0' || before_token[begin] > '9')) ++begin;
+    const std::string_view list = before_token.substr(begin);
+    if (list.find_first_of(",-") == std::string_view::npos) return {};
+    if (begin > 0 && std::string_view("._-").find(before_token[begin - 1]) == std::string_view::npos) return {};
+    if (!all_digits(list.substr(list.size() - 1))) return {};
+    return list;
+}
+
 }  // namespace
 
 std::string FramePattern::path(std::int64_t frame) const {
@@ -95,6 +110,8 @@ FramePattern parse_pattern(std::string_view p) {
         return pattern;
     }
     pattern.is_sequence = true;
+    pattern.frames = std::string(embedded_frames(p.substr(name_start, token_begin - name_start)));
+    token_begin -= pattern.frames.size();
     pattern.prefix = std::string(p.substr(0, token_begin));
     pattern.suffix = std::string(p.substr(token_end));
     return pattern;
@@ -113,7 +130,9 @@ std::vector<std::int64_t> parse_frame_list(std::string_view list) {
         std::string_view item = list.substr(pos, comma - pos);
         if (item.empty()) throw std::invalid_argument(fmt::format("frame list \"{}\" has an empty item", list));
         std::int64_t step = 1;
-        if (const auto x = item.find('x'); x != std::string_view::npos) {
+        bool complement = false;  // "y": the frames an "x" step would skip (oiiotool's syntax)
+        if (const auto x = item.find_first_of("xy"); x != std::string_view::npos) {
+            complement = item[x] == 'y';
             step = parse_int(item.substr(x + 1), list);
             item = item.substr(0, x);
             if (step < 1) throw std::invalid_argument(fmt::format("frame list \"{}\": the step must be at least 1", list));
@@ -126,10 +145,10 @@ std::vector<std::int64_t> parse_frame_list(std::string_view list) {
         } else {
             const std::int64_t first = parse_int(item.substr(0, dash), list);
             const std::int64_t last = parse_int(item.substr(dash + 1), list);
-            if (last < first) {
-                throw std::invalid_argument(fmt::format("frame list \"{}\": range {}-{} ends before it starts", list, first, last));
-            }
-            for (std::int64_t f = first; f <= last; f += step) add(f);
+            // A range that ends before it starts counts down ("10-1", "10-1x2").
+            const std::int64_t direction = last < first ? -1 : 1;
+            for (std::int64_t f = first, k = 0; direction > 0 ? f <= last : f >= last; f += direction, ++k)
+                if ((k % step == 0) != complement) add(f);
         }
         pos = comma + 1;
     }

@@ -1,7 +1,13 @@
-// PFM and raw planar float streams: byte layout, row order, endianness, end of stream, truncation.
+// PFM, raw planar float and EXR streams: byte layout, row order, endianness, end of stream, truncation.
 #include <filter/stream.h>
 
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -127,4 +133,88 @@ TEST(Raw, AddsOpaqueAlphaWhenTheFrameHasNone) {
     File out(std::tmpfile());
     write_raw(out.get(), *f, RawPixFmt::gbrapf32le);
     EXPECT_EQ(read_all(out.get()), floats({1, 2, 3, 1}));
+}
+
+// ---- EXR images on a stream ----
+
+namespace exr_stream {
+
+// The bytes of a small EXR written by OpenImageIO with the given layout.
+std::string exr_bytes(const std::string& name, const std::string& compression, int tile, const std::string& mip, int parts) {
+    const std::string path = (std::filesystem::temp_directory_path() / ("lensfx_exr_stream_" + name + ".exr")).string();
+    auto out = OIIO::ImageOutput::create(path);
+    std::vector<OIIO::ImageSpec> specs;
+    for (int p = 0; p < parts; ++p) {
+        OIIO::ImageSpec spec(37 + p, 29, 4, p == 0 ? OIIO::TypeHalf : OIIO::TypeFloat);
+        spec.x = -3;
+        spec.y = 5;
+        spec.attribute("compression", compression);
+        spec.attribute("name", "part" + std::to_string(p));
+        if (tile) spec.tile_width = spec.tile_height = tile;
+        if (!mip.empty()) {
+            spec.attribute("openexr:levelmode", 1);
+            spec.attribute("openexr:roundingmode", 1);
+        }
+        specs.push_back(spec);
+    }
+    EXPECT_TRUE(parts > 1 ? out->open(path, parts, specs.data()) : out->open(path, specs[0])) << out->geterror();
+    for (int p = 0; p < parts; ++p) {
+        if (p > 0) EXPECT_TRUE(out->open(path, specs[static_cast<std::size_t>(p)], OIIO::ImageOutput::AppendSubimage));
+        int w = specs[static_cast<std::size_t>(p)].width, h = 29;
+        for (int level = 0;; ++level) {
+            std::vector<float> px(static_cast<std::size_t>(w * h * 4));
+            for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<float>(i % 997) * 3.5f + static_cast<float>(level);
+            EXPECT_TRUE(out->write_image(OIIO::TypeFloat, px.data())) << out->geterror();
+            if (mip.empty() || (w == 1 && h == 1)) break;
+            w = std::max(1, (w + 1) / 2);
+            h = std::max(1, (h + 1) / 2);
+            OIIO::ImageSpec level_spec = specs[static_cast<std::size_t>(p)];
+            level_spec.width = level_spec.full_width = w;
+            level_spec.height = level_spec.full_height = h;
+            EXPECT_TRUE(out->open(path, level_spec, OIIO::ImageOutput::AppendMIPLevel)) << out->geterror();
+        }
+    }
+    EXPECT_TRUE(out->close());
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::filesystem::remove(path);
+    return bytes;
+}
+
+}  // namespace exr_stream
+
+// Each EXR of a concatenated stream comes back byte for byte: scanline images of every compression's
+// chunk height, tiled, mip-mapped and multi-part ones; then a clean end.
+TEST(ExrStream, SplitsConcatenatedImagesExactly) {
+    using exr_stream::exr_bytes;
+    std::vector<std::string> images;
+    for (const char* c : {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "dwaa", "dwab"})
+        images.push_back(exr_bytes(std::string("scan_") + c, c, 0, "", 1));
+    images.push_back(exr_bytes("tiled", "zip", 16, "", 1));
+    images.push_back(exr_bytes("mip", "piz", 8, "mip", 1));
+    images.push_back(exr_bytes("multipart", "zip", 0, "", 2));
+    std::string all;
+    for (const auto& i : images) all += i;
+    File f = memory_file(all);
+    for (std::size_t i = 0; i < images.size(); ++i) {
+        ASSERT_EQ(detect_stream_format(f.get()), StreamFormat::exr) << i;
+        const auto got = read_exr_bytes(f.get());
+        ASSERT_TRUE(got) << i;
+        EXPECT_EQ(got->size(), images[i].size()) << i;
+        EXPECT_TRUE(*got == images[i]) << i;
+    }
+    EXPECT_FALSE(read_exr_bytes(f.get()));
+}
+
+TEST(ExrStream, TruncatedOrForeignBytesThrow) {
+    const std::string image = exr_stream::exr_bytes("trunc", "zip", 0, "", 1);
+    for (std::size_t cut : {std::size_t{6}, std::size_t{40}, image.size() - 1}) {
+        File f = memory_file(image.substr(0, cut));
+        EXPECT_THROW(read_exr_bytes(f.get()), std::runtime_error) << cut;
+    }
+    File text = memory_file("hello");
+    EXPECT_THROW(detect_stream_format(text.get()), std::runtime_error);
+    File pfm = memory_file("PF\n1 1\n-1\n");
+    EXPECT_EQ(detect_stream_format(pfm.get()), StreamFormat::pfm);
+    EXPECT_EQ(std::fgetc(pfm.get()), 'P');  // left unread
 }

@@ -17,6 +17,7 @@ struct FramePattern {
     std::string suffix;  // everything after it
     int padding = 0;     // minimum number of digits; 0 when the path holds no token
     bool is_sequence = false;
+    std::string frames;  // a frame list written before the token ("pan.1-5#.exr": "1-5"), else ""
 
     // The path of frame `frame` (the path itself when it holds no token). Negative frames keep their
     // sign in front of the padded digits, as "-0001".
@@ -26,11 +27,12 @@ struct FramePattern {
     std::optional<std::int64_t> match(std::string_view path) const;
 };
 
-// Parses a path; throws std::invalid_argument on two tokens or a malformed %d.
+// Parses a path; throws std::invalid_argument on two tokens or a malformed %d. A frame list just before
+// the token ("pan.1-5#.exr", as oiiotool writes it) goes to `frames`, out of the prefix.
 FramePattern parse_pattern(std::string_view path);
 
-// Parses "1-100", "1-100x2", "3,7,10-20" (ranges inclusive, descending allowed with a negative step is
-// not: the end must not precede the start). Frames keep the order written; duplicates are an error.
+// Parses "1-100", "1-100x2", "3,7,10-20" (ranges inclusive), oiiotool's "1-10y3" (the frames "x3" skips)
+// and reverse ranges "10-1", "10-1x2" (counting down). Frames keep the order written; duplicates are an error.
 std::vector<std::int64_t> parse_frame_list(std::string_view list);
 
 // The frames of `pattern` that exist on disk, ascending. Empty when the directory has none.
