@@ -79,7 +79,7 @@ const CLI::App& active(const CLI::App& app) {
 
 // Numbers CLI11 prints at full length (a range up to the largest double has 309 digits) as %g.
 std::string readable_numbers(const std::string& text) {
-    static const std::regex long_number(R"(-?\d{10,}(\.\d+)?|-?\d+\.\d{7,})");
+    static const std::regex long_number(R"(-?\d{10,}(\.\d+)?|-?\d+\.\d{6,})");
     std::string out;
     auto begin = std::sregex_iterator(text.begin(), text.end(), long_number);
     std::size_t at = 0;
@@ -88,7 +88,10 @@ std::string readable_numbers(const std::string& text) {
         out += fmt::format("{:g}", std::stod(it->str()));
         at = static_cast<std::size_t>(it->position() + it->length());
     }
-    return out + text.substr(at);
+    out += text.substr(at);
+    // A range up to the largest double is a lower bound.
+    out = std::regex_replace(out, std::regex(R"(not in range (\S+) to 1\.79769e\+308)"), "must be at least $1");
+    return std::regex_replace(out, std::regex(R"(not in range -1\.79769e\+308 to (\S+))"), "must be at most $1");
 }
 
 // Every long option name of the app and its subcommands, at any depth.
@@ -170,7 +173,7 @@ int wants_version(int argc, const char* const* argv) {
 std::string version_text(bool with_gpu) {
     std::string text = fmt::format(
         "lensfx {} (commit {}, {} build)\nOpenEXR {}, Imath {}, OpenImageIO {}, OpenColorIO {}, OpenCV {}\n", LENSFX_VERSION_STRING,
-        LENSFX_GIT_COMMIT, LENSFX_BUILD_TYPE, OPENEXR_VERSION_STRING, IMATH_VERSION_STRING, OIIO_VERSION_STRING, OCIO::GetVersion(), CV_VERSION);
+        LENSFX_GIT_COMMIT, LENSFX_BUILD_TYPE, OPENEXR_VERSION_STRING, IMATH_VERSION_STRING, OIIO_VERSION_STRING, OCIO_NAMESPACE::GetVersion(), CV_VERSION);
     if (with_gpu) {
         try {
             const gpu::Context context(gpu::Platform::Auto);
@@ -189,9 +192,10 @@ std::unique_ptr<CLI::App> build_app() {
     app->require_subcommand(0, 1);
     app->set_config("--config", "", "Read options from a TOML shot file (every long option a key; [flare], [track]... for subcommands)");
     // Both are handled by main() before parsing (see wants_version), so that nothing else runs.
-    app->add_flag("--version", "Print the version, the commit, the build type and the libraries (with --verbose: the GL renderer), and exit")
+    app->add_flag("--version")
+        ->description("Print the version, the commit, the build type and the libraries (with --verbose: the GL renderer), and exit")
         ->configurable(false);
-    app->add_flag("--verbose", "With --version: also open a GL context and print its renderer")->configurable(false);
+    app->add_flag("--verbose")->description("With --version: also open a GL context and print its renderer")->configurable(false);
     register_filter(*app);
     register_lens_commands(*app);
     register_gpu_command(*app);

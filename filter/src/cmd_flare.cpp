@@ -39,7 +39,7 @@ struct FlareArgs {
     std::string zoom;
     std::optional<double> fstop;
     std::string angle;
-    std::string sensor = FlareSettings{}.sensor;  // as the filter's: the width, the height from the image's aspect
+    std::string sensor = "36";  // as the filter's (FlareSettings): the width, the height from the image's aspect
     std::string size;
     std::optional<int> blades;
     std::optional<double> wavelength;
@@ -55,7 +55,7 @@ struct FlareArgs {
     int rays = 512;
     int grid = gpu::GpuFlareOptions{}.grid;
     AccelerationSettings accel;
-    std::string parts = FlareSettings{}.parts;
+    std::string parts = "ghosts,starburst";  // as the filter's (FlareSettings)
     double starburst_scale = 1.0;
     PupilSettings pupil;
     int threads = 0;  // as the filter's: 0 = one per core
