@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -35,9 +36,10 @@ Output capture(const std::string& command) {
     const fs::path out = fs::temp_directory_path() / fmt::format("lensfx-cli-out-{}", ::getpid());
     const RunResult r = run(command + " > '" + out.string() + "'");
     std::ifstream in(out);
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::stringstream ss;
+    ss << in.rdbuf();
     fs::remove(out);
-    return {r.exit_code, text, r.stderr_text};
+    return {r.exit_code, ss.str(), r.stderr_text};
 }
 
 // A 16x8 RGB float EXR of one value.
@@ -125,7 +127,9 @@ TEST_F(Cli, SharedOptionsHaveTheSameDefaults) {
         const std::regex default_value(R"(=(\S+))");
         const bool fa = std::regex_search(la, da, default_value), fb = std::regex_search(lb, db, default_value);
         EXPECT_EQ(fa, fb) << name << "\n" << la << "\n" << lb;
-        if (fa && fb) EXPECT_EQ(da[1], db[1]) << name << "\n" << la << "\n" << lb;
+        if (fa && fb) {
+            EXPECT_EQ(da[1], db[1]) << name << "\n" << la << "\n" << lb;
+        }
     }
 }
 
