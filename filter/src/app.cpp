@@ -131,8 +131,8 @@ std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const
 
 std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e) {
     std::string message = readable_numbers(e.what());
-    if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
-        // "The following argument was not expected: --lenz" (or arguments: a, b)
+    // An unknown option is the likelier cause of any error (a misspelt --angle is also a missing one).
+    {
         const CLI::App& where = active(app);
         std::vector<std::string> hints;
         for (const std::string& extra : where.remaining()) {
