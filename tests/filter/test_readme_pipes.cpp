@@ -141,7 +141,8 @@ protected:
         if (!dir_.empty()) fs::remove_all(dir_);
     }
     lensfx::test::RunResult run_readme(std::size_t i) const {
-        return run(fmt::format("cd '{0}' && export PATH='{0}/bin':\"$PATH\" && {1} < /dev/null", dir_.string(), commands_[i]));
+        // ffmpeg reads keys from stdin unless it is /dev/null.
+        return run(fmt::format("cd '{0}' && export PATH='{0}/bin':\"$PATH\" && ( {1} ) < /dev/null", dir_.string(), commands_[i]));
     }
     std::vector<std::string> commands_;
     int w_ = 0, h_ = 0;
