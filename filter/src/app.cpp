@@ -1,12 +1,201 @@
-// The lensfx command line as one CLI11 app (build_app): what main() parses and what the option-parser
-// fuzz target (fuzz/fuzz_options.cpp) parses with the commands' callbacks removed.
+// The lensfx command line as one CLI11 app (build_app), and how its usage errors are reported (one
+// `lensfx:` line, exit 2, with "did you mean" for unknown options and readable numbers).
 #include "commands.h"
 
+#include <algorithm>
+#include <charconv>
+#include <cstdio>
+#include <regex>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <fmt/core.h>
+#include <Imath/ImathConfig.h>
+#include <OpenColorIO/OpenColorIO.h>
+#include <OpenEXR/OpenEXRConfig.h>
+#include <OpenImageIO/oiioversion.h>
+#include <opencv2/core/version.hpp>
+
+#include <gpu/context.h>
+
+#include "version_info.h"
+
 namespace lensfx::filter {
+
+namespace {
+
+// The levenshtein distance between two option names.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+// Every long and short name ("--lens", "-o") of the app's options and its subcommands' names.
+std::vector<std::string> option_names(const CLI::App& app) {
+    std::vector<std::string> names;
+    for (const CLI::Option* o : app.get_options()) {
+        for (const auto& n : o->get_lnames()) names.push_back("--" + n);
+        for (const auto& n : o->get_snames()) names.push_back("-" + n);
+    }
+    for (const CLI::App* sub : app.get_subcommands({})) names.push_back(sub->get_name());
+    return names;
+}
+
+// The known name nearest to `unknown` when it is close enough to be a typo (or a prefix of one name).
+std::string nearest(const std::string& unknown, const std::vector<std::string>& names) {
+    std::string best;
+    std::size_t best_distance = std::max<std::size_t>(2, unknown.size() / 4) + 1;
+    for (const auto& n : names) {
+        const std::size_t d = edit_distance(unknown, n);
+        if (d < best_distance) best_distance = d, best = n;
+    }
+    if (best.empty() && unknown.size() >= 4) {
+        std::vector<std::string> prefixed;
+        for (const auto& n : names)
+            if (n.rfind(unknown, 0) == 0) prefixed.push_back(n);
+        if (prefixed.size() == 1) best = prefixed[0];
+    }
+    return best;
+}
+
+// The subcommand being parsed (the app when none was given).
+const CLI::App& active(const CLI::App& app) {
+    for (const CLI::App* sub : app.get_subcommands())
+        if (sub->parsed()) return active(*sub);
+    return app;
+}
+
+// Numbers CLI11 prints at full length (a range up to the largest double has 309 digits) as %g.
+std::string readable_numbers(const std::string& text) {
+    static const std::regex long_number(R"(-?\d{10,}(\.\d+)?|-?\d+\.\d{6,})");
+    std::string out;
+    auto begin = std::sregex_iterator(text.begin(), text.end(), long_number);
+    std::size_t at = 0;
+    for (auto it = begin; it != std::sregex_iterator(); ++it) {
+        out += text.substr(at, static_cast<std::size_t>(it->position()) - at);
+        out += fmt::format("{:g}", std::stod(it->str()));
+        at = static_cast<std::size_t>(it->position() + it->length());
+    }
+    out += text.substr(at);
+    // A range up to the largest double is a lower bound.
+    out = std::regex_replace(out, std::regex(R"(not in range (\S+) to 1\.79769e\+308)"), "must be at least $1");
+    return std::regex_replace(out, std::regex(R"(not in range -1\.79769e\+308 to (\S+))"), "must be at most $1");
+}
+
+// Every long option name of the app and its subcommands, at any depth.
+void long_names(const CLI::App& app, std::set<std::string>& names) {
+    for (const CLI::Option* o : app.get_options())
+        for (const auto& n : o->get_lnames()) names.insert("--" + n);
+    for (const CLI::App* sub : app.get_subcommands({})) long_names(*sub, names);
+}
+
+// `text` with "colour" spelled "color" and the other way round.
+std::string other_spelling(const std::string& text) {
+    std::string out = text;
+    if (const auto at = out.find("colour"); at != std::string::npos) return out.replace(at, 6, "color");
+    if (const auto at = out.find("color"); at != std::string::npos) return out.replace(at, 5, "colour");
+    return out;
+}
+
+}  // namespace
+
+std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const char* const* argv) {
+    std::set<std::string> names;
+    long_names(app, names);
+    std::vector<std::string> args;
+    bool options_end = false;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        options_end = options_end || a == "--";
+        if (!options_end && a.rfind("--", 0) == 0) {
+            const auto eq = a.find('=');
+            const std::string name = a.substr(0, eq);
+            if (!names.count(name) && names.count(other_spelling(name))) a = other_spelling(name) + (eq == std::string::npos ? "" : a.substr(eq));
+        }
+        args.push_back(std::move(a));
+    }
+    return args;
+}
+
+std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e) {
+    std::string message = readable_numbers(e.what());
+    // An unknown option is the likelier cause of any error (a misspelt --angle is also a missing one).
+    {
+        const CLI::App& where = active(app);
+        std::vector<std::string> hints;
+        for (const std::string& extra : where.remaining()) {
+            if (extra.empty() || extra[0] != '-') continue;
+            const std::string name = extra.substr(0, extra.find('='));
+            const std::string hint = nearest(name, option_names(where));
+            hints.push_back(hint.empty() ? fmt::format("unknown option {}", name) : fmt::format("unknown option {} (did you mean {}?)", name, hint));
+        }
+        if (!hints.empty()) {
+            message.clear();
+            for (const auto& h : hints) message += (message.empty() ? "" : "; ") + h;
+        }
+    }
+    if (!message.empty() && message.back() == '\n') message.pop_back();
+    return message;
+}
+
+std::string empty_value_option(int argc, const char* const* argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a == "--") break;
+        if (a.size() > 3 && a.rfind("--", 0) == 0 && a.back() == '=' && a.find('=') == a.size() - 1) return std::string(a.substr(0, a.size() - 1));
+    }
+    return {};
+}
+
+int wants_version(int argc, const char* const* argv) {
+    bool version = false, verbose = false;
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a == "--") break;
+        version = version || a == "--version";
+        verbose = verbose || a == "--verbose";
+    }
+    return version ? (verbose ? 2 : 1) : 0;
+}
+
+std::string version_text(bool with_gpu) {
+    std::string text = fmt::format(
+        "lensfx {} (commit {}, {} build)\nOpenEXR {}, Imath {}, OpenImageIO {}, OpenColorIO {}, OpenCV {}\n", LENSFX_VERSION_STRING,
+        LENSFX_GIT_COMMIT, LENSFX_BUILD_TYPE, OPENEXR_VERSION_STRING, IMATH_VERSION_STRING, OIIO_VERSION_STRING, OCIO_NAMESPACE::GetVersion(), CV_VERSION);
+    if (with_gpu) {
+        try {
+            const gpu::Context context(gpu::Platform::Auto);
+            const gpu::ContextInfo& info = context.info();
+            text += fmt::format("GL renderer {}{}, OpenGL {} ({} EGL)\n", info.gl_renderer, info.software ? " (software)" : "", info.gl_version,
+                                gpu::platform_name(info.platform));
+        } catch (const std::exception& e) {
+            text += fmt::format("GL renderer: none ({})\n", e.what());
+        }
+    }
+    return text;
+}
 
 std::unique_ptr<CLI::App> build_app() {
     auto app = std::make_unique<CLI::App>("lensfx: physically based lens flare for HDR frames and streams", "lensfx");
     app->require_subcommand(0, 1);
+    app->set_config("--config", "", "Read options from a TOML shot file (every long option a key; [flare], [track]... for subcommands)");
+    // Both are handled by main() before parsing (see wants_version), so that nothing else runs.
+    app->add_flag("--version")
+        ->description("Print the version, the commit, the build type and the libraries (with --verbose: the GL renderer), and exit")
+        ->configurable(false);
+    app->add_flag("--verbose")->description("With --version: also open a GL context and print its renderer")->configurable(false);
     register_filter(*app);
     register_lens_commands(*app);
     register_gpu_command(*app);

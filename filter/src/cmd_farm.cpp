@@ -155,8 +155,12 @@ FarmPlan make_plan(const FarmSettings& s) {
     plan.out = parse_pattern(s.output);
     if (!plan.in.is_sequence) throw std::runtime_error(fmt::format("farm: {}: the input must be a frame pattern (shot.####.exr)", s.input));
     if (!plan.out.is_sequence) throw std::runtime_error(fmt::format("farm: {}: the output must be a frame pattern (out.####.exr)", s.output));
-    plan.frames = s.frames.empty() ? scan_frames(plan.in) : parse_frame_list(s.frames);
-    if (plan.frames.empty()) throw std::runtime_error(fmt::format("farm: {}: no frames match the pattern", s.input));
+    // A farm lists its chunks' frames in its job script: a shot of at most 2^20 frames.
+    constexpr std::uint64_t kMaxShotFrames = std::uint64_t{1} << 20;
+    const FrameList frames = frames_to_read(s.input, s.frames, true);
+    if (frames.size() > kMaxShotFrames)
+        throw std::runtime_error(fmt::format("farm: {}: {} frames; a farm shot holds at most {}", s.input, frames.size(), kMaxShotFrames));
+    plan.frames = frames.listed(kMaxShotFrames);
     for (auto f : plan.frames)
         if (f < 0) throw std::runtime_error(fmt::format("farm: {}: frame {}: negative frame numbers are not supported", s.input, f));
     plan.shot = shot_name(plan.out);

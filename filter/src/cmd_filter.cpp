@@ -2,6 +2,8 @@
 // Effect stages (detection, flare, colour) are built in make_stages() from their own options.
 #include "commands.h"
 
+#include <algorithm>
+#include <cctype>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -13,6 +15,7 @@
 #include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
 #include <filter/pipeline.h>
+#include <filter/views.h>
 
 namespace lensfx::filter {
 
@@ -22,6 +25,7 @@ struct FilterArgs {
     PipelineOptions pipeline;
     std::string pfm_order = "auto";
     std::string pix_fmt;
+    std::string stream_format;
     std::string size;
     std::string memory_limit;  // empty: default_memory_budget()
     bool progress = false;
@@ -29,6 +33,7 @@ struct FilterArgs {
     FlareSettings flare;
     DofSettings dof;
     bool gpu_given = false;  // --gpu on the command line: the GPU path is active from the first frame
+    std::vector<std::string> views;  // --views: the views of a multi-view EXR to flare (empty: all)
 };
 
 void parse_size(const std::string& text, int& width, int& height) {
@@ -44,16 +49,14 @@ void parse_size(const std::string& text, int& width, int& height) {
     }
 }
 
-// The effects to run on each frame, in order: colour-in (to the working space) first, colour-out (to the
-// display or back to the input's space) last; the other effects go between them.
-// One GL context serves the flare renderer and the GPU colour transform; the flare is rendered in the
-// working space's primaries, which the colour session knows from the first frame.
-std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args, const FlareStage*& flare) {
+// The effects of one view, in order: colour-in (to the working space) first, colour-out (to the display
+// or back to the input's space) last; the other effects go between them. `layer`: the flare's --layer
+// for this view; `flare_stage`: where to say which stage is the flare. One GL context serves the flare renderer and the GPU colour transform of every view; the
+// flare is rendered in the working space's primaries, which the colour session knows from the first frame.
+std::vector<std::unique_ptr<Stage>> make_view_stages(const FilterArgs& args, const std::shared_ptr<colour::ColourSession>& colour_session,
+                                                     const std::shared_ptr<GpuSession>& gpu, const std::string& layer,
+                                                     const FlareStage** flare_stage = nullptr) {
     std::vector<std::unique_ptr<Stage>> stages;
-    auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
-    auto gpu = std::make_shared<GpuSession>();
-    gpu->platform = args.flare.gpu;
-    gpu->requested = args.gpu_given;
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
     bool flare_runs = false;
     DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs);
@@ -63,8 +66,10 @@ std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args, const Fl
             if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
             return std::nullopt;
         };
-        auto stage = std::make_unique<FlareStage>(args.flare, gpu, primaries);
-        flare = stage.get();
+        FlareSettings flare = args.flare;
+        flare.layer = layer;
+        auto stage = std::make_unique<FlareStage>(flare, gpu, primaries);
+        if (flare_stage) *flare_stage = stage.get();
         stages.push_back(std::move(stage));
     }
     if (dof.compose) stages.push_back(std::move(dof.compose));
@@ -72,14 +77,86 @@ std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args, const Fl
     return stages;
 }
 
-void run_filter(FilterArgs& args) {
+// The default view's effects (every frame's, when it has no views), each run only when --views selects
+// it, then the "views" stage with the other views' own effects (made at their first frame).
+std::vector<std::unique_ptr<Stage>> make_stages(const FilterArgs& args, const FlareStage*& flare) {
+    auto colour_session = std::make_shared<colour::ColourSession>(args.colour, args.pipeline.output);
+    auto gpu = std::make_shared<GpuSession>();
+    gpu->platform = args.flare.gpu;
+    gpu->requested = args.gpu_given;
+    auto views = std::make_shared<const ViewSelection>(args.views);
+    std::vector<std::unique_ptr<Stage>> stages;
+    for (auto& stage : make_view_stages(args, colour_session, gpu, args.flare.layer, &flare))
+        stages.push_back(std::make_unique<DefaultViewStage>(std::move(stage), views));
+    auto other_view = [&args, colour_session, gpu](const std::string& view) {
+        return make_view_stages(args, colour_session, gpu, args.flare.layer.empty() ? "" : args.flare.layer + "." + view);
+    };
+    stages.push_back(std::make_unique<OtherViewsStage>(other_view, views));
+    return stages;
+}
+
+std::string lower_extension(const std::string& path) {
+    const auto dot = path.rfind('.');
+    std::string ext = dot == std::string::npos || path.find('/', dot) != std::string::npos ? std::string() : path.substr(dot + 1);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext;
+}
+
+// What the output can hold: extra channels (EXR, TIFF, an EXR stream) and display code values (8/16 bits).
+struct OutputKind {
+    bool extra_channels = false;
+    bool display_referred = false;
+    std::string name;  // for messages: "PNG", "EXR stream"...
+};
+
+OutputKind output_kind(const PipelineOptions& o) {
+    OutputKind k;
+    if (o.output == "-") {
+        const StreamFormat f = o.stream_format ? *o.stream_format : o.pix_fmt ? StreamFormat::raw : StreamFormat::exr;
+        k.name = fmt::format("{} stream", to_string(f));
+        // Without --stream-format a stream input's format goes on: known once its first byte is read.
+        k.extra_channels = f == StreamFormat::exr && (o.stream_format.has_value() || o.input != "-");
+        return k;
+    }
+    const std::string ext = lower_extension(o.output);
+    k.name = ext.empty() ? o.output : ext;
+    std::transform(k.name.begin(), k.name.end(), k.name.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+    k.extra_channels = ext == "exr" || ext == "sxr" || ext == "mxr" || ext == "tif" || ext == "tiff";
+    k.display_referred = colour::is_display_referred_format(o.output);
+    return k;
+}
+
+// Options that cannot apply to this output are errors (--layer into a PNG, --bits into an EXR); PQ
+// quantised to 8 bits bands, which is only a warning.
+void check_output_options(const FilterArgs& args, const CLI::App& app) {
+    const OutputKind out = output_kind(args.pipeline);
+    const bool stream_in_out = args.pipeline.output == "-" && !args.pipeline.stream_format && !args.pipeline.pix_fmt && args.pipeline.input == "-";
+    if (!args.flare.layer.empty() && !out.extra_channels && !stream_in_out)
+        throw std::runtime_error(fmt::format("--layer {} adds channels, which {} output cannot hold (EXR or TIFF can; on - give --stream-format exr)",
+                                             args.flare.layer, out.name));
+    if (app.get_option("--bits")->count() > 0 && !out.display_referred)
+        throw std::runtime_error(fmt::format("--bits sets the code values of display files (PNG, JPEG...); {} output keeps float values", out.name));
+    std::string display = args.colour.options.display;
+    std::transform(display.begin(), display.end(), display.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    const bool pq = display.find("pq") != std::string::npos || display.find("2084") != std::string::npos;
+    const bool eight_bits = out.display_referred && (args.colour.bits == 8 || lower_extension(args.pipeline.output).rfind("jp", 0) == 0);
+    if (pq && eight_bits && !args.pipeline.quiet)
+        fmt::print(stderr, "lensfx: warning: PQ ({}) in an 8-bit {} bands visibly; use --bits 16 (PNG) or a float output\n",
+                   args.colour.options.display, out.name);
+}
+
+void run_filter(FilterArgs& args, const CLI::App& app) {
     PipelineOptions& o = args.pipeline;
     o.pfm_order = parse_pfm_order(args.pfm_order);
     o.write.pfm_order = o.pfm_order;
     if (!args.pix_fmt.empty()) o.pix_fmt = parse_raw_pix_fmt(args.pix_fmt);
+    if (!args.stream_format.empty()) o.stream_format = parse_stream_format(args.stream_format);
     if (!args.size.empty()) parse_size(args.size, o.raw_width, o.raw_height);
     o.memory = memory_budget_option(args.memory_limit);
     args.flare.memory = o.memory;
+    check_output_options(args, app);
+    if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");
+    o.options_toml = app.config_to_str(false, false);
     if (args.progress) o.progress = Progress::on;
     o.write.display_bits = args.colour.bits;
     o.write.dither = args.colour.dither_mode();
@@ -112,24 +189,29 @@ void register_filter(CLI::App& app) {
     PipelineOptions& o = args->pipeline;
     app.footer(
         "IN/OUT: a file; a sequence pattern (# = 4-digit frame, #### = 4, @ = unpadded, %04d); or - for a\n"
-        "stream of PFM images on stdin/stdout (raw planar float with --pix-fmt). Only R, G, B are changed:\n"
-        "every other channel, the windows and the metadata pass through.");
+        "stream of EXR or PFM images on stdin (found by their magic number; raw planar float with --pix-fmt\n"
+        "and --size) and stdout (the input stream's format, else EXR; --stream-format). Only R, G, B are\n"
+        "changed: every other channel, the windows and the metadata pass through.");
     app.add_option("-i,--input", o.input, "Input file, pattern or - (stdin)");
     app.add_option("-o,--output", o.output, "Output file, pattern or - (stdout)");
-    app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2, 3,7,10-20 (default: those on disk)");
-    app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->check(CLI::Range(0, 1024));
+    app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2 (every 2nd), 1-100y2 (the others), 100-1, 3,7,10-20; also in the pattern: pan.1-5#.exr (default: those on disk)");
+    app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
     app.add_option("--queue-depth", o.queue_depth, "Frames held between reader, effects and writer")->check(CLI::PositiveNumber);
     app.add_option("--compression", o.write.compression, "EXR compression: piz, zip, zips, dwaa[:level], none... (default: the input's, else piz)");
     app.add_option("--pfm-order", args->pfm_order, "PFM row order: top (ffmpeg 5.1), bottom (the PFM spec), auto (top on pipes, bottom in files)")
         ->check(CLI::IsMember({"auto", "top", "bottom"}));
-    app.add_option("--pix-fmt", args->pix_fmt, "Raw planar float on - instead of PFM: gbrpf32le or gbrapf32le")
+    app.add_option("--stream-format", args->stream_format, "What - carries as output: exr, pfm or raw (default: the input stream's, else exr)")
+        ->check(CLI::IsMember({"exr", "pfm", "raw"}));
+    app.add_option("--pix-fmt", args->pix_fmt, "Raw planar float on -: gbrpf32le or gbrapf32le (planes G, B, R[, A]); the output's, and the input's with --size")
         ->check(CLI::IsMember({"gbrpf32le", "gbrapf32le"}));
-    app.add_option("--size", args->size, "Frame size of raw input, WIDTHxHEIGHT");
+    app.add_option("--size", args->size, "Frame size of raw input on stdin, WIDTHxHEIGHT");
     app.add_flag("--skip-bad-frames", o.skip_bad_frames, "Leave out unreadable or mismatched input frames and report them");
     app.add_flag("--allow-empty", o.allow_empty, "An input stream of no frames is a success (default: an error)");
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
     app.add_flag("--progress", args->progress, "Show progress even when stderr is not a terminal");
-    app.add_option("--report", o.report_path, "Write per-frame stage times as JSON");
+    app.add_option("--report", o.report_path, "Write per-frame stage times and the run's options as JSON (- : stdout)");
+    app.add_option("--views", args->views, "Views of a stereo or multi-view EXR to flare, each from its own pixels (default: all)")
+        ->delimiter(',');
     app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
     colour::add_colour_options(app, args->colour);
     add_flare_options(app, args->flare);
@@ -142,7 +224,7 @@ void register_filter(CLI::App& app) {
             throw std::runtime_error("the filter needs both -i IN and -o OUT");
         }
         args->gpu_given = app.get_option("--gpu")->count() > 0;
-        run_filter(*args);
+        run_filter(*args, app);
     });
 }
 

@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <fmt/core.h>
@@ -42,7 +43,7 @@ struct FlareArgs {
     std::string zoom;
     std::optional<double> fstop;
     std::string angle;
-    std::string sensor = "36x24";
+    std::string sensor = "36";  // as the filter's (FlareSettings): the width, the height from the image's aspect
     std::string size;
     std::optional<int> blades;
     std::optional<double> wavelength;
@@ -59,12 +60,12 @@ struct FlareArgs {
     int rays = 512;
     int grid = gpu::GpuFlareOptions{}.grid;
     AccelerationSettings accel;
-    std::string parts = "ghosts";
+    std::string parts = "ghosts,starburst";  // as the filter's (FlareSettings)
     double starburst_scale = 1.0;
     double ghost_gain = 1.0;
     double starburst_gain = 1.0;
     PupilSettings pupil;
-    int threads = 2;
+    int threads = 0;  // as the filter's: 0 = one per core
     std::string memory_limit;  // empty: default_memory_budget()
     std::string gpu = "auto";
     bool ringing = false;
@@ -139,7 +140,18 @@ void run_flare(const FlareArgs& args) {
 
     gpu::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
-    std::tie(view.sensor_width_mm, view.sensor_height_mm) = parse_pair(args.sensor, 'x', "--sensor");
+    if (args.sensor.find('x') == std::string::npos) {
+        // The width alone, as in the filter: the height follows the image's aspect (--size), else 3:2.
+        view.sensor_width_mm = parse_pair(args.sensor + "x1", 'x', "--sensor").first;
+        double aspect = 2.0 / 3.0;
+        if (!args.size.empty()) {
+            const auto [w, h] = parse_pair(args.size, 'x', "--size");
+            if (w > 0 && h > 0) aspect = h / w;
+        }
+        view.sensor_height_mm = view.sensor_width_mm * aspect;
+    } else {
+        std::tie(view.sensor_width_mm, view.sensor_height_mm) = parse_pair(args.sensor, 'x', "--sensor");
+    }
     if (!(view.sensor_width_mm > 0 && view.sensor_height_mm > 0)) {
         throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", args.sensor));
     }
@@ -184,7 +196,7 @@ void run_flare(const FlareArgs& args) {
     } else if (args.reference) {
         gpu::ReferenceOptions options;
         options.rays = args.rays;
-        options.threads = args.threads;
+        options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
         options.per_ghost_power = args.list;
         image = args.band_filter
                     ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return gpu::render_reference(system, one, options); })
@@ -254,12 +266,12 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--zoom", args->zoom, "Zoom: parameter 0..1 or focal label such as 135mm");
     cmd->add_option("--fstop", args->fstop, "Set the stop so that the lens's f-number is F (default: wide open)");
     cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
-    cmd->add_option("--sensor", args->sensor, "Sensor WxH in mm")->capture_default_str();
+    cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str();
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
     cmd->add_option("--blades", args->blades, "Iris blades (0 = round), replacing the lens's");
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
-    cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (default: RGB, 3 wavelengths)")
+    cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
         ->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
         ->needs("--bands");
@@ -275,7 +287,7 @@ void register_flare_command(CLI::App& app) {
     add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
-    cmd->add_option("--preview-exposure", args->preview_exposure, "Preview exposure in EV (default: automatic)");
+    cmd->add_option("--exposure,--preview-exposure", args->preview_exposure, "Exposure in stops before the preview's display transform (default: automatic)");
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
     cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
     cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
@@ -283,7 +295,7 @@ void register_flare_command(CLI::App& app) {
     add_acceleration_options(*cmd, args->accel, "GPU accelerations");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
-    cmd->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
+    cmd->add_option("--threads", args->threads, "Worker threads (the CPU reference's; 0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
     cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();

@@ -466,11 +466,15 @@ std::string ColourConfig::input_space(const std::string& requested,
     }
     if (!exr_chromaticities) {
         if (builtin_) return std::string(builtin::lin_rec709);
+        // An EXR without chromaticities is linear Rec.709 (the format's default primaries); else, as
+        // oiiotool takes an untagged image, the config's scene_linear role, then its default role.
         for (const char* n : usual_names().front().names)
             if (config_->getColorSpace(n)) return n;
+        for (const char* role : {OCIO::ROLE_SCENE_LINEAR, OCIO::ROLE_DEFAULT})
+            if (const auto cs = config_->getColorSpace(role)) return cs->getName();
         throw std::runtime_error(fmt::format(
             "the input has no chromaticities and OCIO config {} has no linear Rec.709 colour space under a usual "
-            "name; give --colorspace, one of: {}",
+            "name and no scene_linear or default role; give --colorspace, one of: {}",
             source_, join(colour_spaces())));
     }
     const auto& c = *exr_chromaticities;
@@ -995,7 +999,7 @@ bool ColourArgs::display_asked() const {
 void add_colour_options(CLI::App& app, ColourArgs& args) {
     ColourOptions& o = args.options;
     const char* group = "Colour";
-    app.add_option("--colorspace", o.colorspace,
+    app.add_option("--colorspace,--colourspace", o.colorspace,
                    "OCIO colour space of the input (default: from the EXR chromaticities, else linear Rec.709)")
         ->group(group);
     app.add_option("--ocio", o.ocio_config, "OCIO config file (default: $OCIO, else the built-in ACES config)")
@@ -1016,7 +1020,7 @@ void add_colour_options(CLI::App& app, ColourArgs& args) {
     app.add_option("--dither", args.dither, "Dither when quantising display outputs: none, ordered, blue-noise")
         ->check(CLI::IsMember({"none", "ordered", "blue-noise"}))
         ->group(group);
-    app.add_option("--colour-on", args.device,
+    app.add_option("--colour-on,--color-on", args.device,
                    "Where the output colour transform runs: auto (the GPU when the flare stage or --gpu made a GL "
                    "context), cpu, gpu")
         ->check(CLI::IsMember({"auto", "cpu", "gpu"}))

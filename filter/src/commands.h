@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -14,6 +15,19 @@ namespace lensfx::filter {
 
 // The whole command line: every command and option, their callbacks installed, nothing run or parsed.
 std::unique_ptr<CLI::App> build_app();
+// A usage error (unknown option, bad value) as the one line after "lensfx: ": "did you mean" for an
+// unknown option near a known one, numbers printed short.
+std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e);
+// The first "--name=" with nothing after the '=' (CLI11 would take the next argument as its value), or "".
+std::string empty_value_option(int argc, const char* const* argv);
+// The arguments after argv[0] with each unknown long option spelled "colour" or "color" replaced by the
+// other spelling when that one is known (both spellings work for every option, present and future).
+std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const char* const* argv);
+// 0: no --version; 1: --version; 2: --version --verbose (before any "--").
+int wants_version(int argc, const char* const* argv);
+// What --version prints: lensfx's version, commit and build type, the libraries' versions and, when
+// `with_gpu`, the GL renderer (opening a GL context, which takes a while).
+std::string version_text(bool with_gpu);
 
 // `lensfx -i IN -o OUT [options]`: the frame filter (the app's own options; runs when no subcommand is given).
 void register_filter(CLI::App& app);

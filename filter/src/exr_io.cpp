@@ -25,7 +25,9 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfPartType.h>
 #include <OpenEXR/ImfStandardAttributes.h>
+#include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfStringVectorAttribute.h>
 #include <OpenEXR/ImfThreading.h>
 
 namespace lensfx::filter {
@@ -208,10 +210,73 @@ bool is_exr_file(const std::string& path) {
            magic[3] == 0x01;
 }
 
+namespace {
+
+// A whole EXR held in memory, for OpenEXR to read (an EXR of a stream on stdin).
+class MemoryInput : public Imf::IStream {
+public:
+    explicit MemoryInput(const std::string& bytes) : Imf::IStream("stdin"), bytes_(bytes) {}
+    bool read(char c[], int n) override {
+        if (n < 0 || pos_ + static_cast<std::uint64_t>(n) > bytes_.size()) throw Iex::InputExc("unexpected end of the EXR image");
+        std::memcpy(c, bytes_.data() + pos_, static_cast<std::size_t>(n));
+        pos_ += static_cast<std::uint64_t>(n);
+        return pos_ < bytes_.size();
+    }
+    std::uint64_t tellg() override { return pos_; }
+    void seekg(std::uint64_t pos) override { pos_ = pos; }
+
+private:
+    const std::string& bytes_;
+    std::uint64_t pos_ = 0;
+};
+
+// An EXR written to memory (OpenEXR seeks back to fill in the offset table), for a stream on stdout.
+class MemoryOutput : public Imf::OStream {
+public:
+    explicit MemoryOutput(std::string& bytes) : Imf::OStream("stdout"), bytes_(bytes) {}
+    void write(const char c[], int n) override {
+        const auto end = static_cast<std::size_t>(pos_) + static_cast<std::size_t>(n);
+        if (end > bytes_.size()) bytes_.resize(end);
+        std::memcpy(bytes_.data() + pos_, c, static_cast<std::size_t>(n));
+        pos_ = end;
+    }
+    std::uint64_t tellp() override { return pos_; }
+    void seekp(std::uint64_t pos) override { pos_ = pos; }
+
+private:
+    std::string& bytes_;
+    std::uint64_t pos_ = 0;
+};
+
+Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, const MemoryBudget& budget);
+
+}  // namespace
+
 Frame read_exr(const std::string& path, const MemoryBudget& budget) {
     try {
         check_attribute_sizes(path);
         Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
+        return read_exr_file(file, path, budget);
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    }
+}
+
+Frame read_exr_memory(const std::string& bytes, const std::string& source, const MemoryBudget& budget) {
+    try {
+        MemoryInput in(bytes);
+        Imf::MultiPartInputFile file(in, Imf::globalThreadCount());
+        return read_exr_file(file, source, budget);
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    }
+}
+
+namespace {
+
+// The first part of an open EXR as a frame. Throws Iex or std exceptions.
+Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, const MemoryBudget& budget) {
+    {
         const Imf::Header& header = file.header(0);
         if (header.hasType() && Imf::isDeepData(header.type())) return read_deep_exr_frame(path);  // flattened
         Frame frame;
@@ -277,12 +342,8 @@ Frame read_exr(const std::string& path, const MemoryBudget& budget) {
         part.readPixels(dw.min.y, dw.max.y);
         find_rgb_channels(frame);
         return frame;
-    } catch (const Iex::BaseExc& e) {
-        throw std::runtime_error(e.what());
     }
 }
-
-namespace {
 
 // The header of an output: the input's when it was an EXR (every attribute passes through), less what
 // described its file layout, with the frame's windows, channels and metadata. Throws Iex exceptions.
@@ -322,9 +383,8 @@ Imf::Header output_header(const ImageSpec& spec, const std::string& compression)
     return header;
 }
 
-}  // namespace
-
-void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget) {
+// Writes the frame to an OpenEXR output stream (a file or memory). Throws Iex or std exceptions.
+void write_exr_to(const Frame& frame, Imf::OStream& target, const std::string& compression, const MemoryBudget& budget) {
     const ImageSpec& spec = frame.spec;
     double widened_bytes = 0.0;
     for (int c = 0; c < spec.nchannels(); ++c)
@@ -333,7 +393,7 @@ void write_exr(const Frame& frame, const std::string& path, const std::string& c
     budget.check(widened_bytes, "EXR output's half copies of the 8- and 16-bit channels");
     const std::vector<std::size_t> offsets = channel_offsets(spec);
     const std::size_t xs = spec.pixel_bytes(), ys = xs * static_cast<std::size_t>(spec.width);
-    try {
+    {
         const Imf::Header header = output_header(spec, compression);
         const Imath::Box2i dw = header.dataWindow();
         Imf::FrameBuffer fb;
@@ -350,12 +410,38 @@ void write_exr(const Frame& frame, const std::string& path, const std::string& c
                 fb.insert(name, Imf::Slice::Make(t, frame.pixels.data() + offsets[static_cast<std::size_t>(c)], dw, xs, ys));
             }
         }
-        Imf::OutputFile out(path.c_str(), header, Imf::globalThreadCount());
+        Imf::OutputFile out(target, header, Imf::globalThreadCount());
         out.setFrameBuffer(fb);
         out.writePixels(spec.height);
+    }
+}
+
+}  // namespace
+
+void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget) {
+    try {
+        Imf::StdOFStream out(path.c_str());
+        write_exr_to(frame, out, compression, budget);
     } catch (const Iex::BaseExc& e) {
         throw std::runtime_error(e.what());
     }
+}
+
+std::string write_exr_memory(const Frame& frame, const std::string& compression, const MemoryBudget& budget) {
+    std::string bytes;
+    try {
+        MemoryOutput out(bytes);
+        write_exr_to(frame, out, compression, budget);
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    }
+    return bytes;
+}
+
+std::vector<std::string> exr_views(const ImageSpec& spec) {
+    if (!spec.exr) return {};
+    const auto* views = spec.exr->header.findTypedAttribute<Imf::StringVectorAttribute>("multiView");
+    return views ? views->value() : std::vector<std::string>{};
 }
 
 void set_exr_threads(int threads) { Imf::setGlobalThreadCount(threads); }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <OpenEXR/ImfHeader.h>
 
@@ -27,10 +28,19 @@ bool is_exr_file(const std::string& path);
 // MemoryLimitError (before allocating) when the data window does not fit `budget`.
 Frame read_exr(const std::string& path, const MemoryBudget& budget = {});
 
+// The same from a whole EXR held in memory (one image of a stream); `source` names it in messages.
+Frame read_exr_memory(const std::string& bytes, const std::string& source, const MemoryBudget& budget = {});
+
 // Writes every channel (8- and 16-bit ones as half) as a scanline EXR with the frame's windows and the
 // given compression ("piz", "zip", "dwaa:45"...); the widened copies are sized against `budget`. Attributes: the input's header when it was an EXR,
 // then the spec's chromaticities, pixel aspect and text attributes.
 void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget = {});
+
+// The same EXR as write_exr() would write, into memory (one image of a stream on stdout).
+std::string write_exr_memory(const Frame& frame, const std::string& compression, const MemoryBudget& budget = {});
+
+// The views of a multi-view EXR (its multiView attribute), default first; empty for other frames.
+std::vector<std::string> exr_views(const ImageSpec& spec);
 
 // OpenEXR's worker threads for decoding and encoding (0: none).
 void set_exr_threads(int threads);

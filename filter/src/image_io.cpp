@@ -109,6 +109,17 @@ Frame read_image(const std::string& path, PfmOrder pfm_order, const MemoryBudget
     return frame;
 }
 
+void write_exr_stream(std::FILE* out, const Frame& frame, const WriteOptions& options) {
+    const std::string bytes = write_exr_memory(frame, output_compression(frame, options));
+    if (std::fwrite(bytes.data(), 1, bytes.size(), out) != bytes.size()) throw std::runtime_error(fmt::format("write failed: {}", std::strerror(errno)));
+}
+
+std::optional<Frame> read_exr_stream(std::FILE* in) {
+    const std::optional<std::string> bytes = read_exr_bytes(in);
+    if (!bytes) return std::nullopt;
+    return read_exr_memory(*bytes, "-");
+}
+
 Frame image_frame(int width, int height, int channels, PixelType type, const void* data) {
     Frame frame;
     frame.spec = ImageSpec(width, height, channels, type);

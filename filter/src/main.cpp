@@ -1,7 +1,11 @@
-// Entry point of the lensfx program: parses the command line and reports failures as one line on stderr.
+// Entry point of the lensfx program: parses the command line and reports failures as one line on stderr
+// (usage errors exit 2, failures of a run exit 1).
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <string>
+#include <vector>
 #include <exception>
 #include <new>
 
@@ -11,13 +15,28 @@
 #include "commands.h"
 
 int main(int argc, char** argv) {
-    const std::unique_ptr<CLI::App> app = lensfx::filter::build_app();
-    app->set_version_flag("--version", LENSFX_VERSION);
-
+    using namespace lensfx::filter;
+    if (const int version = wants_version(argc, argv)) {
+        fmt::print("{}", version_text(version == 2));
+        return 0;
+    }
+    if (const std::string empty = empty_value_option(argc, argv); !empty.empty()) {
+        fmt::print(stderr, "lensfx: {}= has no value (write {}=VALUE or {} VALUE)\n", empty, empty, empty);
+        return 2;
+    }
+    const std::unique_ptr<CLI::App> app = build_app();
     try {
-        app->parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
+        std::vector<std::string> args = normalise_spelling(*app, argc, argv);
+        std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+        app->parse(args);
+    } catch (const CLI::CallForHelp& e) {
         return app->exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app->exit(e);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) return app->exit(e);
+        fmt::print(stderr, "lensfx: {}\n", usage_error_message(*app, e));
+        return 2;
     } catch (const std::bad_alloc&) {
         // An allocation no budget check foresaw: still one line, with what to do about it.
         fmt::print(stderr, "lensfx: out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses earlier\n");

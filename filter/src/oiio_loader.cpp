@@ -39,7 +39,7 @@ const OiioModule& load(int threads) {
     const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
     if (!ec) {
         candidates.push_back(exe.parent_path() / kModuleName);
-        candidates.push_back(exe.parent_path() / ".." / "lib" / "lensfx" / kModuleName);
+        candidates.push_back((exe.parent_path() / ".." / "lib" / "lensfx" / kModuleName).lexically_normal());
     }
     candidates.emplace_back(LENSFX_OIIO_MODULE_BUILD_PATH);
     std::string tried;

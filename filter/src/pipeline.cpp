@@ -175,6 +175,7 @@ struct Plan {
     FrameList numbers;                  // file input: the frames to read
     std::set<FileId> input_ids;         // the input files on disk: never written to
     PfmOrder in_order = PfmOrder::bottom_first, out_order = PfmOrder::bottom_first;
+    StreamFormat in_format = StreamFormat::pfm, out_format = StreamFormat::exr;  // of streams on stdin, stdout
 
     std::string input_path(std::int64_t number) const { return in_pattern.path(number); }
     std::string output_path(std::int64_t number) const { return stream_out ? "-" : out_pattern.path(number); }
@@ -215,15 +216,33 @@ void refuse_overwriting_inputs(const Plan& plan) {
     }
 }
 
+// Stream options apply to "-" only; raw streams need their pixel format (and, read, their size).
+void check_stream_options(const PipelineOptions& o, Plan& plan) {
+    const bool raw_in = o.raw_width > 0 || o.raw_height > 0;
+    if (raw_in && !plan.stream_in) throw std::runtime_error("--size gives the frame size of raw input on stdin; the input is not -");
+    if (raw_in && !o.pix_fmt) throw std::runtime_error("raw input (--size) needs --pix-fmt gbrpf32le or gbrapf32le");
+    if (o.stream_format && !plan.stream_out) throw std::runtime_error("--stream-format says what - carries as output; the output is not -");
+    if (o.pix_fmt && !raw_in && !plan.stream_out) throw std::runtime_error("--pix-fmt applies to raw streams on - (input with --size, output)");
+    if (o.stream_format == StreamFormat::raw && !o.pix_fmt) throw std::runtime_error("--stream-format raw needs --pix-fmt gbrpf32le or gbrapf32le");
+    if (o.stream_format && *o.stream_format != StreamFormat::raw && o.pix_fmt && !raw_in)
+        throw std::runtime_error(fmt::format("--pix-fmt applies to raw streams, not --stream-format {}", to_string(*o.stream_format)));
+    if (raw_in) plan.in_format = StreamFormat::raw;
+}
+
+// The format of the stream on stdout: --stream-format, else raw with --pix-fmt, else the input stream's.
+StreamFormat output_stream_format(const PipelineOptions& o, const Plan& plan) {
+    if (o.stream_format) return *o.stream_format;
+    if (o.pix_fmt) return StreamFormat::raw;
+    return plan.stream_in ? plan.in_format : StreamFormat::exr;
+}
+
 Plan make_plan(const PipelineOptions& o) {
     Plan plan;
     plan.stream_in = o.input == "-";
     plan.stream_out = o.output == "-";
     plan.in_order = resolve(o.pfm_order, plan.stream_in);
     plan.out_order = resolve(o.pfm_order, plan.stream_out);
-    if (o.pix_fmt && plan.stream_in && (o.raw_width < 1 || o.raw_height < 1)) {
-        throw std::runtime_error(fmt::format("raw input ({}) needs --size WxH", to_string(*o.pix_fmt)));
-    }
+    check_stream_options(o, plan);
     if (!plan.stream_out) {
         plan.out_pattern = parse_pattern(o.output);
         fs::path dir = fs::path(plan.out_pattern.prefix).parent_path();
@@ -291,13 +310,20 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     RunReport report;
     report.input = o.input;
     report.output = o.output;
+    report.options_toml = o.options_toml;
     report.threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     set_oiio_threads(report.threads);
     set_exr_threads(report.threads);
 
-    const Plan plan = make_plan(o);
+    Plan plan = make_plan(o);
     refuse_overwrite(o.report_path, "--report", o.input, o.output);
     if (!plan.stream_out) remove_stale_temporaries(fs::path(plan.out_pattern.prefix).parent_path().string());
+    try {
+        if (plan.stream_in && plan.in_format != StreamFormat::raw) plan.in_format = detect_stream_format(stdin);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("stdin: frame 1: {}", e.what()));
+    }
+    plan.out_format = output_stream_format(o, plan);
     const bool sequence = plan.stream_in || plan.numbers.size() > 1;
     const bool show_progress = !o.quiet && (o.progress == Progress::on ||
                                             (o.progress == Progress::automatic && sequence && ::isatty(STDERR_FILENO)));
@@ -337,8 +363,9 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                 if (!hold_memory(item)) break;
                 const auto t0 = Clock::now();
                 try {
-                    item.frame = o.pix_fmt ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height, o.memory)
-                                           : read_pfm(stdin, plan.in_order == PfmOrder::top_first, o.memory);
+                    item.frame = plan.in_format == StreamFormat::raw   ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height, o.memory)
+                                 : plan.in_format == StreamFormat::exr ? read_exr_stream(stdin)
+                                                                       : read_pfm(stdin, plan.in_order == PfmOrder::top_first, o.memory);
                     if (!item.frame) break;
                     item.frame->source = "-";
                 } catch (const std::exception& e) {
@@ -393,8 +420,10 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
             const auto t0 = Clock::now();
             try {
                 if (plan.stream_out) {
-                    if (o.pix_fmt) {
+                    if (plan.out_format == StreamFormat::raw) {
                         write_raw(stdout, *item->frame, *o.pix_fmt, o.memory);
+                    } else if (plan.out_format == StreamFormat::exr) {
+                        write_exr_stream(stdout, *item->frame, o.write);
                     } else {
                         write_pfm(stdout, *item->frame, plan.out_order == PfmOrder::top_first, o.memory);
                     }
@@ -511,6 +540,13 @@ void write_report(const RunReport& report, const std::string& path) {
                         {"frames_per_second", fps},
                         {"frames", std::move(frames)}};
     if (!report.error.empty()) j["error"] = report.error;
+    if (!report.options_toml.empty()) j["options"] = report.options_toml;
+    if (path == "-") {
+        const std::string text = j.dump(2) + "\n";
+        if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
+            throw std::runtime_error("cannot write the report to stdout");
+        return;
+    }
     write_file(path, j.dump(2) + "\n");
 }
 

@@ -30,6 +30,21 @@ bool all_digits(std::string_view text) {
     return !text.empty() && std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
+// A frame list written just before the frame-number token ("pan.1-5#.exr", "pan.1-10x2#.exr"; oiiotool's
+// syntax): digits, ',', 'x', 'y' and a '-' between numbers, holding a range or a list, after the start of
+// the name or a '.', '_' or '-'. "" when there is none ("shot.#.exr", "take2#.exr").
+std::string_view embedded_frames(std::string_view before_token) {
+    std::size_t begin = before_token.size();
+    while (begin > 0 && std::string_view("0123456789,xy-").find(before_token[begin - 1]) != std::string_view::npos) --begin;
+    // Not a separator of the name in front: "v2-10#" is version 2, frame 10.
+    while (begin < before_token.size() && (before_token[begin] < '0' || before_token[begin] > '9')) ++begin;
+    const std::string_view list = before_token.substr(begin);
+    if (list.find_first_of(",-") == std::string_view::npos) return {};
+    if (begin > 0 && std::string_view("._-").find(before_token[begin - 1]) == std::string_view::npos) return {};
+    if (!all_digits(list.substr(list.size() - 1))) return {};
+    return list;
+}
+
 }  // namespace
 
 std::string FramePattern::path(std::int64_t frame) const {
@@ -97,6 +112,8 @@ FramePattern parse_pattern(std::string_view p) {
         return pattern;
     }
     pattern.is_sequence = true;
+    pattern.frames = std::string(embedded_frames(p.substr(name_start, token_begin - name_start)));
+    token_begin -= pattern.frames.size();
     pattern.prefix = std::string(p.substr(0, token_begin));
     pattern.suffix = std::string(p.substr(token_end));
     return pattern;
@@ -155,6 +172,39 @@ void refuse_duplicates(std::vector<FrameRange> runs, std::string_view list) {
 
 constexpr std::uint64_t kMaxFrames = std::uint64_t{1} << 62;
 
+// Appends the run(s) of "FIRST-LAST" with an x (or, `complement`, y) step. A range that ends before it
+// starts counts down. The frames a y step keeps are runs of consecutive frames between the skipped ones,
+// at most 2^20 of them.
+void add_range(std::vector<FrameRange>& runs, std::int64_t first, std::int64_t last, std::int64_t step, bool complement,
+               std::string_view list) {
+    const bool down = last < first;
+    const std::int64_t lo = down ? last : first, hi = down ? first : last;
+    const std::uint64_t span = static_cast<std::uint64_t>(hi) - static_cast<std::uint64_t>(lo);
+    const auto ustep = static_cast<std::uint64_t>(step);
+    if (!complement) {
+        // The frames on the run, counted from the written start (the top one when counting down).
+        const std::uint64_t on_run = span - span % ustep;
+        if (down) runs.push_back({static_cast<std::int64_t>(static_cast<std::uint64_t>(hi) - on_run), hi, step, true});
+        else runs.push_back({lo, static_cast<std::int64_t>(static_cast<std::uint64_t>(lo) + on_run), step, false});
+        return;
+    }
+    if (step == 1) return;  // "y1" skips nothing of what x1 takes: no frames
+    if (span / ustep >= (std::uint64_t{1} << 20))
+        throw std::invalid_argument(fmt::format("frame list \"{}\": a y step over more than 2^20 runs", list));
+    std::vector<FrameRange> kept;
+    const std::int64_t start = down ? hi : lo;
+    for (std::uint64_t k = 0; k * ustep < span; ++k) {
+        // Between the skipped frames start +- k*step and start +- (k+1)*step.
+        const std::uint64_t near = k * ustep + 1, far = std::min(k * ustep + ustep - 1, span);
+        if (near > far) continue;
+        if (down) kept.push_back({static_cast<std::int64_t>(static_cast<std::uint64_t>(start) - far),
+                                  static_cast<std::int64_t>(static_cast<std::uint64_t>(start) - near), 1, true});
+        else kept.push_back({static_cast<std::int64_t>(static_cast<std::uint64_t>(start) + near),
+                             static_cast<std::int64_t>(static_cast<std::uint64_t>(start) + far), 1, false});
+    }
+    runs.insert(runs.end(), kept.begin(), kept.end());
+}
+
 }  // namespace
 
 FrameList::FrameList(std::vector<FrameRange> ranges) : ranges_(std::move(ranges)) {
@@ -185,7 +235,9 @@ std::int64_t FrameList::operator[](std::uint64_t i) const {
     if (i >= size()) throw std::out_of_range(fmt::format("frame index {} of {}", i, size()));
     const auto k = static_cast<std::size_t>(std::upper_bound(ends_.begin(), ends_.end(), i) - ends_.begin());
     const std::uint64_t within = i - (k == 0 ? 0 : ends_[k - 1]);
-    return static_cast<std::int64_t>(static_cast<std::uint64_t>(ranges_[k].first) + within * static_cast<std::uint64_t>(ranges_[k].step));
+    const FrameRange& r = ranges_[k];
+    const std::uint64_t offset = within * static_cast<std::uint64_t>(r.step);
+    return static_cast<std::int64_t>(r.descending ? static_cast<std::uint64_t>(r.last) - offset : static_cast<std::uint64_t>(r.first) + offset);
 }
 
 bool FrameList::contains(std::int64_t frame) const {
@@ -208,7 +260,9 @@ FrameList parse_frame_list(std::string_view list) {
         std::string_view item = list.substr(pos, comma - pos);
         if (item.empty()) throw std::invalid_argument(fmt::format("frame list \"{}\" has an empty item", list));
         std::int64_t step = 1;
-        if (const auto x = item.find('x'); x != std::string_view::npos) {
+        bool complement = false;  // "y": the frames an "x" step would skip (oiiotool's syntax)
+        if (const auto x = item.find_first_of("xy"); x != std::string_view::npos) {
+            complement = item[x] == 'y';
             step = parse_int(item.substr(x + 1), list);
             item = item.substr(0, x);
             if (step < 1) throw std::invalid_argument(fmt::format("frame list \"{}\": the step must be at least 1", list));
@@ -222,13 +276,8 @@ FrameList parse_frame_list(std::string_view list) {
         } else {
             const std::int64_t first = parse_int(item.substr(0, dash), list);
             const std::int64_t last = parse_int(item.substr(dash + 1), list);
-            if (last < first) {
-                throw std::invalid_argument(fmt::format("frame list \"{}\": range {}-{} ends before it starts", list, first, last));
-            }
-            // The last frame on the run, computed without overflow.
-            const std::uint64_t span = static_cast<std::uint64_t>(last) - static_cast<std::uint64_t>(first);
-            const std::uint64_t on_run = span - span % static_cast<std::uint64_t>(step);
-            runs.push_back({first, static_cast<std::int64_t>(static_cast<std::uint64_t>(first) + on_run), step});
+            // A range that ends before it starts counts down ("10-1", "10-1x2").
+            add_range(runs, first, last, step, complement, list);
         }
         pos = comma + 1;
     }
@@ -260,7 +309,13 @@ FrameList frames_to_read(const std::string& input, const std::string& frames, bo
         if (!frames.empty()) throw std::runtime_error(fmt::format("{}: --frames needs a pattern (#, @ or %0Nd) in the input", input));
         return FrameList({FrameRange{1, 1, 1}});
     }
-    if (!frames.empty()) return parse_frame_list(frames);
+    if (!frames.empty() && !pattern.frames.empty())
+        throw std::runtime_error(fmt::format("{}: the pattern names frames {} and --frames names {}: give one", input, pattern.frames, frames));
+    if (const std::string& list = frames.empty() ? pattern.frames : frames; !list.empty()) {
+        FrameList listed = parse_frame_list(list);
+        if (listed.empty()) throw std::runtime_error(fmt::format("{}: frame list \"{}\" names no frames", input, list));
+        return listed;
+    }
     const std::vector<std::int64_t> found = scan_frames(pattern);
     if (found.empty()) throw std::runtime_error(fmt::format("{}: no frames match the pattern", input));
     FrameList list = FrameList::of_numbers(found);

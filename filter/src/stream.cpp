@@ -6,8 +6,11 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <fmt/core.h>
@@ -147,7 +150,206 @@ std::vector<float> output_channels(const Frame& frame, int& channels) {
     throw std::runtime_error("the image has no R, G, B channels to write");
 }
 
+// ---- EXR images on a stream ----
+
+// An EXR image being read from a stream: every byte read is kept, in order.
+class ExrReader {
+public:
+    explicit ExrReader(std::FILE* in) : in_(in) {}
+
+    std::string take() { return std::move(bytes_); }
+    std::size_t size() const { return bytes_.size(); }
+    bool empty() const { return bytes_.empty(); }
+
+    // Reads `n` more bytes; throws at the end of the stream.
+    std::string_view bytes(std::size_t n, std::string_view what) {
+        const std::size_t at = bytes_.size();
+        bytes_.resize(at + n);
+        if (n > 0 && std::fread(bytes_.data() + at, 1, n, in_) != n) {
+            if (std::ferror(in_)) throw std::runtime_error(fmt::format("read error in an EXR image: {}", std::strerror(errno)));
+            throw std::runtime_error(fmt::format("stream ended inside an EXR image ({}, byte {})", what, at));
+        }
+        return std::string_view(bytes_).substr(at, n);
+    }
+    std::int64_t int_le(std::size_t n, std::string_view what) {
+        const std::string_view b = bytes(n, what);
+        std::uint64_t v = 0;
+        for (std::size_t i = n; i-- > 0;) v = (v << 8) | static_cast<unsigned char>(b[i]);
+        if (n == 4) return static_cast<std::int32_t>(static_cast<std::uint32_t>(v));
+        return static_cast<std::int64_t>(v);
+    }
+    // A null-terminated string of at most `limit` characters.
+    std::string name(std::size_t limit) {
+        std::string text;
+        for (;;) {
+            const char c = bytes(1, "an attribute name")[0];
+            if (c == '\0') return text;
+            text.push_back(c);
+            if (text.size() > limit) throw std::runtime_error("malformed EXR header: attribute name too long");
+        }
+    }
+
+private:
+    std::FILE* in_;
+    std::string bytes_;
+};
+
+std::int32_t le32(std::string_view b, std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 4; i-- > 0;) v = (v << 8) | static_cast<unsigned char>(b[at + i]);
+    return static_cast<std::int32_t>(v);
+}
+
+// What the offset table of one part needs from its header.
+struct ExrPart {
+    int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // data window
+    int compression = 0;
+    std::string type;                      // "scanlineimage", "tiledimage", "deep..." (multi-part files)
+    bool tiled = false;
+    std::uint32_t tile_w = 0, tile_h = 0;
+    int level_mode = 0, rounding = 0;
+    std::int64_t chunk_count = -1;          // the attribute, where the header has it
+};
+
+// Scanlines per chunk of each compression (OpenEXR's numbering: none, rle, zips, zip, piz, pxr24, b44,
+// b44a, dwaa, dwab).
+int lines_per_chunk(int compression) {
+    static constexpr int kLines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+    if (compression < 0 || compression >= static_cast<int>(std::size(kLines)))
+        throw std::runtime_error(fmt::format("EXR image with an unknown compression ({}) on a stream", compression));
+    return kLines[compression];
+}
+
+int round_log2(std::int64_t x, int rounding) {
+    int n = 0;
+    while ((std::int64_t{1} << (n + 1)) <= x) ++n;
+    if (rounding == 1 && (std::int64_t{1} << n) < x) ++n;
+    return n;
+}
+
+std::int64_t level_size(std::int64_t size, int level, int rounding) {
+    std::int64_t s = size >> level;
+    if (rounding == 1 && (s << level) < size) ++s;
+    return std::max<std::int64_t>(s, 1);
+}
+
+std::int64_t tiles(std::int64_t size, std::uint32_t tile) { return (size + tile - 1) / tile; }
+
+// The number of chunks of a part: its chunkCount attribute, else counted from the data window, the
+// compression's lines per chunk or the tile layout (one level, mip or rip levels).
+std::int64_t chunk_count(const ExrPart& p) {
+    if (p.chunk_count >= 0) return p.chunk_count;
+    const std::int64_t w = std::int64_t{p.x1} - p.x0 + 1, h = std::int64_t{p.y1} - p.y0 + 1;
+    if (w < 1 || h < 1) throw std::runtime_error("malformed EXR header: empty data window");
+    if (!p.tiled) return (h + lines_per_chunk(p.compression) - 1) / lines_per_chunk(p.compression);
+    if (p.tile_w == 0 || p.tile_h == 0) throw std::runtime_error("malformed EXR header: zero tile size");
+    const int nx = p.level_mode == 0 ? 1 : round_log2(p.level_mode == 1 ? std::max(w, h) : w, p.rounding) + 1;
+    const int ny = p.level_mode == 0 ? 1 : p.level_mode == 1 ? nx : round_log2(h, p.rounding) + 1;
+    std::int64_t count = 0;
+    for (int ly = 0; ly < ny; ++ly)
+        for (int lx = 0; lx < nx; ++lx) {
+            if (p.level_mode == 1 && lx != ly) continue;  // mip levels shrink both ways at once
+            count += tiles(level_size(w, lx, p.rounding), p.tile_w) * tiles(level_size(h, ly, p.rounding), p.tile_h);
+        }
+    return count;
+}
+
+// Reads one header's attributes up to its terminating null byte; false when the first name is empty
+// (the end of a multi-part file's header list).
+bool read_exr_header(ExrReader& r, ExrPart& part, std::size_t name_limit) {
+    for (int n = 0;; ++n) {
+        const std::string name = r.name(name_limit);
+        if (name.empty()) return n > 0;
+        const std::string type = r.name(name_limit);
+        const std::int64_t size = r.int_le(4, "an attribute size");
+        if (size < 0 || size > (std::int64_t{1} << 28)) throw std::runtime_error(fmt::format("malformed EXR header: attribute {} of {} bytes", name, size));
+        const std::string_view value = r.bytes(static_cast<std::size_t>(size), name);
+        if (name == "dataWindow" && size == 16) {
+            part.x0 = le32(value, 0), part.y0 = le32(value, 4), part.x1 = le32(value, 8), part.y1 = le32(value, 12);
+        } else if (name == "compression" && size == 1) {
+            part.compression = static_cast<unsigned char>(value[0]);
+        } else if (name == "tiles" && size == 9) {
+            part.tile_w = static_cast<std::uint32_t>(le32(value, 0));
+            part.tile_h = static_cast<std::uint32_t>(le32(value, 4));
+            part.level_mode = value[8] & 0x0f;
+            part.rounding = (value[8] >> 4) & 0x0f;
+        } else if (name == "chunkCount" && size == 4) {
+            part.chunk_count = le32(value, 0);
+        } else if (name == "type") {
+            part.type = std::string(value.substr(0, value.find('\0')));
+        }
+    }
+}
+
 }  // namespace
+
+std::optional<std::string> read_exr_bytes(std::FILE* in) {
+    ExrReader r(in);
+    const int first = std::fgetc(in);
+    if (first == EOF) {
+        if (std::ferror(in)) throw std::runtime_error(fmt::format("read error: {}", std::strerror(errno)));
+        return std::nullopt;
+    }
+    std::ungetc(first, in);
+    const std::string_view magic = r.bytes(4, "the magic number");
+    if (magic != std::string_view("\x76\x2f\x31\x01", 4)) throw std::runtime_error("not an EXR image (no EXR magic number)");
+    const auto version = static_cast<std::uint32_t>(r.int_le(4, "the version"));
+    const bool single_tiled = version & 0x200, long_names = version & 0x400, deep = version & 0x800, multipart = version & 0x1000;
+    if (deep) throw std::runtime_error("deep EXR images are not supported on a stream");
+    std::vector<ExrPart> parts;
+    for (;;) {
+        ExrPart part;
+        part.tiled = single_tiled;
+        if (!read_exr_header(r, part, long_names ? 255 : 31)) break;
+        if (!part.type.empty()) part.tiled = part.type == "tiledimage";
+        if (part.type.rfind("deep", 0) == 0) throw std::runtime_error("deep EXR images are not supported on a stream");
+        parts.push_back(part);
+        if (!multipart) break;
+        if (parts.size() > 10000) throw std::runtime_error("malformed EXR header: too many parts");
+    }
+    if (parts.empty()) throw std::runtime_error("malformed EXR header: no part");
+    // The offset tables: the chunk placed last ends the image.
+    std::uint64_t last = 0;
+    for (const ExrPart& part : parts) {
+        const std::int64_t count = chunk_count(part);
+        if (count < 1 || count > (std::int64_t{1} << 26)) throw std::runtime_error(fmt::format("malformed EXR header: {} chunks", count));
+        for (std::int64_t i = 0; i < count; ++i) last = std::max(last, static_cast<std::uint64_t>(r.int_le(8, "the offset table")));
+    }
+    if (last < r.size() || last > (std::uint64_t{1} << 40)) throw std::runtime_error("malformed EXR offset table");
+    r.bytes(static_cast<std::size_t>(last) - r.size(), "the chunks");
+    // The last chunk: [part number,] its coordinates (y, or four tile numbers), its size, its data.
+    std::int64_t part_number = 0;
+    if (multipart) part_number = r.int_le(4, "the last chunk");
+    if (part_number < 0 || part_number >= static_cast<std::int64_t>(parts.size())) throw std::runtime_error("malformed EXR chunk: part number");
+    r.bytes(parts[static_cast<std::size_t>(part_number)].tiled ? 16 : 4, "the last chunk");
+    const std::int64_t size = r.int_le(4, "the last chunk");
+    if (size < 0) throw std::runtime_error("malformed EXR chunk: negative size");
+    r.bytes(static_cast<std::size_t>(size), "the last chunk");
+    return r.take();
+}
+
+StreamFormat detect_stream_format(std::FILE* in) {
+    const int c = std::fgetc(in);
+    if (c == EOF) {
+        if (std::ferror(in)) throw std::runtime_error(fmt::format("read error: {}", std::strerror(errno)));
+        return StreamFormat::pfm;
+    }
+    std::ungetc(c, in);
+    if (c == 0x76) return StreamFormat::exr;
+    if (c == 'P') return StreamFormat::pfm;
+    throw std::runtime_error("not an EXR or PFM stream (raw planar float input needs --pix-fmt and --size)");
+}
+
+StreamFormat parse_stream_format(std::string_view text) {
+    if (text == "exr") return StreamFormat::exr;
+    if (text == "pfm") return StreamFormat::pfm;
+    if (text == "raw") return StreamFormat::raw;
+    throw std::invalid_argument(fmt::format("--stream-format must be exr, pfm or raw, not \"{}\"", text));
+}
+
+std::string_view to_string(StreamFormat format) {
+    return format == StreamFormat::exr ? "exr" : format == StreamFormat::pfm ? "pfm" : "raw";
+}
 
 PfmOrder parse_pfm_order(std::string_view text) {
     if (text == "auto") return PfmOrder::automatic;

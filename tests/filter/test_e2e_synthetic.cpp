@@ -1,5 +1,6 @@
 // End-to-end runs of `lensfx -i IN -o OUT` on images made here (no shared data needed): pass-through of
 // per-channel types, windows and metadata; sequences and frame lists; streams through ffmpeg; failures.
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -248,5 +249,53 @@ TEST(FilterEndToEnd, FfmpegPfmAndRawRoundTrips) {
     EXPECT_NE(r.exit_code, 0);
     EXPECT_NE(r.stderr_text.find("stdin: frame 1:"), std::string::npos) << r.stderr_text;
     EXPECT_FALSE(fs::exists(dir / "t.exr"));
+    fs::remove_all(dir);
+}
+
+namespace {
+
+// Standard output of a shell command (bash), stderr dropped.
+std::string stdout_of(const std::string& command) {
+    std::string out;
+    if (std::FILE* p = ::popen(command.c_str(), "r")) {
+        char buf[4096];
+        for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+        ::pclose(p);
+    }
+    return out;
+}
+
+}  // namespace
+
+// EXR images on the pipes: every channel (alpha, Z, a uint id), type, window and attribute pass a stream
+// in and out unchanged; the output stream follows the input's (PFM stays PFM) unless --stream-format.
+TEST(FilterEndToEnd, ExrStreamsKeepEverything) {
+    const auto dir = scratch_dir("exrstream");
+    const std::string d = dir.string();
+    make_exr(dir / "a.exr", 0);
+    make_exr(dir / "b.exr", 1);
+    auto r = run(fmt::format("cat {0}/a.exr {0}/b.exr | {1} -i - -o {0}/out.#.exr", d, lensfx_cmd()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(compare_images(d + "/a.exr", d + "/out.0001.exr"), "");
+    EXPECT_EQ(compare_images(d + "/b.exr", d + "/out.0002.exr"), "");
+    // Files -> EXR stream -> lensfx -> EXR stream -> files.
+    r = run(fmt::format("{1} -i {0}/a.exr -o - | {1} -i - -o - | {1} -i - -o {0}/back.exr", d, lensfx_cmd()));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(compare_images(d + "/a.exr", d + "/back.exr"), "");
+    EXPECT_EQ(stdout_of(fmt::format("cat {0}/a.exr | {1} -i - -o - | head -c 4 | od -An -tx1", d, lensfx_cmd())), " 76 2f 31 01\n");
+    // A PFM stream stays PFM; --stream-format chooses.
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/a.exr -o {0}/a.pfm", d)).exit_code, 0);
+    EXPECT_EQ(stdout_of(fmt::format("cat {0}/a.pfm | {1} -i - -o - | head -c 2", d, lensfx_cmd())), "PF");
+    EXPECT_EQ(stdout_of(fmt::format("cat {0}/a.pfm | {1} -i - -o - --stream-format exr | head -c 1 | od -An -tx1", d, lensfx_cmd())), " 76\n");
+    // Truncated streams and options that do not apply fail with one line naming what is wrong.
+    r = run(fmt::format("head -c $(( $(stat -c %s {0}/a.exr) - 100 )) {0}/a.exr | {1} -i - -o {0}/t.exr", d, lensfx_cmd()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("stdin: frame 1: stream ended inside an EXR image"), std::string::npos) << r.stderr_text;
+    r = run(fmt::format("{1} -i {0}/a.exr -o {0}/x.exr --stream-format pfm", d, lensfx_cmd()));
+    EXPECT_NE(r.stderr_text.find("--stream-format says what - carries"), std::string::npos) << r.stderr_text;
+    r = run(fmt::format("{1} -i {0}/a.exr -o - --stream-format raw > /dev/null", d, lensfx_cmd()));
+    EXPECT_NE(r.stderr_text.find("--stream-format raw needs --pix-fmt"), std::string::npos) << r.stderr_text;
+    r = run(fmt::format("echo hello | {1} -i - -o {0}/x.exr", d, lensfx_cmd()));
+    EXPECT_NE(r.stderr_text.find("not an EXR or PFM stream"), std::string::npos) << r.stderr_text;
     fs::remove_all(dir);
 }

@@ -51,7 +51,6 @@ TEST(FrameList, RangesStepsAndLists) {
     EXPECT_EQ(parse_frame_list("3,7,10-12").listed(), (std::vector<std::int64_t>{3, 7, 10, 11, 12}));
     EXPECT_EQ(parse_frame_list("-2-1").listed(), (std::vector<std::int64_t>{-2, -1, 0, 1}));
     EXPECT_EQ(parse_frame_list("42").listed(), (std::vector<std::int64_t>{42}));
-    EXPECT_THROW(parse_frame_list("5-1"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1-5x0"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1,,2"), std::invalid_argument);
     EXPECT_THROW(parse_frame_list("1-3,2"), std::invalid_argument);
@@ -88,6 +87,35 @@ TEST(FrameList, HugeRangesAreLazyAndExact) {
         EXPECT_NE(std::string(e.what()).find("names frame 500000033 twice"), std::string::npos) << e.what();
     }
     EXPECT_NO_THROW(parse_frame_list("1-9223372036854775807x4,2-9223372036854775806x4"));  // 2^62 frames in all
+}
+
+// oiiotool's syntax: "y" takes the frames an "x" step skips; a range that ends before it starts counts down.
+TEST(FrameList, ComplementStepsAndReverseRanges) {
+    EXPECT_EQ(parse_frame_list("1-10y3").listed(), (std::vector<std::int64_t>{2, 3, 5, 6, 8, 9}));
+    EXPECT_EQ(parse_frame_list("1-6y2").listed(), (std::vector<std::int64_t>{2, 4, 6}));
+    EXPECT_EQ(parse_frame_list("5-1").listed(), (std::vector<std::int64_t>{5, 4, 3, 2, 1}));
+    EXPECT_EQ(parse_frame_list("10-1x3").listed(), (std::vector<std::int64_t>{10, 7, 4, 1}));
+    EXPECT_EQ(parse_frame_list("1-4y1").listed(), (std::vector<std::int64_t>{}));
+    EXPECT_EQ(parse_frame_list("1-3,9-7").listed(), (std::vector<std::int64_t>{1, 2, 3, 9, 8, 7}));
+    EXPECT_THROW(parse_frame_list("1-10y0"), std::invalid_argument);
+    EXPECT_THROW(parse_frame_list("4y2"), std::invalid_argument);
+}
+
+// A frame list written in the pattern before its token ("pan.1-5#.exr") is taken out of the name.
+TEST(Pattern, FramesWrittenInThePattern) {
+    const FramePattern p = parse_pattern("d/pan.1-5#.exr");
+    EXPECT_EQ(p.frames, "1-5");
+    EXPECT_EQ(p.path(3), "d/pan.0003.exr");
+    EXPECT_EQ(parse_pattern("pan.10-1x2@@.exr").frames, "10-1x2");
+    EXPECT_EQ(parse_pattern("pan.1-10x2#.exr").path(7), "pan.0007.exr");
+    EXPECT_EQ(parse_pattern("pan_3,7,9-11%04d.exr").frames, "3,7,9-11");
+    EXPECT_EQ(parse_pattern("pan.1-5#.exr").prefix, "pan.");
+    // Not frame lists: a version number or a plain digit before the token.
+    EXPECT_EQ(parse_pattern("render_v2-10#.exr").frames, "");
+    EXPECT_EQ(parse_pattern("render_v2-10#.exr").prefix, "render_v2-10");
+    EXPECT_EQ(parse_pattern("take2#.exr").frames, "");
+    EXPECT_EQ(parse_pattern("shot.#.exr").frames, "");
+    EXPECT_EQ(parse_pattern("proxy1-5#.exr").frames, "");
 }
 
 TEST(FrameList, ScanFindsExistingFramesInOrder) {

@@ -1,7 +1,21 @@
-// PFM and raw planar float streams: byte layout, row order, endianness, end of stream, truncation.
+// PFM, raw planar float and EXR streams: byte layout, row order, endianness, end of stream, truncation.
 #include <filter/stream.h>
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfMultiPartOutputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfOutputPart.h>
+#include <OpenEXR/ImfPartType.h>
+#include <OpenEXR/ImfTiledOutputFile.h>
+#include <OpenEXR/ImfTiledOutputPart.h>
+
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -127,4 +141,138 @@ TEST(Raw, AddsOpaqueAlphaWhenTheFrameHasNone) {
     File out(std::tmpfile());
     write_raw(out.get(), *f, RawPixFmt::gbrapf32le);
     EXPECT_EQ(read_all(out.get()), floats({1, 2, 3, 1}));
+}
+
+// ---- EXR images on a stream ----
+
+namespace exr_stream {
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::filesystem::remove(path);
+    return ss.str();
+}
+
+std::string temp_path(const std::string& name) {
+    return (std::filesystem::temp_directory_path() / ("lensfx_exr_stream_" + name + ".exr")).string();
+}
+
+// R, G, B, A float slices over a w x h window at (-3, 5), values in the thousands.
+struct Pixels {
+    Pixels(int width, int height) : w(width), h(height), px(static_cast<std::size_t>(w * h * 4)) {
+        for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<float>(i % 997) * 3.5f;
+    }
+    Imf::FrameBuffer frame_buffer(int x0, int y0) {
+        Imf::FrameBuffer fb;
+        const char* names[] = {"R", "G", "B", "A"};
+        char* base = reinterpret_cast<char*>(px.data()) - (static_cast<std::ptrdiff_t>(x0) + static_cast<std::ptrdiff_t>(y0) * w) * 16;
+        for (int c = 0; c < 4; ++c) fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * 4, 16, static_cast<std::size_t>(w) * 16));
+        return fb;
+    }
+    int w, h;
+    std::vector<float> px;
+};
+
+Imf::Header header(int w, int h, Imf::Compression compression) {
+    Imf::Header hd(Imath::Box2i({0, 0}, {w + 9, h + 9}), Imath::Box2i({-3, 5}, {w - 4, h + 4}));
+    hd.compression() = compression;
+    for (const char* c : {"R", "G", "B", "A"}) hd.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    return hd;
+}
+
+// A scanline EXR of the given compression.
+std::string scanline_exr(const std::string& name, Imf::Compression compression) {
+    {
+        Pixels p(37, 29);
+        Imf::OutputFile out(temp_path(name).c_str(), header(p.w, p.h, compression));
+        out.setFrameBuffer(p.frame_buffer(-3, 5));
+        out.writePixels(p.h);
+    }  // the offset table is written when the file closes
+    return file_bytes(temp_path(name));
+}
+
+// A tiled EXR of one level, mip levels or rip levels (rounding up).
+std::string tiled_exr(const std::string& name, Imf::LevelMode mode) {
+    Imf::Header hd = header(37, 29, Imf::ZIP_COMPRESSION);
+    hd.setTileDescription(Imf::TileDescription(8, 8, mode, Imf::ROUND_UP));
+    {
+        Imf::TiledOutputFile out(temp_path(name).c_str(), hd);
+        for (int ly = 0; ly < out.numYLevels(); ++ly)
+            for (int lx = 0; lx < out.numXLevels(); ++lx) {
+                if (!out.isValidLevel(lx, ly)) continue;
+                const Imath::Box2i dw = out.dataWindowForLevel(lx, ly);
+                Pixels p(dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1);
+                out.setFrameBuffer(p.frame_buffer(dw.min.x, dw.min.y));
+                out.writeTiles(0, out.numXTiles(lx) - 1, 0, out.numYTiles(ly) - 1, lx, ly);
+            }
+    }
+    return file_bytes(temp_path(name));
+}
+
+// Two parts: a scanline one and a tiled one.
+std::string multipart_exr(const std::string& name) {
+    Imf::Header a = header(37, 29, Imf::PIZ_COMPRESSION), b = header(37, 29, Imf::ZIPS_COMPRESSION);
+    a.setName("beauty");
+    a.setType(Imf::SCANLINEIMAGE);
+    b.setName("tiles");
+    b.setType(Imf::TILEDIMAGE);
+    b.setTileDescription(Imf::TileDescription(16, 16));
+    {
+        Imf::MultiPartOutputFile out(temp_path(name).c_str(), std::vector<Imf::Header>{a, b}.data(), 2);
+        Pixels p(37, 29);
+        Imf::OutputPart scan(out, 0);
+        scan.setFrameBuffer(p.frame_buffer(-3, 5));
+        scan.writePixels(p.h);
+        Imf::TiledOutputPart tiled(out, 1);
+        tiled.setFrameBuffer(p.frame_buffer(-3, 5));
+        tiled.writeTiles(0, tiled.numXTiles(0) - 1, 0, tiled.numYTiles(0) - 1);
+    }
+    return file_bytes(temp_path(name));
+}
+
+}  // namespace exr_stream
+
+// Each EXR of a concatenated stream comes back byte for byte: scanline images of every compression's
+// chunk height, tiled, mip-mapped and multi-part ones; then a clean end.
+TEST(ExrStream, SplitsConcatenatedImagesExactly) {
+    using namespace exr_stream;
+    std::vector<std::string> images;
+    for (const auto c : {Imf::NO_COMPRESSION, Imf::RLE_COMPRESSION, Imf::ZIPS_COMPRESSION, Imf::ZIP_COMPRESSION, Imf::PIZ_COMPRESSION,
+                         Imf::PXR24_COMPRESSION, Imf::B44_COMPRESSION, Imf::DWAA_COMPRESSION, Imf::DWAB_COMPRESSION})
+        images.push_back(scanline_exr("scan" + std::to_string(static_cast<int>(c)), c));
+    images.push_back(tiled_exr("tiled", Imf::ONE_LEVEL));
+    images.push_back(tiled_exr("mip", Imf::MIPMAP_LEVELS));
+    images.push_back(tiled_exr("rip", Imf::RIPMAP_LEVELS));
+    images.push_back(multipart_exr("multipart"));
+    std::string all;
+    for (const auto& i : images) all += i;
+    File f = memory_file(all);
+    for (std::size_t i = 0; i < images.size(); ++i) {
+        ASSERT_EQ(detect_stream_format(f.get()), StreamFormat::exr) << i;
+        std::optional<std::string> got;
+        try {
+            got = read_exr_bytes(f.get());
+        } catch (const std::exception& e) {
+            FAIL() << "image " << i << ": " << e.what();
+        }
+        ASSERT_TRUE(got) << i;
+        EXPECT_EQ(got->size(), images[i].size()) << i;
+        EXPECT_TRUE(*got == images[i]) << i;
+    }
+    EXPECT_FALSE(read_exr_bytes(f.get()));
+}
+
+TEST(ExrStream, TruncatedOrForeignBytesThrow) {
+    const std::string image = exr_stream::scanline_exr("trunc", Imf::ZIP_COMPRESSION);
+    for (std::size_t cut : {std::size_t{6}, std::size_t{40}, image.size() - 1}) {
+        File f = memory_file(image.substr(0, cut));
+        EXPECT_THROW(read_exr_bytes(f.get()), std::runtime_error) << cut;
+    }
+    File text = memory_file("hello");
+    EXPECT_THROW(detect_stream_format(text.get()), std::runtime_error);
+    File pfm = memory_file("PF\n1 1\n-1\n");
+    EXPECT_EQ(detect_stream_format(pfm.get()), StreamFormat::pfm);
+    EXPECT_EQ(std::fgetc(pfm.get()), 'P');  // left unread
 }

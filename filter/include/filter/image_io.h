@@ -3,6 +3,8 @@
 // directory and are renamed into place only when complete, so a failure never leaves a partial file.
 #pragma once
 
+#include <cstdio>
+#include <optional>
 #include <string>
 
 #include <filter/colour.h>
@@ -36,6 +38,11 @@ struct WriteOptions {
 // Other formats (PNG, JPEG...): R, G, B and A if present, quantised to 8 or 16 bits.
 // Throws std::runtime_error (unknown format, unwritable directory, failed write); leaves no file then.
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options = {});
+
+// Writes a frame as one EXR image of a stream (the compression as write_image() chooses it).
+void write_exr_stream(std::FILE* out, const Frame& frame, const WriteOptions& options = {});
+// Reads the next EXR image of a stream (filter/stream.h's read_exr_bytes); nothing at its end.
+std::optional<Frame> read_exr_stream(std::FILE* in);
 
 // A frame holding `channels` interleaved values of one type over width x height at the origin (channels
 // R, G, B, A...), for writing images lensfx makes: flare renders, previews, plots.

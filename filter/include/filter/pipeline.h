@@ -29,11 +29,14 @@ struct PipelineOptions {
     bool allow_empty = false;     // a stream of no frames is a success, not an error
     Progress progress = Progress::automatic;
     bool quiet = false;           // no progress line and no per-frame warnings
-    std::string report_path;      // --report FILE.json; empty: none
+    std::string report_path;      // --report FILE.json ("-": stdout); empty: none
+    std::string options_toml;     // the run's options as a shot file (--config), copied into the report
     WriteOptions write;           // EXR compression, PFM row order of output files
     PfmOrder pfm_order = PfmOrder::automatic;   // for PFM input and output (streams and files)
-    std::optional<RawPixFmt> pix_fmt;           // raw planar float on "-" instead of PFM
-    int raw_width = 0, raw_height = 0;          // raw input frame size (--size)
+    std::optional<RawPixFmt> pix_fmt;           // raw planar float: the input's (with --size) and the output's
+    int raw_width = 0, raw_height = 0;          // raw input frame size (--size): stdin is raw when given
+    // What "-" as output carries; nothing: raw when pix_fmt is given, else the input stream's format, else EXR.
+    std::optional<StreamFormat> stream_format;
     // --memory-limit: every frame is sized against it before it is read, and the reader waits before
     // reading another while the frames held (pixels and R, G, B as float) and the next would exceed it.
     MemoryBudget memory;
@@ -57,6 +60,7 @@ struct RunReport {
     std::vector<FrameRecord> frames;  // in frame order
     double wall_seconds = 0;
     std::string error;  // the failure that stopped the run, if one did
+    std::string options_toml;  // the options of the run as a TOML shot file: `--config` repeats it
     std::size_t written() const;
     std::size_t skipped() const;
 };
@@ -66,7 +70,7 @@ struct RunReport {
 // frame being written leaves nothing. The report (when asked for) is written in both cases.
 RunReport run_pipeline(const PipelineOptions& options, const std::vector<Stage*>& stages = {});
 
-// The report as JSON: the run's totals and one record per frame.
+// The report as JSON: the run's totals and one record per frame; to stdout when `path` is "-".
 void write_report(const RunReport& report, const std::string& path);
 
 }  // namespace lensfx::filter

@@ -17,6 +17,7 @@ struct FramePattern {
     std::string suffix;  // everything after it
     int padding = 0;     // minimum number of digits; 0 when the path holds no token
     bool is_sequence = false;
+    std::string frames;  // a frame list written before the token ("pan.1-5#.exr": "1-5"), else ""
 
     // The path of frame `frame` (the path itself when it holds no token). Negative frames keep their
     // sign in front of the padded digits, as "-0001".
@@ -26,13 +27,15 @@ struct FramePattern {
     std::optional<std::int64_t> match(std::string_view path) const;
 };
 
-// Parses a path; throws std::invalid_argument on two tokens or a malformed %d.
+// Parses a path; throws std::invalid_argument on two tokens or a malformed %d. A frame list just before
+// the token ("pan.1-5#.exr", as oiiotool writes it) goes to `frames`, out of the prefix.
 FramePattern parse_pattern(std::string_view path);
 
-// An arithmetic run of frames, first..last (inclusive) by step >= 1; last is on the run. count() is for
-// runs of a FrameList (at most 2^62 frames).
+// An arithmetic run of frames, first..last (inclusive) by step >= 1; both ends are on the run; listed
+// from last down to first when `descending`. count() is for runs of a FrameList (at most 2^62 frames).
 struct FrameRange {
     std::int64_t first = 0, last = 0, step = 1;
+    bool descending = false;
     std::uint64_t count() const { return (static_cast<std::uint64_t>(last) - static_cast<std::uint64_t>(first)) / static_cast<std::uint64_t>(step) + 1; }
 };
 
@@ -59,9 +62,9 @@ private:
     std::vector<std::uint64_t> ends_;  // frames up to and including run k
 };
 
-// Parses "1-100", "1-100x2", "3,7,10-20" (ranges inclusive, descending allowed with a negative step is
-// not: the end must not precede the start). Frames keep the order written; duplicates are an error.
-// Any 64-bit frame numbers; nothing is listed, so a range of any length costs the same.
+// Parses "1-100", "1-100x2", "3,7,10-20" (ranges inclusive), oiiotool's "1-10y3" (the frames "x3" skips)
+// and reverse ranges "10-1", "10-1x2" (counting down). Frames keep the order written; duplicates are an
+// error. Any 64-bit frame numbers; nothing is listed, so a range of any length costs the same.
 FrameList parse_frame_list(std::string_view list);
 
 // The frames of `pattern` that exist on disk, ascending. Empty when the directory has none.

@@ -1,4 +1,4 @@
-// Frames as byte streams: PFM (one image or many concatenated, as ffmpeg's image2pipe writes them) and
+// Frames as byte streams: EXR images one after another (as ffmpeg's `-f image2pipe -c:v exr` writes them), PFM (one image or many concatenated, as ffmpeg's image2pipe writes them) and
 // raw planar float video (ffmpeg's gbrpf32le / gbrapf32le: planes G, B, R[, A], rows top first).
 // OpenImageIO cannot read a stream of concatenated images from a pipe, so these are our own.
 #pragma once
@@ -17,11 +17,24 @@ namespace lensfx::filter {
 // `automatic` means top-first on stdin/stdout (the other end is ffmpeg in practice) and bottom-first in files.
 enum class PfmOrder { automatic, top_first, bottom_first };
 enum class RawPixFmt { gbrpf32le, gbrapf32le };
+// What a stream on stdin or stdout carries.
+enum class StreamFormat { exr, pfm, raw };
 
 PfmOrder parse_pfm_order(std::string_view text);             // "auto", "top", "bottom"
 RawPixFmt parse_raw_pix_fmt(std::string_view text);          // "gbrpf32le", "gbrapf32le"
 std::string_view to_string(RawPixFmt fmt);
 int channel_count(RawPixFmt fmt);
+StreamFormat parse_stream_format(std::string_view text);     // "exr", "pfm", "raw"
+std::string_view to_string(StreamFormat format);
+
+// The format of a stream by its first byte (EXR's magic number 0x76, PFM's 'P'), which is left unread;
+// PFM for an empty stream. Throws std::runtime_error for anything else.
+StreamFormat detect_stream_format(std::FILE* in);
+
+// The bytes of the next EXR image of a stream: magic number and version, the headers, the offset
+// tables and the chunks up to the end of the last one. Nothing at a clean end of stream; throws
+// std::runtime_error on a malformed or truncated image, and for deep images.
+std::optional<std::string> read_exr_bytes(std::FILE* in);
 
 // Reads the next PFM image ("PF": R, G, B; "Pf": one channel "Y"). Returns nothing at a clean end of
 // stream (no byte before the header); throws std::runtime_error on a malformed header or a short read.
