@@ -158,11 +158,39 @@ bool channel_list_fits(std::FILE* f, std::int32_t size) {
     }
 }
 
+// The largest data window side and tile side lensfx reads: OpenEXR allocates its per-line tables and line
+// or tile buffers by the declared window and tiles when the file is opened, before any check of ours (a
+// fuzzed header of a few hundred bytes took seconds and gigabytes). No real frame comes near these.
+constexpr std::int64_t kMaxExrSide = std::int64_t{1} << 20;
+constexpr std::int64_t kMaxExrTileSide = std::int64_t{1} << 16;
+
+std::int64_t little_endian_int(const unsigned char* b) {
+    return static_cast<std::int32_t>(static_cast<std::uint32_t>(b[0]) | static_cast<std::uint32_t>(b[1]) << 8 |
+                                     static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24);
+}
+
+// Refuses a data window or tile size beyond what lensfx reads, from the attribute's value at the file's
+// position (its size already checked against its type).
+void check_window_value(std::FILE* f, const std::string& name, const std::string& type) {
+    unsigned char b[16];
+    if (type == "box2i" && name == "dataWindow" && std::fread(b, 1, 16, f) == 16) {
+        const std::int64_t width = little_endian_int(b + 8) - little_endian_int(b) + 1;
+        const std::int64_t height = little_endian_int(b + 12) - little_endian_int(b + 4) + 1;
+        if (width > kMaxExrSide || height > kMaxExrSide)
+            throw std::runtime_error(fmt::format("data window {}x{} is beyond the {} pixels a side lensfx reads", width, height, kMaxExrSide));
+    } else if (type == "tiledesc" && std::fread(b, 1, 8, f) == 8) {
+        const auto side = [](const unsigned char* p) { return static_cast<std::int64_t>(static_cast<std::uint32_t>(little_endian_int(p))); };
+        if (side(b) > kMaxExrTileSide || side(b + 4) > kMaxExrTileSide)
+            throw std::runtime_error(fmt::format("tiles of {}x{} are beyond the {} pixels a side lensfx reads", side(b), side(b + 4), kMaxExrTileSide));
+    }
+}
+
 // OpenEXR 3.1's C++ reader allocates every header attribute at the size the file declares before reading
 // it, and reads channel lists and fixed-size values by their own layout whatever the size declared, so an
 // 800-byte file could make it allocate and clear gigabytes for seconds (found by fuzz/fuzz_exr_reader.cpp).
 // Walks the headers first: each declared size must fit in the file and agree with the attribute's own
-// layout. Throws std::runtime_error naming the attribute; a layout cut short is left to OpenEXR to report.
+// layout, and the data window and tiles must be of a size lensfx reads (check_window_value). Throws
+// std::runtime_error naming the attribute; a layout cut short is left to OpenEXR to report.
 void check_attribute_sizes(const std::string& path) {
     File f(std::fopen(path.c_str(), "rb"), &std::fclose);
     unsigned char start[8];
@@ -178,8 +206,7 @@ void check_attribute_sizes(const std::string& path) {
             const std::optional<std::string> type = header_name(f.get());
             unsigned char b[4];
             if (!type || std::fread(b, 1, 4, f.get()) != 4) return;
-            const auto size = static_cast<std::int32_t>(static_cast<std::uint32_t>(b[0]) | static_cast<std::uint32_t>(b[1]) << 8 |
-                                                        static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24);
+            const auto size = static_cast<std::int32_t>(little_endian_int(b));
             const long value = std::ftell(f.get()), left = file_size - value;
             const std::int32_t fixed = fixed_attribute_size(*type);
             const bool fits = size >= 0 && size <= left && (fixed == 0 || size == fixed) &&
@@ -187,6 +214,8 @@ void check_attribute_sizes(const std::string& path) {
             if (!fits)
                 throw std::runtime_error(fmt::format("header attribute \"{}\" of type {} declares {} bytes, which do not fit the file ({} left) or the type",
                                                      *name, *type, size, left));
+            if (std::fseek(f.get(), value, SEEK_SET) != 0) return;
+            check_window_value(f.get(), *name, *type);
             if (std::fseek(f.get(), value + size, SEEK_SET) != 0) return;
         }
     }

@@ -820,7 +820,11 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 for (const Job& job : batch) {
                     const GhostPlan& plan = plans[job.ghost];
                     if (plan.reduce < kRimReduce) continue;
-                    if (!rims_bound) target.bind();
+                    if (!rims_bound) {
+                        full_target().bind();
+                        if (!drawn_into[0]) full_target().clear();
+                        drawn_into[0] = true;
+                    }
                     rims_bound = true;
                     ghost_uniforms(job, plan.reduce, 2);
                     glUseProgram(s.raster.get());

@@ -168,3 +168,30 @@ TEST(FuzzFindings, ExrFuzzerInputsAreRefusedByTheHeaderCheck) {
         }
     }
 }
+
+// fuzz_exr_reader (open until this fix): a header declaring a data window 2^30 pixels wide made OpenEXR
+// allocate its per-line tables and line buffers when the file was opened (seconds and gigabytes under the
+// sanitizers), before any check of ours. The header walk now refuses windows beyond 2^20 pixels a side.
+TEST(FuzzFindings, ExrDataWindowBeyondWhatLensfxReadsIsRefusedBeforeOpenExrOpensIt) {
+    const std::string path = ::testing::TempDir() + "fuzz_wide_window.exr";
+    const float rgb[3] = {1.0f, 2.0f, 3.0f};
+    filter::write_image(filter::image_frame(1, 1, 3, filter::PixelType::float32, rgb), path);
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    // dataWindow's value: name, type "box2i", size 16, then xmin, ymin, xmax, ymax; xmax becomes 2^30.
+    const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
+    const std::size_t at = bytes.find(key);
+    ASSERT_NE(at, std::string::npos);
+    bytes.replace(at + key.size() + 4 + 8, 4, std::string("\x00\x00\x00\x40", 4));
+    std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    try {
+        (void)filter::read_image(path);
+        FAIL() << "accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("data window 1073741825x1 is beyond"), std::string::npos) << e.what();
+    }
+    std::remove(path.c_str());
+}
