@@ -7,8 +7,8 @@
 
 #include <cstdio>
 #include <fstream>
-#include <iterator>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -136,11 +136,9 @@ TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedBeforeOpenExrAllocatesI
     const float rgb[3] = {1.0f, 2.0f, 3.0f};
     filter::write_image(filter::image_frame(1, 1, 3, filter::PixelType::float32, rgb), path);
     EXPECT_EQ(filter::read_image(path).spec.width, 1);  // the check passes a good file
-    std::string bytes;
-    {
-        std::ifstream in(path, std::ios::binary);
-        bytes.assign(std::istreambuf_iterator<char>(in), {});
-    }
+    std::ostringstream read;
+    read << std::ifstream(path, std::ios::binary).rdbuf();
+    std::string bytes = read.str();
     // The first attribute: name, type, then its 4-byte little-endian size.
     const std::size_t name_end = bytes.find('\0', 8), type_end = bytes.find('\0', name_end + 1);
     const std::string name = bytes.substr(8, name_end - 8), type = bytes.substr(name_end + 1, type_end - name_end - 1);
