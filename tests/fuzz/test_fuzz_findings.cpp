@@ -74,6 +74,17 @@ TEST(FuzzFindings, TrackFileVersionBeyondIntIsRefused) {
     EXPECT_NO_THROW((void)detect::parse_track_json(R"({"version": 1, "tracks": []})", "shot.json"));
 }
 
+// fuzz_track_file: a number beyond double ("11e310") made nlohmann::json throw out_of_range, which escaped
+// the parser's catch of parse_error (the program would have printed JSON's message without the file).
+TEST(FuzzFindings, TrackFileNumberBeyondDoubleIsRefusedNamingTheFile) {
+    try {
+        (void)detect::parse_track_json(R"({"tracks": [], "width": 11e310})", "shot.json");
+        FAIL() << "accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("shot.json: not valid JSON: ", 0), 0u) << e.what();
+    }
+}
+
 namespace {
 
 // The exit status of `body` run in a child process whose address space is limited to what it has now
