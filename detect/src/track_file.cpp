@@ -254,7 +254,7 @@ TrackFile parse_track_json(std::string_view text, const std::string& name) {
     json doc;
     try {
         doc = json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for a number beyond double (1e310)
         throw std::runtime_error(fmt::format("{}: not valid JSON: {}", name, e.what()));
     }
     if (!doc.is_object()) throw std::runtime_error(fmt::format("{}: expected a JSON object", name));
