@@ -485,7 +485,7 @@ private:
 };
 
 // Whether a Slurm controller answers here (sinfo reaches it).
-bool slurm_answers() { return run_command({"timeout", "20", "sinfo", "-h", "-o", "%a"}).status == 0; }
+bool slurm_answers() { return run_command({"timeout", "10", "sinfo", "-h", "-o", "%a"}).status == 0; }
 
 std::unique_ptr<Engine> make_engine(const FarmSettings& s) {
     std::string engine = s.engine;

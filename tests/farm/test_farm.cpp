@@ -57,7 +57,7 @@ std::string last_line(const std::string& text) {
     return nl == std::string::npos ? t : t.substr(nl + 1);
 }
 
-bool slurm_answers() { return std::system("timeout 20 sinfo -h -o %a >/dev/null 2>&1") == 0; }
+bool slurm_answers() { return std::system("timeout 5 sinfo -h -o %a >/dev/null 2>&1") == 0; }
 
 // The reference: `lensfx track`, then one `lensfx` process over the whole shot. Made once for all the
 // test processes of this build (ctest runs each test alone): kept in the build folder under a name of the
