@@ -20,6 +20,8 @@
 
 #include <gpu/context.h>
 
+#include <filter/output_files.h>
+
 #include "version_info.h"
 
 namespace lensfx::filter {
@@ -157,6 +159,15 @@ std::string empty_value_option(int argc, const char* const* argv) {
         if (a.size() > 3 && a.rfind("--", 0) == 0 && a.back() == '=' && a.find('=') == a.size() - 1) return std::string(a.substr(0, a.size() - 1));
     }
     return {};
+}
+
+void refuse_special_config(int argc, const char* const* argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a == "--") break;
+        if (a == "--config" && i + 1 < argc) require_regular_file(argv[i + 1], "--config");
+        if (a.rfind("--config=", 0) == 0) require_regular_file(std::string(a.substr(9)), "--config");
+    }
 }
 
 int wants_version(int argc, const char* const* argv) {

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
     }
     const std::unique_ptr<CLI::App> app = build_app();
     try {
+        refuse_special_config(argc, argv);
         std::vector<std::string> args = normalise_spelling(*app, argc, argv);
         std::reverse(args.begin(), args.end());  // CLI11 takes them last first
         app->parse(args);

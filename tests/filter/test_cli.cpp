@@ -103,6 +103,16 @@ TEST_F(Cli, EmptyValueDoesNotSwallowTheNextOption) {
     EXPECT_FALSE(fs::exists(p("out.exr")));
 }
 
+// A shot file must be a regular file: CLI11 would read /dev/zero for ever (issue 14, class 9).
+TEST_F(Cli, ConfigFromASpecialFileIsRefused) {
+    for (const std::string args : {"--config /dev/zero", "--config=/dev/zero"}) {
+        const Output r = lensfx(args + " -i " + p("in.exr") + " -o " + p("out.exr"));
+        EXPECT_EQ(r.exit_code, 1) << args;
+        EXPECT_EQ(r.err, "lensfx: --config /dev/zero: a device, not a regular file\n") << args;
+    }
+    EXPECT_FALSE(fs::exists(p("out.exr")));
+}
+
 TEST_F(Cli, ColourAndColorBothWork) {
     for (const std::string opt : {"--colorspace", "--colourspace"}) {
         const Output r = lensfx("-i " + p("in.exr") + " -o " + p("o.exr") + " " + opt + " ACEScg --exposure 1");
