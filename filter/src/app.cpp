@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
-#include <regex>
+#include <cctype>
 #include <set>
 #include <string>
 #include <string_view>
@@ -79,21 +79,53 @@ const CLI::App& active(const CLI::App& app) {
     return app;
 }
 
+// The number starting at `at` (an optional '-', digits, an optional fraction) and its length; 0 when none.
+std::size_t number_length(const std::string& text, std::size_t at, std::size_t& int_digits, std::size_t& frac_digits) {
+    std::size_t i = at + (text[at] == '-' ? 1 : 0);
+    const std::size_t int_start = i;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+    int_digits = i - int_start;
+    frac_digits = 0;
+    if (int_digits == 0) return 0;
+    if (i + 1 < text.size() && text[i] == '.' && std::isdigit(static_cast<unsigned char>(text[i + 1]))) {
+        const std::size_t frac_start = ++i;
+        while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+        frac_digits = i - frac_start;
+    }
+    return i - at;
+}
+
+// `text` with "not in range LO to HI" worded as a bound when the other end is the largest double.
+std::string bound_wording(std::string text) {
+    const std::string range = "not in range ", top = " to 1.79769e+308", bottom = "-1.79769e+308 to ";
+    for (std::size_t at = text.find(range); at != std::string::npos; at = text.find(range, at + 1)) {
+        const std::size_t value = at + range.size();
+        if (text.compare(value, bottom.size(), bottom) == 0) {
+            text.replace(at, range.size() + bottom.size(), "must be at most ");
+        } else if (const std::size_t end = text.find(top, value); end != std::string::npos && text.find(' ', value) == end) {
+            text = text.substr(0, at) + "must be at least " + text.substr(value, end - value) + text.substr(end + top.size());
+        }
+    }
+    return text;
+}
+
 // Numbers CLI11 prints at full length (a range up to the largest double has 309 digits) as %g.
 std::string readable_numbers(const std::string& text) {
-    static const std::regex long_number(R"(-?\d{10,}(\.\d+)?|-?\d+\.\d{6,})");
     std::string out;
-    auto begin = std::sregex_iterator(text.begin(), text.end(), long_number);
-    std::size_t at = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-        out += text.substr(at, static_cast<std::size_t>(it->position()) - at);
-        out += fmt::format("{:g}", std::stod(it->str()));
-        at = static_cast<std::size_t>(it->position() + it->length());
+    for (std::size_t i = 0; i < text.size();) {
+        const bool starts = (std::isdigit(static_cast<unsigned char>(text[i])) || text[i] == '-') &&
+                            (i == 0 || !(std::isalnum(static_cast<unsigned char>(text[i - 1])) || text[i - 1] == '.'));
+        std::size_t int_digits = 0, frac_digits = 0;
+        const std::size_t n = starts ? number_length(text, i, int_digits, frac_digits) : 0;
+        if (n == 0) {
+            out += text[i++];
+            continue;
+        }
+        const std::string number = text.substr(i, n);
+        out += int_digits >= 10 || frac_digits >= 6 ? fmt::format("{:g}", std::stod(number)) : number;
+        i += n;
     }
-    out += text.substr(at);
-    // A range up to the largest double is a lower bound.
-    out = std::regex_replace(out, std::regex(R"(not in range (\S+) to 1\.79769e\+308)"), "must be at least $1");
-    return std::regex_replace(out, std::regex(R"(not in range -1\.79769e\+308 to (\S+))"), "must be at most $1");
+    return bound_wording(out);
 }
 
 // Every long option name of the app and its subcommands, at any depth.

@@ -185,11 +185,9 @@ TEST(FuzzFindings, ExrDataWindowBeyondWhatLensfxReadsIsRefusedBeforeOpenExrOpens
     const std::string path = ::testing::TempDir() + "fuzz_wide_window.exr";
     const float rgb[3] = {1.0f, 2.0f, 3.0f};
     filter::write_image(filter::image_frame(1, 1, 3, filter::PixelType::float32, rgb), path);
-    std::string bytes;
-    {
-        std::ifstream in(path, std::ios::binary);
-        bytes.assign(std::istreambuf_iterator<char>(in), {});
-    }
+    std::ostringstream read;
+    read << std::ifstream(path, std::ios::binary).rdbuf();
+    std::string bytes = read.str();
     // dataWindow's value: name, type "box2i", size 16, then xmin, ymin, xmax, ymax; xmax becomes 2^30.
     const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
     const std::size_t at = bytes.find(key);
