@@ -174,9 +174,10 @@ TEST(FlareStage, ApertureImageIsGreyAndPaddedToASquare) {
 TEST(FlareStage, DirtOnThePupilScattersTheStarburst) {
     const fs::path dir = temp_dir("dirt");
     write_frame(dir / "in.exr", 160.0, 100.0, 20000.0f);
-    // Enlarged 30x so that the pattern spans many pixels of this small frame.
+    // A sensor 30x smaller than full frame (pixels of 3.75 um) so that the pattern, dirt and all, spans
+    // many pixels of this small frame (--starburst-scale lengthens the edges' spikes, not the pattern).
     const std::string common = " --lens brendel-tessar --fstop 8 --threshold 100 --flare-only --parts starburst"
-                               " --starburst-scale 30 -q";
+                               " --sensor 1.2 -q";
     ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "clean.exr").string() + common), 0);
     ASSERT_EQ(run("-i " + (dir / "in.exr").string() + " -o " + (dir / "scratched.exr").string() + common +
                   " --scratches 60 --scratch-angle 0 --scratch-spread 0"), 0);

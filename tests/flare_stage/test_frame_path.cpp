@@ -259,8 +259,12 @@ TEST(FramePath, ExtendedSourceSpreadsItsStarburstOverItsFootprint) {
     std::printf("own radius %.2f px, starburst energy disc/reference %.4f (disc/small %.4f), 8x8-block L1 %.4f, on the disc %g\n",
                 own_radius, b.sum(1) / ref_total, b.sum(1) / (s.sum(1) * scale), l1 / ref_total, on_disc);
     ASSERT_GT(ref_total, 0.0);
-    EXPECT_NEAR(b.sum(1) / ref_total, 1.0, 0.03);
-    EXPECT_LT(l1 / ref_total, 0.06) << "8x8-block relative L1 against the direct convolution";
+    // A point light's spikes are now the texture plus the iris edges' analytic tail, lengthened (not
+    // enlarged) by --starburst-scale, while an extended light's pattern is still the enlarged texture
+    // spread over its footprint: the small light's image is no longer the per-point pattern, so the
+    // disc is held to what it may not exceed (issue 16: the tail for extended lights is still to come).
+    EXPECT_GT(b.sum(1), 0.25 * ref_total) << "the disc's spikes beyond its radius";
+    EXPECT_LT(b.sum(1), 1.03 * ref_total) << "no more than the small light's pattern beyond the disc's radius";
     EXPECT_EQ(on_disc, 0.0) << "nothing added over the disc: it does not bloom";
 }
 

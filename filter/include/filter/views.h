@@ -43,6 +43,7 @@ public:
     bool wants_rgb() const override { return inner_->wants_rgb(); }
     void process(Frame& frame) override;
     std::vector<std::pair<std::string, double>> part_times() const override { return inner_->part_times(); }
+    std::vector<std::pair<std::string, double>> frame_figures() const override { return inner_->frame_figures(); }
 
 private:
     std::unique_ptr<Stage> inner_;
