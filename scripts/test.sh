@@ -11,7 +11,9 @@ bash scripts/slurm-local.sh start
 ctest --test-dir build --output-on-failure -j 2
 bash scripts/slurm-local.sh stop
 
-cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLENSFX_WERROR=ON -DLENSFX_SANITIZE=ON -DLENSFX_BUILD_BENCH=OFF
+# Warnings are errors in the Release build above; the instrumented builds (here and scripts/fuzz.sh) show
+# them without failing, since GCC 12 under -fsanitize warns inside the standard library (<regex>).
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLENSFX_WERROR=OFF -DLENSFX_SANITIZE=ON -DLENSFX_BUILD_BENCH=OFF
 cmake --build build-asan
 # The stress suites, the farm (dozens of whole runs of the program through Slurm or local processes) and
 # the README's ffmpeg pipelines (mostly ffmpeg's own encodes) run in the Release build only.
