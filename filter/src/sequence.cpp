@@ -210,9 +210,11 @@ void add_range(std::vector<FrameRange>& runs, std::int64_t first, std::int64_t l
 FrameList::FrameList(std::vector<FrameRange> ranges) : ranges_(std::move(ranges)) {
     std::uint64_t total = 0;
     for (const FrameRange& r : ranges_) {
-        if (r.step < 1 || r.last < r.first || (r.last - r.first) % r.step != 0) throw std::invalid_argument("malformed frame range");
+        // The span in 64-bit unsigned arithmetic: last - first overflows a signed one for the widest runs.
+        const std::uint64_t span = static_cast<std::uint64_t>(r.last) - static_cast<std::uint64_t>(r.first);
+        if (r.step < 1 || r.last < r.first || span % static_cast<std::uint64_t>(r.step) != 0) throw std::invalid_argument("malformed frame range");
         // count() - 1 cannot overflow (count() itself does for the whole 64-bit range).
-        const std::uint64_t after_first = (static_cast<std::uint64_t>(r.last) - static_cast<std::uint64_t>(r.first)) / static_cast<std::uint64_t>(r.step);
+        const std::uint64_t after_first = span / static_cast<std::uint64_t>(r.step);
         if (after_first >= kMaxFrames - total) throw std::invalid_argument("a frame list of more than 2^62 frames");
         total += r.count();
         ends_.push_back(total);
