@@ -160,14 +160,15 @@ TEST(DofReference, TiltedSensorBlursTheFocusPlaneAwayFromTheAxis) {
     const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
     Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, w, 20.0);
     cam.height = h, cam.centre_y = 0.5 * h;
-    // share of the energy near column `near` (within 20 px) lying beyond 2 px of its centroid
+    // share of the energy near column `near` (within 20 px, inside the frame) lying beyond 2 px of its centroid
     const auto spread = [&](const std::vector<float>& out, int near) {
+        const int x0 = std::max(0, near - 20), x1 = std::min(w - 1, near + 20);
         double all = 0, cx = 0, in = 0;
         for (int y = 0; y < h; ++y)
-            for (int x = near - 20; x <= near + 20; ++x) all += double{at(out, w, x, y, 1)}, cx += (x + 0.5) * double{at(out, w, x, y, 1)};
+            for (int x = x0; x <= x1; ++x) all += double{at(out, w, x, y, 1)}, cx += (x + 0.5) * double{at(out, w, x, y, 1)};
         cx /= all;
         for (int y = h / 2 - 2; y <= h / 2 + 2; ++y)
-            for (int x = near - 20; x <= near + 20; ++x)
+            for (int x = x0; x <= x1; ++x)
                 if (std::abs(x + 0.5 - cx) <= 2.5) in += double{at(out, w, x, y, 1)};
         return 1.0 - in / all;
     };
