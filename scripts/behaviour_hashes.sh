@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Prints "sha256  command" for a fixed set of lensfx runs, so a restructuring can show that it changed no
 # output: run it on the old binary and on the new one and diff the two lists. Every output file is hashed
-# whole (PNG, EXR, PFM, raw streams); EXR files carry no build or time metadata.
+# whole (PNG, EXR, PFM, raw streams; EXR files carry no build or time metadata), except a TIFF, which carries
+# the time it was written (DateTime): it is hashed as oiiotool describes it (pixels' SHA-1, other attributes).
 #   bash scripts/behaviour_hashes.sh [LENSFX] > hashes.txt     (LENSFX: default build/lensfx)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,13 +12,20 @@ trap 'rm -rf "$T"' EXIT
 export LENSFX_CACHE_DIR=none      # no cache hit or miss may change a result
 S=samples/pan
 
+# content FILE : what is hashed of an output file.
+content() {
+    case "$1" in
+        *.tif) oiiotool --info -v --hash "$1" | grep -v DateTime ;;
+        *) cat "$1" ;;
+    esac
+}
 # run CMD... : runs a command whose outputs land in $T/out*, prints each output's hash and the command.
 run() {
     rm -f "$T"/out*
     "$@" > "$T/stdout" 2> "$T/stderr" || { echo "FAILED ($?): $*" ; cat "$T/stderr"; return 0; }
     local f
     for f in "$T"/out*; do
-        [ -e "$f" ] && echo "$(sha256sum < "$f" | cut -c1-16)  $(basename "$f"): $*" | sed "s|$T/||g; s|$LENSFX|lensfx|g"
+        [ -e "$f" ] && echo "$(content "$f" | sha256sum | cut -c1-16)  $(basename "$f"): $*" | sed "s|$T/||g; s|$LENSFX|lensfx|g"
     done
 }
 # stream CMD... : hashes a command's stdout.
