@@ -13,6 +13,7 @@
 #include <detect/track_file.h>
 #include <detect/tracker.h>
 #include <filter/frame.h>
+#include <filter/frame_view.h>
 #include <filter/image_io.h>
 #include <filter/output_files.h>
 #include <filter/sequence.h>

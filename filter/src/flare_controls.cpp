@@ -8,6 +8,7 @@
 
 #include <fmt/core.h>
 
+#include <filter/frame_view.h>
 #include <filter/image_io.h>
 #include <filter/sequence.h>
 

@@ -1,5 +1,5 @@
 // Frame helpers: the RGB working buffer and per-channel conversions (see filter/frame.h).
-#include <filter/frame.h>
+#include <filter/frame_view.h>
 
 #include <algorithm>
 #include <cmath>

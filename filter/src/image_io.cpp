@@ -13,6 +13,7 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
+#include <filter/colour/quantise.h>
 #include <filter/output_files.h>
 
 #include "exr_io.h"

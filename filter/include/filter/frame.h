@@ -13,7 +13,6 @@
 #include <utility>
 #include <vector>
 
-#include <detect/image_view.h>
 #include <filter/image_spec.h>
 
 namespace lensfx::filter {
@@ -68,8 +67,6 @@ struct Frame {
 void find_rgb_channels(Frame& frame);
 // Byte offset of each channel inside one pixel of `pixels`.
 std::vector<std::size_t> channel_offsets(const ImageSpec& spec);
-// The RGB working buffer as the detector's input; positions come out in display-window pixels.
-detect::ImageView rgb_view(const Frame& frame);
 // Copies the R, G, B channels of `pixels` into `rgb` as float. Throws if the frame has no R, G, B.
 void load_rgb(Frame& frame);
 // Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types (making

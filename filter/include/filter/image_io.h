@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include <filter/colour.h>
+#include <filter/dither.h>
 #include <filter/frame.h>
 #include <filter/stream.h>
 #include <optics/memory_budget.h>

@@ -1,5 +1,5 @@
 // The GPU path of a colour transform: OCIO's GLSL (gpu_shader) in a compute shader over packed RGB.
-#include <filter/colour.h>
+#include <filter/colour/transform.h>
 
 #include <algorithm>
 #include <stdexcept>
