@@ -28,6 +28,7 @@
 #include <optics/system.h>
 
 #include "commands.h"
+#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {
@@ -333,11 +334,11 @@ void run_time_vs_error(const BenchArgs& args) {
     }
     std::vector<std::array<double, 2>> angles = {{8.0, 5.0}, {-3.0, 12.0}, {15.0, -6.0}};
     if (args.quick) angles.resize(2);
-    const auto at = args.size.find('x');
-    if (at == std::string::npos) throw std::invalid_argument(fmt::format("--size {}: WxH expected", args.size));
+    const auto size = parse_pair_of<int>(args.size, 'x');
+    if (!size) throw std::invalid_argument(fmt::format("--size {}: WxH expected", args.size));
     gpu::FlareView view;
-    view.width = std::stoi(args.size.substr(0, at));
-    view.height = std::stoi(args.size.substr(at + 1));
+    view.width = (*size)[0];
+    view.height = (*size)[1];
 
     const gpu::Context context(gpu::parse_platform(args.gpu));
     gpu::FlareRenderer renderer(context);

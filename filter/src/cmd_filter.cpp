@@ -1,6 +1,7 @@
 // `lensfx -i IN -o OUT [options]`: the frame filter's command line, turned into PipelineOptions.
 // Effect stages (detection, flare, colour) are built in make_stages() from their own options.
 #include "commands.h"
+#include "text_pairs.h"
 
 #include <algorithm>
 #include <cctype>
@@ -37,16 +38,11 @@ struct FilterArgs {
 };
 
 void parse_size(const std::string& text, int& width, int& height) {
-    const auto x = text.find('x');
-    try {
-        std::size_t used_w = 0, used_h = 0;
-        if (x == std::string::npos) throw std::invalid_argument(text);
-        width = std::stoi(text.substr(0, x), &used_w);
-        height = std::stoi(text.substr(x + 1), &used_h);
-        if (used_w != x || used_h != text.size() - x - 1 || width < 1 || height < 1) throw std::invalid_argument(text);
-    } catch (const std::exception&) {
+    const auto size = parse_pair_of<int>(text, 'x');
+    if (!size || (*size)[0] < 1 || (*size)[1] < 1)
         throw std::runtime_error(fmt::format("--size must be WIDTHxHEIGHT, not \"{}\"", text));
-    }
+    width = (*size)[0];
+    height = (*size)[1];
 }
 
 // The effects of one view, in order: colour-in (to the working space) first, colour-out (to the display

@@ -32,8 +32,10 @@
 #include <optics/starburst.h>
 #include <optics/system.h>
 
-#include "option_checks.h"
+#include <filter/option_checks.h>
 #include "commands.h"
+#include "stopwatch.h"
+#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {
@@ -73,20 +75,10 @@ struct FlareArgs {
 };
 
 std::pair<double, double> parse_pair(const std::string& text, char sep, const char* option) {
-    const auto at = text.find(sep);
-    try {
-        if (at == std::string::npos) throw std::invalid_argument("separator");
-        std::size_t used_a = 0;
-        std::size_t used_b = 0;
-        const double a = std::stod(text.substr(0, at), &used_a);
-        const double b = std::stod(text.substr(at + 1), &used_b);
-        if (used_a != at || used_b != text.size() - at - 1 || !std::isfinite(a) || !std::isfinite(b)) {
-            throw std::invalid_argument("trailing");
-        }
-        return {a, b};
-    } catch (const std::exception&) {
+    const auto ab = parse_pair_of<double>(text, sep);
+    if (!ab || !std::isfinite((*ab)[0]) || !std::isfinite((*ab)[1]))
         throw std::invalid_argument(fmt::format("{} {}: expected two numbers separated by '{}'", option, text, sep));
-    }
+    return {(*ab)[0], (*ab)[1]};
 }
 
 void write_exr(const gpu::FlareImage& image, const std::string& path) {
@@ -237,7 +229,7 @@ void run_flare(const FlareArgs& args) {
                                energy, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
                                view.width, view.height);
     }
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double ms = ms_since(start);
 
     if (args.list) {
         const auto total = image.total_power(view);

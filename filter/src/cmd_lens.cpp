@@ -20,6 +20,7 @@
 #include <filter/output_files.h>
 
 #include "commands.h"
+#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {
@@ -37,14 +38,8 @@ struct LensOptions {
 
 // "36x24" -> {36, 24} (mm).
 std::pair<double, double> parse_sensor(const std::string& text) {
-    const auto x = text.find('x');
-    try {
-        std::size_t used_w = 0, used_h = 0;
-        const double w = std::stod(text.substr(0, x), &used_w);
-        const double h = x == std::string::npos ? 0.0 : std::stod(text.substr(x + 1), &used_h);
-        if (x != std::string::npos && used_w == x && used_h == text.size() - x - 1 && w > 0 && h > 0) return {w, h};
-    } catch (const std::exception&) {
-    }
+    const auto wh = parse_pair_of<double>(text, 'x');
+    if (wh && (*wh)[0] > 0 && (*wh)[1] > 0) return {(*wh)[0], (*wh)[1]};
     throw std::invalid_argument(fmt::format("--sensor '{}': expected WxH in mm, e.g. 36x24", text));
 }
 

@@ -13,6 +13,9 @@
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
+#include "stopwatch.h"
+#include "text_pairs.h"
+
 namespace lensfx::filter {
 
 struct DofShared {
@@ -36,16 +39,8 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
 namespace {
 
 std::array<double, 2> parse_pair(const std::string& text, const char* what) {
-    const auto comma = text.find(',');
-    try {
-        std::size_t a = 0, b = 0;
-        if (comma == std::string::npos) throw std::invalid_argument(text);
-        const double x = std::stod(text.substr(0, comma), &a), y = std::stod(text.substr(comma + 1), &b);
-        if (a != comma || b != text.size() - comma - 1) throw std::invalid_argument(text);
-        return {x, y};
-    } catch (const std::exception&) {
-        throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
-    }
+    if (const auto xy = parse_pair_of<double>(text, ',')) return *xy;
+    throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
 }
 
 std::vector<std::string> split_commas(const std::string& text) {
@@ -62,10 +57,6 @@ int channel_index(const Frame& frame, const std::string& name) {
     const auto& names = frame.spec.channelnames;
     const auto it = std::find(names.begin(), names.end(), name);
     return it == names.end() ? -1 : static_cast<int>(it - names.begin());
-}
-
-double elapsed_ms(std::chrono::steady_clock::time_point since) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
 }
 
 }  // namespace
@@ -160,10 +151,10 @@ void DofStage::process(Frame& frame) {
         s.table = dof::make_ray_table(camera, std::max(64, 4 * s.settings.rays));
         s.camera = camera;
     }
-    s.rays_ms = elapsed_ms(t0);
+    s.rays_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
     const dof::LayerStack layers = s.layers_of(frame, *s.table);
-    s.layers_ms = elapsed_ms(t0);
+    s.layers_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
     s.gpu->get();
     if (!s.renderer) s.renderer = std::make_unique<dof::Renderer>();
@@ -171,7 +162,7 @@ void DofStage::process(Frame& frame) {
     trace.rays = s.settings.rays;
     trace.chromatic = s.settings.chromatic;
     std::vector<float> blurred = s.renderer->render(layers, *s.table, trace);
-    s.trace_ms = elapsed_ms(t0);
+    s.trace_ms = ms_since(t0);
     if (!s.flare_follows) {
         frame.rgb = std::move(blurred);
         return;

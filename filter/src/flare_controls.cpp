@@ -74,17 +74,6 @@ AddedLight parse_added_light(std::string_view text) {
     return light;
 }
 
-const CLI::Validator& finite_non_negative() {
-    static const CLI::Validator check(
-        [](std::string& text) -> std::string {
-            double v = 0.0;
-            if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v) || v < 0.0) return "must be a finite number >= 0, not " + text;
-            return {};
-        },
-        "FINITE>=0");
-    return check;
-}
-
 void add_part_gain_options(CLI::App& app, double& ghost_gain, double& starburst_gain, const std::string& group) {
     app.add_option("--ghost-gain", ghost_gain, "Scale of the ghosts (1 = physical; 0 leaves them out)")
         ->capture_default_str()->group(group)->check(finite_non_negative());

@@ -40,7 +40,7 @@
 #include <filter/float_range.h>
 #include <filter/output_files.h>
 
-#include "option_checks.h"
+#include <filter/option_checks.h>
 
 namespace lensfx::filter {
 

@@ -23,6 +23,7 @@
 
 #include "exr_io.h"
 #include "oiio_module.h"
+#include "stopwatch.h"
 
 namespace lensfx::filter {
 
@@ -38,8 +39,6 @@ std::size_t RunReport::written() const {
 std::size_t RunReport::skipped() const { return frames.size() - written(); }
 
 namespace {
-
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // The bytes of the frames between reader and writer, against the memory limit: the reader waits before
 // reading another frame while those held and the next would exceed it. A frame is always let through when

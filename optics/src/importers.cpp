@@ -94,17 +94,6 @@ Glass constant_glass(double n) {
     return g;
 }
 
-std::string read_text(const std::filesystem::path& path) {
-    require_regular_file(path);
-    std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
-    std::string text(static_cast<std::size_t>(in.tellg()), '\0');
-    in.seekg(0);
-    in.read(text.data(), static_cast<std::streamsize>(text.size()));
-    if (!in) throw LensFileError(fmt::format("{}: cannot read the lens file", path.string()));
-    return text;
-}
-
 }  // namespace
 
 Lens parse_pbrt_dat(std::string_view text, std::string_view origin) {

@@ -27,6 +27,18 @@ void require_regular_file(const std::filesystem::path& path) {
     if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
         throw LensFileError(fmt::format("{}: not a regular file (a directory, device or named pipe)", path.string()));
 }
+
+std::string read_text(const std::filesystem::path& path) {
+    require_regular_file(path);
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
+    std::string text(static_cast<std::size_t>(in.tellg()), '\0');
+    in.seekg(0);
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    if (!in) throw LensFileError(fmt::format("{}: cannot read the lens file", path.string()));
+    return text;
+}
+
 namespace {
 
 // The media a lens file may give, whatever its format: refractive index at 587.56 nm and Abbe number.
@@ -222,17 +234,6 @@ std::string coating_value(const Coating& c) {
         }
     }
     return "\"none\"";
-}
-
-std::string read_text(const std::filesystem::path& path) {
-    require_regular_file(path);
-    std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
-    std::string text(static_cast<std::size_t>(in.tellg()), '\0');
-    in.seekg(0);
-    in.read(text.data(), static_cast<std::streamsize>(text.size()));
-    if (!in) throw LensFileError(fmt::format("{}: cannot read the lens file", path.string()));
-    return text;
 }
 
 }  // namespace

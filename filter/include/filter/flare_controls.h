@@ -13,6 +13,7 @@
 
 #include <detect/image_view.h>
 #include <filter/frame.h>
+#include <filter/option_checks.h>
 
 namespace lensfx::filter {
 
@@ -35,9 +36,6 @@ struct FlareControls {
     std::string matte_channel;   // a channel of the input used as such a matte
     std::vector<std::string> add_lights;  // --add-light texts, parsed by DetectionInput
 };
-
-// A CLI11 check: a finite number >= 0 (CLI::NonNegativeNumber lets "inf" through).
-const CLI::Validator& finite_non_negative();
 
 // Adds --ghost-gain and --starburst-gain, worded the same for `lensfx` and `lensfx flare`.
 void add_part_gain_options(CLI::App& app, double& ghost_gain, double& starburst_gain, const std::string& group);

@@ -6,7 +6,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
-#include "../option_checks.h"
+#include <filter/option_checks.h>
 
 namespace lensfx::colour {
 

@@ -25,4 +25,16 @@ inline CLI::Validator finite_number() {
         "FINITE");
 }
 
+// A finite number >= 0 (CLI::NonNegativeNumber lets "inf" through).
+inline const CLI::Validator& finite_non_negative() {
+    static const CLI::Validator check(
+        [](std::string& text) -> std::string {
+            double v = 0.0;
+            if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v) || v < 0.0) return "must be a finite number >= 0, not " + text;
+            return {};
+        },
+        "FINITE>=0");
+    return check;
+}
+
 }  // namespace lensfx::filter
