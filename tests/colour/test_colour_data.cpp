@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "run_lensfx.h"
+
 #include <filter/image_io.h>
 
 #include <OpenImageIO/imageio.h>
@@ -38,7 +40,7 @@ Image read(const fs::path& file) {
 
 fs::path temp(const std::string& name) { return fs::temp_directory_path() / ("lensfx_colour_data_" + name); }
 
-int lensfx(const std::string& args) { return std::system((std::string(LENSFX_BINARY) + " " + args).c_str()); }
+int lensfx(const std::string& args) { return lensfx::test::run_lensfx_status(args); }
 
 TEST(ColourData, OwnChromaticitiesAreHonoured) {
     const fs::path tree = hdr / "ScanLines" / "Tree.exr";

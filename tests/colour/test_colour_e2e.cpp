@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "run_lensfx.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -74,7 +76,7 @@ protected:
         return {status, slurp(err)};
     }
 
-    static std::string lensfx() { return LENSFX_BINARY; }
+    static std::string lensfx() { return lensfx::test::lensfx_path(); }
 
     fs::path dir_;
 };

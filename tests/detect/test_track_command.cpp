@@ -15,6 +15,7 @@
 #include <detect/tracker.h>
 
 #include "exr_io.h"
+#include "run_lensfx.h"
 
 using namespace lensfx::detect;
 using namespace lensfx::detect::test;
@@ -29,8 +30,7 @@ void write_exr(const cv::Mat& rgb, const fs::path& path) {
 }
 
 int run(const std::string& args, const fs::path& log) {
-    const std::string cmd = std::string(LENSFX_BINARY) + " " + args + " > " + log.string() + " 2>&1";
-    return std::system(cmd.c_str());
+    return lensfx::test::run_lensfx_status(args + " > " + log.string() + " 2>&1");
 }
 
 std::string slurp(const fs::path& p) {

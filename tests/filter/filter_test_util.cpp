@@ -1,5 +1,6 @@
 // Helpers of the filter's end-to-end tests (see filter_test_util.h).
 #include "filter_test_util.h"
+#include "run_lensfx.h"
 
 #include <cstdio>
 #include <cstring>
@@ -34,7 +35,7 @@ RunResult run(const std::string& command) {
     return r;
 }
 
-std::string lensfx_cmd() { return fmt::format("\"{}\"", LENSFX_BINARY); }
+std::string lensfx_cmd() { return lensfx_path(); }
 
 fs::path scratch_dir(const std::string& name) {
     const fs::path dir = fs::temp_directory_path() / fmt::format("lensfx-test-{}-{}", name, ::getpid());

@@ -17,6 +17,8 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
+
+#include "run_lensfx.h"
 #include <nlohmann/json.hpp>
 
 #include <filter/flare_stage.h>
@@ -91,13 +93,8 @@ struct Result {
 // Runs lensfx with its caches in a scratch directory, never the user's.
 Result run(const std::string& args) {
     const std::string cache = (fs::temp_directory_path() / "lensfx_flare_controls_cache").string();
-    const std::string command = "LENSFX_CACHE_DIR=" + cache + " " + std::string(LENSFX_BINARY) + " " + args + " 2>&1";
-    Result r;
-    std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-    char chunk[512];
-    while (std::fgets(chunk, sizeof chunk, pipe.get())) r.output += chunk;
-    r.status = pclose(pipe.release());
-    return r;
+    const lensfx::test::ProgramRun p = lensfx::test::run_lensfx(args, cache);
+    return {p.status, p.output};
 }
 
 // Runs the filter on IN -> OUT in `dir` with the options; expects success.

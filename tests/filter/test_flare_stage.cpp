@@ -13,6 +13,8 @@
 #include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
 
+#include "run_lensfx.h"
+
 #include <filter/flare_stage.h>
 #include <filter/pupil_options.h>
 #include <optics/lens_file.h>
@@ -55,7 +57,7 @@ std::vector<float> read_rgb(const fs::path& path) {
 }
 
 int run(const std::string& args) {
-    return std::system((std::string(LENSFX_BINARY) + " " + args + " 2>&1").c_str());
+    return lensfx::test::run_lensfx_status(args + " 2>&1");
 }
 
 }  // namespace

@@ -16,6 +16,8 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
+
+#include "run_lensfx.h"
 #include <nlohmann/json.hpp>
 
 #include <filter/flare_stage.h>
@@ -94,7 +96,7 @@ Image read(const fs::path& path) {
 // Runs lensfx with its caches in a scratch directory, never the user's.
 int run(const std::string& args) {
     const std::string cache = (fs::temp_directory_path() / "lensfx_frame_path_e2e_cache").string();
-    return std::system(("LENSFX_CACHE_DIR=" + cache + " " + std::string(LENSFX_BINARY) + " " + args + " 2>&1").c_str());
+    return lensfx::test::run_lensfx_status(args + " 2>&1", cache);
 }
 
 const std::string kLensOnly = " --lens brendel-tessar --fstop 4 --grid 32 -q";
