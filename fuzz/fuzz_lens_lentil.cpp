@@ -2,16 +2,8 @@
 #include <optics/importers.h>
 #include <optics/lens_file.h>
 
-#include "fuzz_input.h"
 #include "lens_checks.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-    lensfx::optics::Lens lens;
-    try {
-        lens = lensfx::optics::parse_lentil_fx(lensfx::fuzz::as_text(data, size), "fuzz.fx");
-    } catch (const lensfx::optics::LensFileError&) {
-        return 0;
-    }
-    lensfx::fuzz::use_lens(lens);
-    return 0;
+    return lensfx::fuzz::fuzz_lens_parser(data, size, lensfx::optics::parse_lentil_fx, "fuzz.fx");
 }
