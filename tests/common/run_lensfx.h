@@ -10,13 +10,27 @@
 namespace lensfx::test {
 
 // The program, quoted for the shell.
-inline std::string lensfx_path() { return std::string("\"") + LENSFX_BINARY + "\""; }
+// (Built with += throughout: GCC 12 warns of a restrict overlap in some chains of std::string +.)
+inline std::string lensfx_path() {
+    std::string path = "\"";
+    path += LENSFX_BINARY;
+    path += '"';
+    return path;
+}
 
 // The shell command line that runs lensfx with `args` (shell syntax: quotes and redirections allowed), with
 // its caches in `cache_dir` ($LENSFX_CACHE_DIR) when one is given, never the user's.
 inline std::string lensfx_command(const std::string& args, const std::string& cache_dir = {}) {
-    const std::string env = cache_dir.empty() ? std::string() : "LENSFX_CACHE_DIR=\"" + cache_dir + "\" ";
-    return env + lensfx_path() + " " + args;
+    std::string line;
+    if (!cache_dir.empty()) {
+        line += "LENSFX_CACHE_DIR=\"";
+        line += cache_dir;
+        line += "\" ";
+    }
+    line += lensfx_path();
+    line += ' ';
+    line += args;
+    return line;
 }
 
 // Runs it; std::system's wait status (0 when the program exited 0).
@@ -32,7 +46,9 @@ struct ProgramRun {
 
 inline ProgramRun run_lensfx(const std::string& args, const std::string& cache_dir = {}) {
     ProgramRun r;
-    FILE* pipe = popen((lensfx_command(args, cache_dir) + " 2>&1").c_str(), "r");
+    std::string line = lensfx_command(args, cache_dir);
+    line += " 2>&1";
+    FILE* pipe = popen(line.c_str(), "r");
     if (!pipe) return r;
     std::array<char, 4096> buf{};
     while (std::fgets(buf.data(), static_cast<int>(buf.size()), pipe)) r.output += buf.data();
