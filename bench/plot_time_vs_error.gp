@@ -20,8 +20,9 @@ colour(s) = s eq "default" ? 0xdc1414 : (s eq "high" ? 0xf08c00 : (s[1:4] eq "gr
 do for [i = 1:n] {
     lens = word(lenses, i)
     set title lens
-    # the front: sorted by time (the CSV lists each lens's settings; `smooth unique` orders them along x)
-    plot means using (strcol(1) eq lens && $5 == 1 ? $3 : NaN):4 smooth unique with lines lc rgb "#009600" lw 2, \
+    # the front: its points alone, sorted by time (a NaN between them would break the line)
+    front = sprintf("< awk -F, '$1 == \"%s\" && $5 == 1' '%s' | sort -t, -k3 -g", lens, means)
+    plot front using 3:4 with lines lc rgb "#009600" lw 2, \
          means using (strcol(1) eq lens ? $3 : NaN):4:(colour(strcol(2))) with points pt 7 ps 1 lc rgb variable, \
          means using (strcol(1) eq lens ? $3 : NaN):4:2:(colour(strcol(2))) with labels offset 1, 0.5 left font ",7" tc rgb variable
 }
