@@ -24,13 +24,6 @@ using namespace lensfx;
 
 namespace {
 
-// A file's bytes, whole.
-std::string file_bytes(const std::string& path) {
-    std::ostringstream read;
-    read << std::ifstream(path, std::ios::binary).rdbuf();
-    return read.str();
-}
-
 // The message of the LensFileError `parse` throws ("" when it throws none).
 template <typename Parse>
 std::string lens_error(Parse parse) {
@@ -154,7 +147,9 @@ TEST(FuzzFindings, ExrAttributeLargerThanTheFileIsRefusedBeforeOpenExrAllocatesI
     const float rgb[3] = {1.0f, 2.0f, 3.0f};
     filter::write_image(filter::image_frame(1, 1, 3, filter::PixelType::float32, rgb), path);
     EXPECT_EQ(filter::read_image(path).spec.width, 1);  // the check passes a good file
-    std::string bytes = file_bytes(path);
+    std::ostringstream read;
+    read << std::ifstream(path, std::ios::binary).rdbuf();
+    std::string bytes = read.str();
     // The first attribute: name, type, then its 4-byte little-endian size.
     const std::size_t name_end = bytes.find('\0', 8), type_end = bytes.find('\0', name_end + 1);
     const std::string name = bytes.substr(8, name_end - 8), type = bytes.substr(name_end + 1, type_end - name_end - 1);
@@ -190,7 +185,9 @@ TEST(FuzzFindings, ExrDataWindowBeyondWhatLensfxReadsIsRefusedBeforeOpenExrOpens
     const std::string path = ::testing::TempDir() + "fuzz_wide_window.exr";
     const float rgb[3] = {1.0f, 2.0f, 3.0f};
     filter::write_image(filter::image_frame(1, 1, 3, filter::PixelType::float32, rgb), path);
-    std::string bytes = file_bytes(path);
+    std::ostringstream read;
+    read << std::ifstream(path, std::ios::binary).rdbuf();
+    std::string bytes = read.str();
     // dataWindow's value: name, type "box2i", size 16, then xmin, ymin, xmax, ymax; xmax becomes 2^30.
     const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
     const std::size_t at = bytes.find(key);
