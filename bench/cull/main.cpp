@@ -76,7 +76,7 @@ std::vector<int> aces_codes(const fs::path& exr) {
     command_seconds(fmt::format("{} -i '{}' -o '{}' -q", LENSFX_BINARY, exr.string(), png.string()));
     const std::vector<float> rgb = read_rgb(png);
     std::vector<int> codes(rgb.size());
-    std::transform(rgb.begin(), rgb.end(), codes.begin(), [](float v) { return static_cast<int>(std::lround(255.0 * v)); });
+    std::transform(rgb.begin(), rgb.end(), codes.begin(), [](float v) { return static_cast<int>(std::lround(255.0 * static_cast<double>(v))); });
     return codes;
 }
 
