@@ -2,8 +2,8 @@
 // gpu::VisibilityMap. The visible level at a plate value L (frame units, 1 = display white) is one code value
 // of the frame's 8-bit sRGB view at exposure 0: 1 / (255 x the sRGB curve's slope at L), L taken within
 // [0, 1] (the slope above white is that at white, so a grade or the ACES view, which does not clip there,
-// still sees what lands on bright parts). The ACES SDR view is flatter than that everywhere, so its error is
-// smaller. --visibility V: the ghosts left out together change no cell's 8-bit view by more than V codes
+// still sees what lands on bright parts). The ACES SDR view's error is measured (bench_cull), not bounded.
+// --visibility V: the ghosts left out together change no cell's 8-bit view by more than V codes
 // (to first order, before rounding). docs/acceleration.md has the measured error.
 #pragma once
 
