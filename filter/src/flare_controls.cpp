@@ -225,9 +225,13 @@ std::string describe(const LightSummary& s) {
     const std::string of_frames = fmt::format("{} frame{}", frames, frames == 1 ? "" : "s");
     std::vector<int> sorted = s.lights_per_frame;
     std::sort(sorted.begin(), sorted.end());
-    if (!sorted.empty() && sorted.back() > 0)
-        return fmt::format("lensfx: {}, lights per frame min {}, median {}, max {}", of_frames, sorted.front(),
-                           sorted[(sorted.size() - 1) / 2], sorted.back());
+    if (!sorted.empty() && sorted.back() > 0) {
+        const std::string culled = s.ghosts_culled > 0 ? fmt::format(", ghosts drawn {}, culled against the plate {}",
+                                                                     s.ghosts_drawn, s.ghosts_culled)
+                                                       : std::string();
+        return fmt::format("lensfx: {}, lights per frame min {}, median {}, max {}{}", of_frames, sorted.front(),
+                           sorted[(sorted.size() - 1) / 2], sorted.back(), culled);
+    }
     if (!s.tracks.empty()) return fmt::format("lensfx: no light in any of {} from track file {}", of_frames, s.tracks);
     const std::string threshold = s.threshold_text.find("ev") != std::string::npos
                                       ? fmt::format("{} ({:.4g} on that frame)", s.threshold_text, s.threshold_there)

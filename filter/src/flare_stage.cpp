@@ -39,6 +39,7 @@
 
 #include <filter/float_range.h>
 #include <filter/output_files.h>
+#include <filter/visibility.h>
 
 #include <filter/option_checks.h>
 
@@ -97,6 +98,10 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
         ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
     app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
+    app.add_option("--visibility", s.visibility,
+                   "Scene culling: leave out ghosts that together add at most V thousandths of the plate where they land")
+        ->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
+    app.add_flag("--no-scene-cull", s.no_scene_cull, "Draw every ghost, however faint against the plate")->group(group);
     app.add_option("--grid", s.grid, "Base ray grid cells per side of each ghost (the adaptive grid scales it)")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
     app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
     app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
@@ -460,6 +465,12 @@ void composite(Frame& frame, const std::vector<float>& flare_rgb, const FlareGeo
     if (layer) add_rgb_layer(frame, layer_name, layer_rgb);
 }
 
+// How far (pixels) a light's footprint scaled by m spreads a ghost beyond where the ghost lands: its whole
+// diagonal (the centroid may lie anywhere in it), and a reduced image's interpolation.
+double footprint_reach_px(const detect::Shape& shape, double m) {
+    return std::abs(m) * shape.cell * std::hypot(static_cast<double>(shape.width), static_cast<double>(shape.height)) + 4.0;
+}
+
 }  // namespace
 
 struct FlareStage::State {
@@ -642,7 +653,15 @@ void FlareStage::process(Frame& frame) {
     const FlareGeometry geo = s.geometry(frame);
     s.resolve_primaries();
     if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
+    // Scene culling needs the plate the flare is added to: not with --flare-only or --layer (composited later).
+    const bool scene_cull = parts.ghosts && !s.settings.no_scene_cull && !s.settings.flare_only && !layer;
+    s.render_options.visibility = scene_cull ? plate_visibility(frame, s.settings.visibility) : nullptr;
     const gpu::GpuFlareOptions& render_options = s.render_options;
+    int ghosts_drawn = 0, ghosts_culled = 0;
+    auto count_ghosts = [&] {
+        ghosts_drawn += s.renderer->last_stats().ghosts_drawn;
+        ghosts_culled += s.renderer->last_stats().ghosts_culled;
+    };
 
     // The flare over the display window, composited into the frame once every light is in; when the data
     // window is the display window (and R, G, B are the target), added into the frame's R, G, B directly.
@@ -665,6 +684,7 @@ void FlareStage::process(Frame& frame) {
     view.bands = s.settings.bands;
     view.xyz_to_rgb = *s.xyz_to_rgb;
     std::vector<gpu::ScaledLight> point_lights;  // their ghosts drawn together: one clear and read-back
+    std::vector<float> group_rgb;  // an extended light's group of ghosts, before its footprint
     for (const detect::Light& light : lights) {
         t = Clock::now();
         const auto [ax, ay] = geo.angles_at(light.x, light.y);
@@ -750,37 +770,53 @@ void FlareStage::process(Frame& frame) {
             point_lights.push_back({ax, ay, {static_cast<double>(scale[0]), static_cast<double>(scale[1]), static_cast<double>(scale[2])}});  // drawn with the frame's others
             continue;
         }
+        const gpu::ScaledLight scaled{ax, ay, {static_cast<double>(scale[0]), static_cast<double>(scale[1]), static_cast<double>(scale[2])}};
         for (const FootprintGroup& group : groups) {
             t = Clock::now();
-            view.only_ghosts = group.ghosts;
-            gpu::FlareImage flare =
-                s.settings.band_filter
-                    ? gpu::render_band_filtered(s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); })
-                    : s.renderer->render(s.system, view, render_options);
-            view.only_ghosts.clear();
+            if (s.settings.band_filter) {
+                view.only_ghosts = group.ghosts;
+                gpu::FlareImage flare = gpu::render_band_filtered(
+                    s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); });
+                view.only_ghosts.clear();
+                if (flare.width != geo.width || flare.height != geo.height)
+                    throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width,
+                                                         flare.height, geo.width, geo.height));
+                group_rgb = std::move(flare.rgb);
+                for (std::size_t i = 0; i < display_px; ++i)
+                    for (std::size_t c = 0; c < 3; ++c) group_rgb[i * 3 + c] = scaled_within_float(group_rgb[i * 3 + c], scale[c]);
+            } else {
+                // The group's ghosts out of the whole lens's (one bounds table and estimate for all groups),
+                // at the light's strength, so scene culling weighs them in the frame's units.
+                gpu::GpuFlareOptions group_options = render_options;
+                group_options.draw_only = group.ghosts;
+                group_options.spread_px = group.magnification != 0.0 ? footprint_reach_px(*light.shape, group.magnification) : 0.0;
+                group_rgb.assign(display_px * 3, 0.0f);
+                s.renderer->render_add(s.system, view, std::span(&scaled, 1), group_options, group_rgb);
+            }
+            count_ghosts();
             ghosts_ms += ms_since(t);
-            if (flare.width != geo.width || flare.height != geo.height)
-                throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width,
-                                                     flare.height, geo.width, geo.height));
             if (group.magnification != 0.0) {
                 t = Clock::now();
-                convolve_footprint(flare.rgb, flare.width, flare.height, *light.shape, group.magnification);
+                convolve_footprint(group_rgb, geo.width, geo.height, *light.shape, group.magnification);
                 extended_ms += ms_since(t);
             }
-            for (std::size_t i = 0; i < display_px; ++i)
-                for (std::size_t c = 0; c < 3; ++c)
-                    flare_rgb[i * 3 + c] = added_within_float(flare_rgb[i * 3 + c], scaled_within_float(flare.rgb[i * 3 + c], scale[c]));
+            for (std::size_t i = 0; i < display_px * 3; ++i) flare_rgb[i] = added_within_float(flare_rgb[i], group_rgb[i]);
         }
     }
     if (!point_lights.empty()) {
         t = Clock::now();
         s.renderer->render_add(s.system, view, point_lights, render_options, flare_rgb);
+        count_ghosts();
         ghosts_ms += ms_since(t);
     }
     // Above 4K the GL targets (over 300 MB) are not kept for the next frame: making them again costs
     // little against rendering at that size, and the frame is stored and written without them.
     constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
     if (s.renderer && display_px > kKeepTargetsPixels) s.renderer->release_targets();
+    s.figures.emplace_back("ghosts drawn", static_cast<double>(ghosts_drawn));
+    s.figures.emplace_back("ghosts culled", static_cast<double>(ghosts_culled));
+    s.summary.ghosts_drawn += ghosts_drawn;
+    s.summary.ghosts_culled += ghosts_culled;
     s.times.emplace_back("direct", direct_ms);
     s.times.emplace_back("starburst", starburst_ms);
     s.times.emplace_back("ghosts", ghosts_ms);

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -75,10 +76,20 @@ constexpr double kReducedMaxCv = 0.3;
 constexpr double kSharpHalfExtentPx = 1024.0;
 constexpr double kSharpQuarterExtentPx = 2048.0;
 
+// A faint ghost (scene culling: its peak alone under what the frame shows there) is drawn at the most
+// reduced level that keeps at least kFaintCells of its level's pixels across it, whatever its smoothness.
+constexpr double kFaintCells = 64.0;
+int faint_reduce(double extent_px) {
+    int reduce = 1;
+    while (reduce < 16 && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
+    return reduce;
+}
+
 }  // namespace
 
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
-                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power) {
+                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power,
+                                   const std::vector<SceneVerdict>& verdicts) {
     std::vector<GhostPlan> plans(estimates.size());
     double total = total_power;
     if (!(total > 0.0))
@@ -98,6 +109,8 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (accel.lod && (share < accel.ghost_threshold || (accel.max_ghosts > 0 && rank[g] >= accel.max_ghosts))) {
             continue;
         }
+        const SceneVerdict verdict = g < verdicts.size() ? verdicts[g] : SceneVerdict::Draw;
+        if (verdict == SceneVerdict::Cull) continue;
         plan.draw = true;
         int grid = base_grid;
         if (accel.adaptive) {
@@ -118,6 +131,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);
         }
+        if (verdict == SceneVerdict::Faint) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
         plan.grid = grid;
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) {
             const double extent_px = e.extent_mm / pixel_mm;
@@ -129,9 +143,79 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             } else {
                 plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
             }
+            if (verdict == SceneVerdict::Faint) plan.reduce = faint_reduce(extent_px);
         }
     }
     return plans;
+}
+
+namespace {
+
+// The cells of `map` under an item's box, clipped to the image; empty (c1 <= c0) when it lies off the image.
+struct CellRange {
+    int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
+    bool empty() const { return c1 <= c0 || r1 <= r0; }
+};
+CellRange cells_under(const CullItem& item, const VisibilityMap& map) {
+    auto clamp_to = [](double v, int hi) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi))); };
+    const double cell = map.cell;
+    return {clamp_to(std::floor(item.x0 / cell), map.cols), clamp_to(std::floor(item.y0 / cell), map.rows),
+            clamp_to(std::ceil(item.x1 / cell), map.cols), clamp_to(std::ceil(item.y1 / cell), map.rows)};
+}
+
+bool item_known(const CullItem& item) {
+    return item.x1 > item.x0 && item.y1 > item.y0 && item.peak > 0.0 && std::isfinite(item.peak) &&
+           std::isfinite(item.x0) && std::isfinite(item.x1) && std::isfinite(item.y0) && std::isfinite(item.y1);
+}
+
+}  // namespace
+
+std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map) {
+    std::vector<SceneVerdict> verdicts(items.size(), SceneVerdict::Draw);
+    if (map.cols <= 0 || map.rows <= 0 || map.visible.size() != static_cast<std::size_t>(map.cols) * static_cast<std::size_t>(map.rows))
+        return verdicts;
+    // Each known item's cells and its ratio to the least visible value under it: the order of culling.
+    std::vector<CellRange> ranges(items.size());
+    std::vector<double> ratio(items.size(), std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        if (!item_known(items[i])) continue;
+        ranges[i] = cells_under(items[i], map);
+        if (ranges[i].empty()) {
+            verdicts[i] = SceneVerdict::Cull;  // wholly off the image
+            continue;
+        }
+        float least = std::numeric_limits<float>::max();
+        for (int r = ranges[i].r0; r < ranges[i].r1; ++r)
+            for (int c = ranges[i].c0; c < ranges[i].c1; ++c)
+                least = std::min(least, map.visible[static_cast<std::size_t>(r) * static_cast<std::size_t>(map.cols) + static_cast<std::size_t>(c)]);
+        ratio[i] = least > 0.0f ? items[i].peak / static_cast<double>(least) : std::numeric_limits<double>::infinity();
+    }
+    std::vector<std::size_t> order(items.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return ratio[a] < ratio[b]; });
+    std::vector<double>& used = map.used;  // per cell: the culled items' sum of peak / visible
+    used.resize(map.visible.size(), 0.0);
+    for (std::size_t i : order) {
+        if (verdicts[i] == SceneVerdict::Cull || !std::isfinite(ratio[i])) continue;
+        const CellRange& range = ranges[i];
+        bool fits = ratio[i] <= map.budget;
+        for (int r = range.r0; r < range.r1 && fits; ++r)
+            for (int c = range.c0; c < range.c1 && fits; ++c) {
+                const std::size_t k = static_cast<std::size_t>(r) * static_cast<std::size_t>(map.cols) + static_cast<std::size_t>(c);
+                fits = used[k] + items[i].peak / static_cast<double>(map.visible[k]) <= map.budget;
+            }
+        if (!fits) {
+            if (ratio[i] < 1.0) verdicts[i] = SceneVerdict::Faint;
+            continue;
+        }
+        verdicts[i] = SceneVerdict::Cull;
+        for (int r = range.r0; r < range.r1; ++r)
+            for (int c = range.c0; c < range.c1; ++c) {
+                const std::size_t k = static_cast<std::size_t>(r) * static_cast<std::size_t>(map.cols) + static_cast<std::size_t>(c);
+                used[k] += items[i].peak / static_cast<double>(map.visible[k]);
+            }
+    }
+    return verdicts;
 }
 
 namespace {
@@ -229,8 +313,8 @@ void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estim
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '2'};
-constexpr int kFieldsPerGhost = 10;
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '3'};
+constexpr int kFieldsPerGhost = 15;
 
 }  // namespace
 
@@ -261,7 +345,7 @@ int BoundsTable::load() {
         const double* v = values.data();
         for (auto& pass : entry) {
             for (GhostEstimate& g : pass) {
-                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9]};
+                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], {v[10], v[11], v[12], v[13]}, v[14]};
                 v += kFieldsPerGhost;
             }
         }
@@ -291,7 +375,8 @@ void BoundsTable::save() const {
             for (const auto& pass : entry) {
                 for (const GhostEstimate& g : pass) {
                     const double v[kFieldsPerGhost] = {g.rect.x0, g.rect.y0, g.rect.x1, g.rect.y1, g.power, g.area_cv,
-                                                       g.extent_mm, g.fill, g.failed_edge, g.iris_edge};
+                                                       g.extent_mm, g.fill, g.failed_edge, g.iris_edge,
+                                                       g.sensor.x0, g.sensor.y0, g.sensor.x1, g.sensor.y1, g.peak};
                     out.write(reinterpret_cast<const char*>(v), sizeof v);
                 }
             }
@@ -327,6 +412,12 @@ std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) 
         r.fill = std::min(p.fill, q.fill);
         r.failed_edge = std::max(p.failed_edge, q.failed_edge);
         r.iris_edge = std::max(p.iris_edge, q.iris_edge);
+        // Between the two angles the ghost moves from one box to the other; unknown at either: unknown.
+        const bool known = !p.sensor.empty() && !q.sensor.empty() && p.peak > 0.0 && q.peak > 0.0;
+        r.sensor = known ? PupilRect{std::min(p.sensor.x0, q.sensor.x0), std::min(p.sensor.y0, q.sensor.y0),
+                                     std::max(p.sensor.x1, q.sensor.x1), std::max(p.sensor.y1, q.sensor.y1)}
+                         : PupilRect{};
+        r.peak = known ? std::max(p.peak, q.peak) : 0.0;
     }
     return out;
 }

@@ -6,6 +6,7 @@
 #include <bit>
 #include <map>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -273,6 +274,7 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy), std::min(square.x1, box.x1 + dx),
                 std::min(square.y1, box.y1 + dy)};
     out.extent_mm = std::max(sensor.x1 - sensor.x0, sensor.y1 - sensor.y0);
+    out.sensor = sensor;
     // Fill: the passing share of the coarse vertices within the rectangle (the passing box grown by a cell).
     ix0 = std::max(0, ix0 - 1);
     iy0 = std::max(0, iy0 - 1);
@@ -317,6 +319,13 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
                 twice += static_cast<double>(p[0]) * static_cast<double>(q[1]) - static_cast<double>(q[0]) * static_cast<double>(p[1]);
             }
             const double area = 0.5 * std::abs(twice);
+            if (area > 0.0) {
+                double transmission = 0.0;
+                for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(vertices[c * 12 + 3]);
+                out.peak = std::max(out.peak, transmission * dx * dy * cos_angle / area);
+            } else {
+                out.peak = std::numeric_limits<double>::infinity();  // a cell folded flat: a caustic, never culled
+            }
             sum += area;
             sum2 += area * area;
             ++cells;
@@ -430,6 +439,39 @@ void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int 
     }
 }
 
+// One ghost of one light and pass for scene culling: its sensor box turned to the light's azimuth and moved by
+// its style's offset, as pixels of the upright image (ghost_vertex's clip_position, rows from the top), grown by
+// the splats' and the reduced levels' spread and the caller's; its peak times the largest factor any channel
+// adds it with.
+CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
+                   const std::array<double, 3>& pass_weight, const GhostStyle* style, const FlareView& view,
+                   double spread_px) {
+    if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !(e.peak > 0.0)) return {};
+    const double c = std::cos(rotation), sn = std::sin(rotation);
+    const std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
+    const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
+    CullItem item{1e300, 1e300, -1e300, -1e300, 0.0};
+    for (const double sx : {e.sensor.x0, e.sensor.x1})
+        for (const double sy : {e.sensor.y0, e.sensor.y1}) {
+            const double up_x = offset[0] - (c * sx - sn * sy);
+            const double up_y = offset[1] - (sn * sx + c * sy);
+            const double px = (up_x + 0.5 * view.sensor_width_mm) / pixel_w;
+            const double py = (0.5 * view.sensor_height_mm - up_y) / pixel_h;
+            item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), 0.0};
+        }
+    constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
+    const double spread = kSpreadPx + spread_px;
+    item.x0 -= spread;
+    item.y0 -= spread;
+    item.x1 += spread;
+    item.y1 += spread;
+    double factor = 0.0;
+    for (std::size_t k = 0; k < 3; ++k)
+        factor = std::max(factor, std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0)));
+    item.peak = e.peak * factor;
+    return item;
+}
+
 }  // namespace
 
 void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
@@ -445,6 +487,13 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     std::vector<Ghost> ghosts = selected_ghosts(system, view);
     if (accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
+    std::vector<char> drawn_ghost(ghosts.size(), 1);  // options.draw_only as a mask over `ghosts`
+    if (!options.draw_only.empty())
+        for (std::size_t g = 0; g < ghosts.size(); ++g)
+            drawn_ghost[g] = std::find(options.draw_only.begin(), options.draw_only.end(),
+                                       std::pair<int, int>{ghosts[g].first, ghosts[g].second}) != options.draw_only.end() ||
+                             std::find(options.draw_only.begin(), options.draw_only.end(),
+                                       std::pair<int, int>{ghosts[g].second, ghosts[g].first}) != options.draw_only.end();
     // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it is 1 GB,
     // and a frame whose ghosts are all drawn reduced never needs it.
     auto full_target = [&]() -> FloatTarget& { return s.target(1, view.width, view.height); };
@@ -665,12 +714,33 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             }
             double weight = 0.0;
             for (std::size_t c = 0; c < 3; ++c) weight += std::abs(passes[p].weight[c] * light.scale[c]);
-            for (GhostEstimate& e : estimates) {
-                e.power *= weight;
-                pass_total[p] += e.power;
+            for (std::size_t g = 0; g < estimates.size(); ++g) {
+                estimates[g].power *= weight;
+                if (drawn_ghost[g]) pass_total[p] += estimates[g].power;
             }
             light_estimates[l].pass.push_back(std::move(estimates));
         }
+    }
+
+    // Scene culling: every light's ghosts against what the frame shows where they land, all at once (the
+    // culled ghosts of all lights and passes share one budget per cell of the image).
+    std::vector<std::vector<std::vector<SceneVerdict>>> verdicts(lights.size());  // per light, pass, ghost
+    if (options.visibility && !options.per_ghost_power && !ghosts.empty()) {
+        std::vector<CullItem> items;
+        for (std::size_t l = 0; l < lights.size(); ++l)
+            for (std::size_t p = 0; p < passes.size(); ++p)
+                for (std::size_t g = 0; g < ghosts.size(); ++g)
+                    items.push_back(drawn_ghost[g] ? cull_item(light_estimates[l].pass[p][g], light_estimates[l].rotation,
+                                                               lights[l].scale, passes[p].weight, style[g], view,
+                                                               options.spread_px)
+                                                   : CullItem{});
+        const std::vector<SceneVerdict> all = scene_cull(items, *options.visibility);
+        auto next = all.begin();
+        for (std::size_t l = 0; l < lights.size(); ++l)
+            for (std::size_t p = 0; p < passes.size(); ++p) {
+                verdicts[l].emplace_back(next, next + static_cast<std::ptrdiff_t>(ghosts.size()));
+                next += static_cast<std::ptrdiff_t>(ghosts.size());
+            }
     }
 
     for (std::size_t l = 0; l < lights.size(); ++l) {
@@ -695,7 +765,8 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             const std::vector<GhostEstimate>& estimates = light_estimates[l].pass[p];
             const double rotation = light_estimates[l].rotation;
             const std::vector<GhostPlan> plans =
-                plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power, pass_total[p]);
+                plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power, pass_total[p],
+                            verdicts[l].empty() ? std::vector<SceneVerdict>{} : verdicts[l][p]);
 
             // The ghosts to draw, traced in batches into one vertex buffer and then drawn grouped by target:
             // a barrier or a change of target makes a software rasteriser finish everything it has queued,
@@ -706,11 +777,15 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
             std::vector<std::size_t> todo;
             for (std::size_t g = 0; g < ghosts.size(); ++g) {
+                if (!drawn_ghost[g]) continue;
                 if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
+                const SceneVerdict verdict = verdicts[l].empty() ? SceneVerdict::Draw : verdicts[l][p][g];
                 if (!plans[g].draw) {
                     ++s.stats.ghosts_skipped;
+                    s.stats.ghosts_culled += verdict == SceneVerdict::Cull && !estimates[g].rect.empty();
                     continue;
                 }
+                s.stats.ghosts_faint += verdict == SceneVerdict::Faint;
                 todo.push_back(g);
             }
             struct Job {

@@ -88,6 +88,8 @@ struct LightSummary {
     double threshold_there = 0.0;        // the resolved threshold on the frame holding that luminance
     std::string threshold_text;          // as given: "20", "+6ev"
     std::string tracks;                  // the track file, when lights came from one
+    long long ghosts_drawn = 0;          // ghost draws (per light and wavelength) over the run
+    long long ghosts_culled = 0;         // left out by scene culling (--visibility) over the run
 };
 
 // The one stderr line for the end of a run: "lensfx: 24 frames, lights per frame min 1, median 2, max 2",

@@ -56,13 +56,15 @@ struct FlareSettings {
     double min_light = 1e-3;          // lights dimmer than this fraction of the brightest are skipped
     std::string layer;                // write the flare as channels LAYER.R/G/B instead of adding it
     AccelerationSettings accel;       // the ghost renderer's switches (all on by default)
+    double visibility = 1.0;          // scene culling: the culled ghosts add at most this many visible levels
+    bool no_scene_cull = false;       // draw every ghost the level of detail keeps, however dim against the plate
     FlareControls controls;           // --ghost-gain, --extended-gain, --matte, --matte-channel, --add-light
     MemoryBudget memory;              // --memory-limit: the lens tables and each frame's flare are sized against it
 };
 
 // Adds --lens, --zoom, --fstop, --blades, --coating, --coating-spread, --threshold, --max-lights, --sensor, --fov, --gain,
 // --source-gain, --flare-only, --tracks, --gpu, --grid, --parts, --starburst-gain, --starburst-scale, --bands,
-// --band-filter, --ringing, --flare-look, --min-light, --layer, the pupil's dirt (add_pupil_options), the
+// --band-filter, --ringing, --flare-look, --min-light, --layer, --visibility, --no-scene-cull, the pupil's dirt (add_pupil_options), the
 // renderer's accelerations (add_acceleration_options) and the compositor's controls (flare_controls.h).
 void add_flare_options(CLI::App& app, FlareSettings& settings);
 

@@ -71,6 +71,12 @@ struct GhostEstimate {
     // on interpolated stop coordinates).
     double failed_edge = 0.0;
     double iris_edge = 0.0;
+    // Where it lands and how bright it gets, for culling against the frame (scene_cull): the bounding box of
+    // its passing rays on the sensor (mm, sensor coordinates at the estimate's light azimuth; empty: not
+    // known) and the largest irradiance of a coarse cell whose corners all pass (per unit irradiance of the
+    // light; 0: not known). Scene culling keeps any ghost either is unknown of.
+    PupilRect sensor{0.0, 0.0, 0.0, 0.0};
+    double peak = 0.0;
 };
 
 // Per-ghost drawing decisions from the estimates of one pass.
@@ -79,11 +85,46 @@ struct GhostPlan {
     int grid = 0;    // cells per side
     int reduce = 1;  // 1 full resolution, 2, 4, 8 or 16: drawn at 1/reduce of the image size and upsampled
 };
+// What scene culling decided of one ghost (scene_cull): drawn as the level of detail plans it, left out, or
+// drawn at the coarsest detail (kMinGrid cells, the most reduced level its size allows) because its peak
+// alone is under what the frame can show where it lands.
+enum class SceneVerdict : unsigned char { Draw, Cull, Faint };
 // base_grid: the --grid option. pixel_mm: the sensor width of one pixel. per_ghost_power disables the
 // reduced drawing (the per-ghost read-back happens on the full-size target). total_power: what the level
 // of detail takes each ghost's share of (all lights' ghosts in this pass); 0: the estimates' sum.
+// verdicts: scene culling's per ghost (empty: every ghost Draw).
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
-                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0);
+                                   int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0,
+                                   const std::vector<SceneVerdict>& verdicts = {});
+
+// What a frame can show of a flare added to it, cell by cell (scene culling, issue 17): in each cell of
+// `cell` x `cell` pixels, the smallest addition (in the frame's units) that counts as visible there. Built by
+// the flare stage from the plate (filter/visibility.h); null in GpuFlareOptions: no scene culling.
+struct VisibilityMap {
+    int width = 0;   // the frame (display window), pixels
+    int height = 0;
+    int cell = 32;   // pixels per cell side
+    int cols = 0;    // cells across and down
+    int rows = 0;
+    std::vector<float> visible;  // per cell, row 0 at the top: the least visible addition there (> 0)
+    double budget = 1.0;         // --visibility V: the culled ghosts together add at most V x visible in any cell
+    std::vector<double> used;    // per cell: what culled ghosts have spent of the budget (scene_cull fills it),
+                                 // shared by every render of the frame
+};
+
+// One ghost of one light and pass as scene culling sees it: its box on the image (pixels, upright, row 0 at
+// the top; x1 <= x0: not known) and the largest value it adds to any channel there (frame units).
+struct CullItem {
+    double x0 = 0.0, y0 = 0.0, x1 = 0.0, y1 = 0.0;
+    double peak = 0.0;
+};
+// Which items to leave out: the faintest first (by peak over the least visible value under their box), as
+// long as every cell's sum of culled peak / visible stays within the budget, so all the culled ghosts
+// together change no cell by more than budget x visible. Items wholly off the image cost nothing; items
+// whose box or peak is not known (x1 <= x0, peak <= 0 or not finite) are drawn. Items not culled whose peak
+// alone is under the least visible value under their box are Faint. What the culled items spend is added to
+// map.used, so several calls (an extended light's groups, then the point lights) share one budget.
+std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map);
 
 // A stable 64-bit hash (FNV-1a) of everything about a system that changes its ghosts' bounds: every
 // interface (shape, position, media, coatings), the stop, the sensor and the iris.
@@ -134,6 +175,8 @@ struct RenderStats {
     int ghosts_drawn = 0;       // summed over passes
     int ghosts_skipped = 0;     // by the level of detail or an empty rectangle
     int ghosts_reduced = 0;     // drawn at reduced resolution
+    int ghosts_culled = 0;      // by scene culling (also counted in ghosts_skipped)
+    int ghosts_faint = 0;       // drawn at the coarsest detail by scene culling
     long long rays = 0;         // grid vertices traced for drawing
     int table_computed = 0;     // bounds-table entries computed by this render
     int table_loaded = 0;       // entries read from disk by this render

@@ -29,6 +29,14 @@ struct GpuFlareOptions {
     bool ringing = false;
     std::vector<GhostStyle> styles;  // ghosts not listed keep their physical look
     MemoryBudget memory;             // the per-lens tables are sized against it (check_ghost_tables)
+    // Scene culling (issue 17): what the frame shows where the ghosts land; null: every ghost the level of
+    // detail keeps is drawn. Ignored with per_ghost_power.
+    std::shared_ptr<VisibilityMap> visibility;  // its per-cell budget is spent by every render that uses it
+    double spread_px = 0.0;  // how far the caller spreads each ghost beyond where it lands (a footprint), for culling
+    // Draw only these ghosts ((Ghost::first, Ghost::second); empty: all). Unlike FlareView::only_ghosts the
+    // renderer keeps the whole lens's ghost list, so the groups of an extended light share one bounds table,
+    // one set of sequences and one coarse estimate per light.
+    std::vector<std::pair<int, int>> draw_only;
 };
 
 // Bytes of the per-lens tables the renderer builds for `system` at `passes` wavelengths: the ghost list,
