@@ -17,6 +17,8 @@
 
 #include <fmt/core.h>
 
+#include <filter/colour.h>
+
 namespace lensfx::filter {
 
 PixelBuffer::PixelBuffer(const PixelBuffer& other) : PixelBuffer(other.size_) {
@@ -30,6 +32,29 @@ PixelBuffer& PixelBuffer::operator=(const PixelBuffer& other) {
     }
     return *this;
 }
+
+namespace {
+
+// The Y row of the image's RGB -> XYZ: from its chromaticities, else Rec. 709 (OpenEXR's default).
+std::array<double, 3> luminance_weights_of(const ImageSpec& spec) {
+    if (!spec.chromaticities) return {0.2126, 0.7152, 0.0722};
+    std::array<double, 8> c{};
+    std::copy(spec.chromaticities->begin(), spec.chromaticities->end(), c.begin());
+    const colour::Mat3 m = colour::rgb_to_xyz(colour::Chromaticities{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]});
+    return {m[3], m[4], m[5]};
+}
+
+// A luminance-only image (Y; Y and A) stands in Y for R, G, B. Luminance/chroma (Y with RY, BY) does not:
+// its colour is in the chroma channels, which the flare would not change.
+void find_luminance_channel(Frame& frame) {
+    const ImageSpec& spec = frame.spec;
+    const int y = spec.channel_index("Y");
+    if (y < 0 || spec.channel_index("RY") >= 0 || spec.channel_index("BY") >= 0) return;
+    frame.rgb_channels = {y, y, y};
+    frame.luminance_weights = luminance_weights_of(spec);
+}
+
+}  // namespace
 
 void find_rgb_channels(Frame& frame) {
     const auto& names = frame.spec.channelnames;
@@ -49,6 +74,7 @@ void find_rgb_channels(Frame& frame) {
         }
     }
     frame.rgb_channels = {-1, -1, -1};
+    find_luminance_channel(frame);
 }
 
 std::vector<std::size_t> channel_offsets(const ImageSpec& spec) {
@@ -237,6 +263,22 @@ void channels_from_floats(Frame& frame, std::span<const int> channels, const flo
     }
 }
 
+// A luminance-only frame's `rgb` written back to its Y as luminance, a block of pixels at a time (in
+// double: R = G = B = Y comes back as Y exactly).
+void store_luminance(Frame& frame) {
+    const std::size_t n = frame.pixel_count();
+    const auto& w = frame.luminance_weights;
+    std::vector<float> y(std::min(kBlockPixels, n));
+    for (std::size_t first = 0; first < n; first += kBlockPixels) {
+        const std::size_t count = std::min(kBlockPixels, n - first);
+        const float* rgb = frame.rgb.data() + first * 3;
+        for (std::size_t i = 0; i < count; ++i)
+            y[i] = static_cast<float>(w[0] * static_cast<double>(rgb[i * 3]) + w[1] * static_cast<double>(rgb[i * 3 + 1]) +
+                                      w[2] * static_cast<double>(rgb[i * 3 + 2]));
+        channel_from_float(frame, frame.rgb_channels[0], first, count, y.data(), 1);
+    }
+}
+
 }  // namespace
 
 detect::ImageView rgb_view(const Frame& frame) {
@@ -262,11 +304,13 @@ void store_rgb(Frame& frame) {
                                              frame.rgb.size(), frame.pixel_count() * 3));
     }
     if (frame.pixels.size() != frame.spec.image_bytes()) frame.pixels = PixelBuffer(frame.spec.image_bytes());
+    if (frame.luminance_only()) return store_luminance(frame);
     channels_from_floats(frame, frame.rgb_channels, frame.rgb.data());
 }
 
 bool release_rgb_pixels(Frame& frame) {
-    if (frame.spec.nchannels() != 3 || !frame.has_rgb() || frame.rgb.size() != frame.pixel_count() * 3) return false;
+    if (frame.spec.nchannels() != 3 || !frame.has_rgb() || frame.luminance_only() || frame.rgb.size() != frame.pixel_count() * 3)
+        return false;
     frame.pixels = PixelBuffer();
     return true;
 }
