@@ -30,12 +30,17 @@ public:
     PixelBuffer& operator=(PixelBuffer&&) noexcept = default;
     ~PixelBuffer() = default;
 
-    std::byte* data() { return data_.get(); }
-    const std::byte* data() const { return data_.get(); }
+    // A buffer of `size` bytes in the storage of `floats` (at least size / 4 of them): store_rgb() writes a
+    // released frame's pixels into its float working buffer's own memory instead of allocating beside it.
+    static PixelBuffer adopt(std::vector<float>&& floats, std::size_t size);
+
+    std::byte* data() { return adopted_.empty() ? data_.get() : reinterpret_cast<std::byte*>(adopted_.data()); }
+    const std::byte* data() const { return adopted_.empty() ? data_.get() : reinterpret_cast<const std::byte*>(adopted_.data()); }
     std::size_t size() const { return size_; }
 
 private:
     std::unique_ptr<std::byte[]> data_;
+    std::vector<float> adopted_;
     std::size_t size_ = 0;
 };
 
@@ -83,6 +88,9 @@ void load_rgb(Frame& frame);
 // Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types (making
 // `pixels` again when release_rgb_pixels() released them).
 void store_rgb(Frame& frame);
+// store_rgb(), then `rgb` emptied; a frame whose pixels were released is stored into the memory of `rgb`
+// itself (PixelBuffer::adopt), so the frame is not held twice while it is stored.
+void store_rgb_and_drop(Frame& frame);
 // When R, G, B are all of the frame's channels and `rgb` is loaded, releases `pixels` (they hold nothing
 // `rgb` does not) until store_rgb(): a half RGB frame is then held once while the stages run, not twice.
 // Returns whether it did. grow_data_window() and add_rgb_layer() work on a frame in this state.
