@@ -985,12 +985,16 @@ double ghost_table_bytes(const System& system, std::size_t passes) {
 
 void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget) {
     if (!budget.limited()) return;
-    // What nothing can shrink: the list of ghosts (ghosts_within_budget draws fewer of them when the rest
-    // does not fit), and the brightest ghost's own data.
+    // What nothing can shrink, against the half of the budget the ghost data may take: the list of ghosts
+    // (ghosts_within_budget draws fewer of them when the rest does not fit) and the brightest ghost's data.
+    // Checked before the list is made: for 1000 surfaces it alone is some 10 GB.
     const double longest = 2.0 * static_cast<double>(system.interfaces.size());
-    budget.check(ghost_list_bytes(system) + longest * drawn_step_bytes(passes) + factor_table_bytes(system, passes),
-                 fmt::format("lens {}: even the list of the {} ghosts of its {} surfaces", system.name, optics::ghost_count(system),
-                             system.interfaces.size()));
+    const double bytes = ghost_list_bytes(system) + longest * drawn_step_bytes(passes) + factor_table_bytes(system, passes);
+    if (bytes > static_cast<double>(budget.limit) / 2.0)
+        throw MemoryLimitError(fmt::format("lens {}: even the list of the {} ghosts of its {} surfaces needs {}, over half the memory "
+                                           "limit of {} (the other half is for frames and flare images; --memory-limit)",
+                                           system.name, optics::ghost_count(system), system.interfaces.size(), format_bytes(bytes),
+                                           format_bytes(static_cast<double>(budget.limit))));
 }
 
 GhostFit ghosts_within_budget(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget) {
