@@ -392,7 +392,19 @@ Detection Detector::detect(const ImageView& image) {
         }
         result.sources.push_back(std::move(s));
     }
+    release_large_buffers();
     return result;
+}
+
+void Detector::release_large_buffers() {
+    // Kept between frames to save the allocation, except above 4K: at 8K the luminance alone is 0.27 GB,
+    // held while the flare is drawn (issue 14's memory target).
+    constexpr std::size_t kKeepPixels = std::size_t{4096} * 4096;
+    if (luminance_.total() > kKeepPixels) luminance_.release();
+    if (roi_labels_.total() > kKeepPixels) {
+        roi_mask_.release();
+        roi_labels_.release();
+    }
 }
 
 }  // namespace lensfx::detect

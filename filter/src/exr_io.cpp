@@ -303,6 +303,16 @@ Frame read_exr_memory(const std::string& bytes, const std::string& source, const
 
 namespace {
 
+// The refusal of a subsampled channel: a luminance/chroma image (Y, RY, BY, as OpenEXR's RGBA interface
+// writes them) is named as such, with what lensfx reads instead.
+std::runtime_error subsampled_channel(const Imf::Header& header, const std::string& name) {
+    const Imf::ChannelList& list = header.channels();
+    if (list.findChannel("RY") && list.findChannel("BY"))
+        return std::runtime_error(fmt::format("channel {} is subsampled: a luminance/chroma image (Y, RY, BY) is not read; "
+                                              "convert it to R, G, B, or to Y alone, first", name));
+    return std::runtime_error(fmt::format("channel {} is subsampled, which is not supported", name));
+}
+
 // The first part of an open EXR as a frame. Throws Iex or std exceptions.
 Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, const MemoryBudget& budget) {
     {
@@ -330,8 +340,7 @@ Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, cons
         };
         std::vector<Channel> channels;
         for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
-            if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
-                throw std::runtime_error(fmt::format("channel {} is subsampled, which is not supported", it.name()));
+            if (it.channel().xSampling != 1 || it.channel().ySampling != 1) throw subsampled_channel(header, it.name());
             channels.push_back({it.name(), from_exr(it.channel().type)});
         }
         if (channels.empty()) throw std::runtime_error("the image has no channels");

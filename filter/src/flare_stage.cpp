@@ -416,10 +416,9 @@ double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool 
     const double display = bytes_of(spec.full_width, spec.full_height, 1.0);
     const double data = static_cast<double>(spec.pixel_count());
     const double pixel = static_cast<double>(spec.pixel_bytes()), rgb = 3.0 * sizeof(float);
-    constexpr double kTargets = 16.0 * (1.0 + 1.0 / 4 + 1.0 / 16 + 1.0 / 64 + 1.0 / 256);
     double bytes = static_cast<double>(frame.pixels.size()) + data * rgb;
     if (!into_frame) bytes += display * rgb + display * (pixel + rgb);  // the flare image; growth at most
-    if (ghosts) bytes += display * kTargets;
+    if (ghosts) bytes += gpu::render_target_bytes(spec.full_width, spec.full_height);
     if (extended) bytes += display * rgb;
     if (layer) bytes += display * (rgb + pixel + rgb);
     return bytes;

@@ -17,10 +17,20 @@
 
 #include <fmt/core.h>
 
+#include <filter/colour.h>
+
 namespace lensfx::filter {
 
 PixelBuffer::PixelBuffer(const PixelBuffer& other) : PixelBuffer(other.size_) {
-    if (size_ > 0) std::memcpy(data_.get(), other.data_.get(), size_);
+    if (size_ > 0) std::memcpy(data_.get(), other.data(), size_);
+}
+
+PixelBuffer PixelBuffer::adopt(std::vector<float>&& floats, std::size_t size) {
+    if (size > floats.size() * sizeof(float)) throw std::logic_error("PixelBuffer::adopt: the floats hold fewer bytes than asked for");
+    PixelBuffer out;
+    out.adopted_ = std::move(floats);
+    out.size_ = size;
+    return out;
 }
 
 PixelBuffer& PixelBuffer::operator=(const PixelBuffer& other) {
@@ -30,6 +40,31 @@ PixelBuffer& PixelBuffer::operator=(const PixelBuffer& other) {
     }
     return *this;
 }
+
+namespace {
+
+// The Y row of the image's RGB -> XYZ: from its chromaticities, else Rec. 709 (OpenEXR's default).
+std::array<double, 3> luminance_weights_of(const ImageSpec& spec) {
+    if (!spec.chromaticities) return {0.2126, 0.7152, 0.0722};
+    std::array<double, 8> c{};
+    std::copy(spec.chromaticities->begin(), spec.chromaticities->end(), c.begin());
+    const colour::Mat3 m = colour::rgb_to_xyz(colour::Chromaticities{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]});
+    return {m[3], m[4], m[5]};
+}
+
+// A luminance-only image (Y; Y and A) stands in Y for R, G, B. Luminance/chroma (Y with RY, BY) does not
+// (its colour is in the chroma channels, which the flare would not change), nor Y beside some of R, G, B.
+void find_luminance_channel(Frame& frame) {
+    const ImageSpec& spec = frame.spec;
+    const int y = spec.channel_index("Y");
+    for (const char* other : {"R", "G", "B", "RY", "BY"})
+        if (spec.channel_index(other) >= 0) return;
+    if (y < 0) return;
+    frame.rgb_channels = {y, y, y};
+    frame.luminance_weights = luminance_weights_of(spec);
+}
+
+}  // namespace
 
 void find_rgb_channels(Frame& frame) {
     const auto& names = frame.spec.channelnames;
@@ -49,6 +84,7 @@ void find_rgb_channels(Frame& frame) {
         }
     }
     frame.rgb_channels = {-1, -1, -1};
+    find_luminance_channel(frame);
 }
 
 std::vector<std::size_t> channel_offsets(const ImageSpec& spec) {
@@ -237,6 +273,39 @@ void channels_from_floats(Frame& frame, std::span<const int> channels, const flo
     }
 }
 
+// A luminance-only frame's `rgb` written back to its Y as luminance, a block of pixels at a time (in
+// double: R = G = B = Y comes back as Y exactly).
+void store_luminance(Frame& frame) {
+    const std::size_t n = frame.pixel_count();
+    const auto& w = frame.luminance_weights;
+    std::vector<float> y(std::min(kBlockPixels, n));
+    for (std::size_t first = 0; first < n; first += kBlockPixels) {
+        const std::size_t count = std::min(kBlockPixels, n - first);
+        const float* rgb = frame.rgb.data() + first * 3;
+        for (std::size_t i = 0; i < count; ++i)
+            y[i] = static_cast<float>(w[0] * static_cast<double>(rgb[i * 3]) + w[1] * static_cast<double>(rgb[i * 3 + 1]) +
+                                      w[2] * static_cast<double>(rgb[i * 3 + 2]));
+        channel_from_float(frame, frame.rgb_channels[0], first, count, y.data(), 1);
+    }
+}
+
+// A released RGB-only frame (release_rgb_pixels) stored into its float working buffer's own memory: a
+// pixel's bytes (at most 12) never reach past its own floats, and each block of floats is copied aside
+// before its pixels are written over it. At 8K this saves the 0.4 GB the half pixels would take beside
+// the 0.8 GB of floats.
+void store_rgb_in_place(Frame& frame) {
+    const std::size_t n = frame.pixel_count();
+    std::vector<float> block(std::min(kBlockPixels, n) * 3);
+    frame.pixels = PixelBuffer::adopt(std::move(frame.rgb), frame.spec.image_bytes());
+    frame.rgb = {};
+    const auto* floats = reinterpret_cast<const float*>(frame.pixels.data());
+    for (std::size_t first = 0; first < n; first += kBlockPixels) {
+        const std::size_t count = std::min(kBlockPixels, n - first);
+        std::copy_n(floats + first * 3, count * 3, block.data());
+        for (std::size_t c = 0; c < 3; ++c) channel_from_float(frame, frame.rgb_channels[c], first, count, block.data() + c, 3);
+    }
+}
+
 }  // namespace
 
 detect::ImageView rgb_view(const Frame& frame) {
@@ -262,11 +331,20 @@ void store_rgb(Frame& frame) {
                                              frame.rgb.size(), frame.pixel_count() * 3));
     }
     if (frame.pixels.size() != frame.spec.image_bytes()) frame.pixels = PixelBuffer(frame.spec.image_bytes());
+    if (frame.luminance_only()) return store_luminance(frame);
     channels_from_floats(frame, frame.rgb_channels, frame.rgb.data());
 }
 
+void store_rgb_and_drop(Frame& frame) {
+    const bool released = frame.pixels.size() == 0 && frame.rgb.size() == frame.pixel_count() * 3;
+    if (released && !frame.luminance_only() && frame.spec.pixel_bytes() <= 3 * sizeof(float)) return store_rgb_in_place(frame);
+    store_rgb(frame);
+    frame.rgb = {};
+}
+
 bool release_rgb_pixels(Frame& frame) {
-    if (frame.spec.nchannels() != 3 || !frame.has_rgb() || frame.rgb.size() != frame.pixel_count() * 3) return false;
+    if (frame.spec.nchannels() != 3 || !frame.has_rgb() || frame.luminance_only() || frame.rgb.size() != frame.pixel_count() * 3)
+        return false;
     frame.pixels = PixelBuffer();
     return true;
 }

@@ -479,10 +479,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
                     for (const auto& [figure, value] : stage->frame_figures())
                         rec.figures.emplace_back(fmt::format("{}.{}", stage->name(), figure), value);
                 }
-                if (load) {
-                    store_rgb(frame);
-                    frame.rgb = {};
-                }
+                if (load) store_rgb_and_drop(frame);
             } catch (const std::exception& e) {
                 item->frame.reset();
                 rec.error = one_line(error_text(e));

@@ -139,6 +139,10 @@ std::vector<float> display_window_float(const Frame& frame, const std::vector<in
 
 // R, G, B (or the single channel) of a frame as interleaved float over the display window.
 std::vector<float> output_channels(const Frame& frame, int& channels) {
+    if (frame.luminance_only()) {
+        channels = 1;
+        return display_window_float(frame, {frame.rgb_channels[0]}, {0.0f});
+    }
     if (frame.has_rgb()) {
         channels = 3;
         return display_window_float(frame, {frame.rgb_channels[0], frame.rgb_channels[1], frame.rgb_channels[2]}, {0.0f, 0.0f, 0.0f});

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <cstdio>
 #include <map>
 #include <cmath>
 #include <limits>
@@ -16,6 +17,7 @@
 #include <epoxy/gl.h>
 #include <fmt/core.h>
 #include <optics/coating.h>
+#include <optics/ghosts.h>
 #include <optics/paraxial.h>
 #include <optics/ringing.h>
 
@@ -45,7 +47,7 @@ struct StepData {
 // Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
 struct GhostSequences {
     std::vector<StepData> steps;
-    std::vector<float> tables;            // kTableSize factors (R or T over cos incidence) per step
+    std::vector<float> tables;            // kTableSize factors (R or T over cos incidence) per distinct table
     std::vector<int> offset;              // first step of each ghost
     std::vector<int> count;               // steps of each ghost
     std::vector<int> stop_crossings;      // of each ghost
@@ -76,6 +78,7 @@ struct FlareRenderer::State {
     };
     std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
     std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
+    bool fit_warned = false;  // ghosts_within_budget left ghosts out, and the user was told
     // Render targets at full, 1/2, 1/4, 1/8 and 1/16 of the image size, kept while the image size stays.
     std::optional<FloatTarget> targets[5];
 
@@ -91,6 +94,12 @@ struct FlareRenderer::State {
         }
     }
 
+    // The full-size target for a band of `rows` rows of a width-wide image, in slot 0.
+    FloatTarget& full(int width, int rows) {
+        std::optional<FloatTarget>& t = targets[0];
+        if (!t || t->width() != width || t->height() != rows) t.emplace(width, rows);
+        return *t;
+    }
     // The target at 1/reduce (1, 2, 4, 8 or 16) of width x height, made (or remade for a new size) on demand.
     FloatTarget& target(int reduce, int width, int height) {
         std::optional<FloatTarget>& t = targets[slot(reduce)];
@@ -179,8 +188,27 @@ double ghost_steps(const System& system) {
 
 GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghost>& ghosts) {
     GhostSequences out;
-    // Ghosts share their surfaces: each (interface, direction, reflect or transmit) table is computed once.
-    std::map<std::tuple<int, bool, bool>, std::size_t> computed;  // -> its offset in out.tables
+    // Ghosts share their surfaces: each (interface, direction, reflect or transmit) table is computed and
+    // stored once, and a step names its table in media.z (kind + 4 x table): a lens of many surfaces has
+    // millions of steps but a few hundred tables.
+    std::map<std::tuple<int, bool, bool>, std::size_t> computed;  // -> its index in out.tables
+    auto table_of = [&](const optics::Step& step, const optics::TraceInterface& surface, double n_in, double n_out) {
+        const auto key = surface.is_stop ? std::make_tuple(-1, true, false) : std::make_tuple(step.interface, step.forward, step.reflect);
+        if (const auto it = computed.find(key); it != computed.end()) return it->second;
+        const std::size_t index = out.tables.size() / kTableSize;
+        computed.emplace(key, index);
+        for (int i = 0; i < kTableSize; ++i) {
+            const double cos_i = static_cast<double>(i) / (kTableSize - 1);
+            if (surface.is_stop) {
+                out.tables.push_back(1.0f);
+                continue;
+            }
+            const optics::Reflectance rt =
+                optics::coated_reflectance(surface.coating, n_in, n_out, cos_i, traced.wavelength_nm(), step.forward);
+            out.tables.push_back(static_cast<float>(step.reflect ? rt.R : rt.T));
+        }
+        return index;
+    };
     for (const Ghost& ghost : ghosts) {
         out.offset.push_back(static_cast<int>(out.steps.size()));
         out.count.push_back(static_cast<int>(ghost.path.size()));
@@ -190,29 +218,12 @@ GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghos
             const double n_in = step.forward ? surface.n_before : surface.n_after;
             const double n_out = step.forward ? surface.n_after : surface.n_before;
             const int kind = surface.is_stop ? 2 : (step.reflect ? 1 : 0);
+            crossings += kind == 2;
+            const std::size_t table = table_of(step, surface, n_in, n_out);
             out.steps.push_back({{static_cast<float>(surface.z), static_cast<float>(surface.curvature),
                                   static_cast<float>(surface.conic), static_cast<float>(surface.semi_diameter)},
-                                 {static_cast<float>(n_in), static_cast<float>(n_out), static_cast<float>(kind),
+                                 {static_cast<float>(n_in), static_cast<float>(n_out), static_cast<float>(kind + 4 * table),
                                   step.forward ? 1.0f : 0.0f}});
-            if (kind == 2) {
-                ++crossings;
-                out.tables.insert(out.tables.end(), kTableSize, 1.0f);
-                continue;
-            }
-            const auto key = std::make_tuple(step.interface, step.forward, step.reflect);
-            if (const auto it = computed.find(key); it != computed.end()) {
-                const auto from = out.tables.begin() + static_cast<std::ptrdiff_t>(it->second);
-                const std::vector<float> table(from, from + kTableSize);  // copied out: the insert may reallocate
-                out.tables.insert(out.tables.end(), table.begin(), table.end());
-                continue;
-            }
-            computed.emplace(key, out.tables.size());
-            for (int i = 0; i < kTableSize; ++i) {
-                const double cos_i = static_cast<double>(i) / (kTableSize - 1);
-                const optics::Reflectance rt =
-                    optics::coated_reflectance(surface.coating, n_in, n_out, cos_i, traced.wavelength_nm(), step.forward);
-                out.tables.push_back(static_cast<float>(step.reflect ? rt.R : rt.T));
-            }
         }
         out.stop_crossings.push_back(crossings);
     }
@@ -368,13 +379,39 @@ private:
     int first_ = 0, rows_ = 0;
 };
 
-// Adds a full-size target into the top-down RGB image w x h, read back a band of rows at a time: no copy
-// of the whole target is made (at 8K it would be 1 GB).
-void add_full_target(const FloatTarget& target, std::vector<float>& rgb, int w, int h) {
+// The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
+// as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
+// with kMargin rows more on either side, which the 3 x 3 splats of points just outside it reach into.
+struct FullBands {
+    static constexpr int kMargin = 2;
+    int count = 1, image_rows = 0, rows_per_band = 0;
+    int first(int b) const { return b * rows_per_band; }
+    int end(int b) const { return std::min(image_rows, first(b) + rows_per_band); }
+    int drawn_first(int b) const { return count == 1 ? 0 : std::max(0, first(b) - kMargin); }
+    int drawn_end(int b) const { return count == 1 ? image_rows : std::min(image_rows, end(b) + kMargin); }
+    int rows_drawn(int b) const { return drawn_end(b) - drawn_first(b); }
+    int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin); }
+};
+
+FullBands full_target_bands(int width, int height, double max_bytes, bool whole) {
+    FullBands b;
+    b.image_rows = height;
+    const double bytes = 16.0 * width * height;
+    if (!whole && max_bytes > 0.0 && bytes > max_bytes)
+        b.count = static_cast<int>(std::min<double>(height, std::ceil(bytes / max_bytes)));
+    b.rows_per_band = (height + b.count - 1) / b.count;
+    b.count = (height + b.rows_per_band - 1) / b.rows_per_band;  // no empty band
+    return b;
+}
+
+// Adds band b of the full-size target into the top-down RGB image w pixels wide, read back a band of rows
+// at a time: no copy of the whole target is made.
+void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, const FullBands& bands, int b) {
     BandReader reader(target);
     const auto width = static_cast<std::size_t>(w);
-    for (int y = 0; y < h; ++y) {
-        const float* in = reader.row(h - 1 - y);  // GL rows run bottom-up
+    const int top = bands.drawn_first(b), rows = bands.rows_drawn(b);
+    for (int y = bands.first(b); y < bands.end(b); ++y) {
+        const float* in = reader.row(rows - 1 - (y - top));  // GL rows run bottom-up
         float* out = rgb.data() + static_cast<std::size_t>(y) * width * 3;
         for (std::size_t x = 0; x < width; ++x)
             for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
@@ -484,7 +521,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
     State& s = *state_;
     const Acceleration& accel = options.accel;
     s.stats = {};
-    std::vector<Ghost> ghosts = selected_ghosts(system, view);
+    std::vector<Ghost> ghosts = fitted_ghosts(system, view, options.memory);
     if (accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
     std::vector<char> drawn_ghost(ghosts.size(), 1);  // options.draw_only as a mask over `ghosts`
@@ -494,11 +531,18 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                                        std::pair<int, int>{ghosts[g].first, ghosts[g].second}) != options.draw_only.end() ||
                              std::find(options.draw_only.begin(), options.draw_only.end(),
                                        std::pair<int, int>{ghosts[g].second, ghosts[g].first}) != options.draw_only.end();
-    // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it is 1 GB,
-    // and a frame whose ghosts are all drawn reduced never needs it.
-    auto full_target = [&]() -> FloatTarget& { return s.target(1, view.width, view.height); };
-    if (options.per_ghost_power) {
+    // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it would be
+    // 1 GB, so a large frame's is drawn in bands (each band's viewport the rows it draws), and a frame whose
+    // ghosts are all drawn reduced never needs it.
+    const FullBands full_bands = full_target_bands(view.width, view.height, options.full_target_bytes, options.per_ghost_power);
+    int band = 0;
+    auto full_target = [&]() -> FloatTarget& { return s.full(view.width, full_bands.target_rows()); };
+    auto bind_full = [&] {
         full_target().bind();
+        glViewport(0, 0, view.width, full_bands.rows_drawn(band));
+    };
+    if (options.per_ghost_power) {
+        bind_full();
         full_target().clear();
     }
     bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
@@ -743,6 +787,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             }
     }
 
+    for (band = 0; band < full_bands.count; ++band) {  // later bands draw only what is drawn at full size
     for (std::size_t l = 0; l < lights.size(); ++l) {
         const ScaledLight& light = lights[l];
         FlareView lit = view;
@@ -781,11 +826,14 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
                 const SceneVerdict verdict = verdicts[l].empty() ? SceneVerdict::Draw : verdicts[l][p][g];
                 if (!plans[g].draw) {
-                    ++s.stats.ghosts_skipped;
-                    s.stats.ghosts_culled += verdict == SceneVerdict::Cull && !estimates[g].rect.empty();
+                    if (band == 0) {
+                        ++s.stats.ghosts_skipped;
+                        s.stats.ghosts_culled += verdict == SceneVerdict::Cull && !estimates[g].rect.empty();
+                    }
                     continue;
                 }
-                s.stats.ghosts_faint += verdict == SceneVerdict::Faint;
+                if (band > 0 && plans[g].reduce > 1 && plans[g].reduce < kRimReduce) continue;  // no full-size part
+                s.stats.ghosts_faint += band == 0 && verdict == SceneVerdict::Faint;
                 todo.push_back(g);
             }
             struct Job {
@@ -803,16 +851,24 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 const int level_w = (view.width + reduce - 1) / reduce;
                 const int level_h = (view.height + reduce - 1) / reduce;
                 const double level_pixel_area = (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
-                const int target_w = rim_mode == 2 ? view.width : level_w;
-                const int target_h = rim_mode == 2 ? view.height : level_h;
+                const bool full = reduce == 1 || rim_mode == 2;
+                const int target_w = full ? view.width : level_w;
+                const int target_h = full ? full_bands.rows_drawn(band) : level_h;
                 const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-                const std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
+                // A band of the full-size image: its rows' span of clip space stretched over the viewport.
+                double half_height = view.sensor_height_mm / 2;
+                if (full) {
+                    const double top = full_bands.drawn_first(band), bottom = full_bands.drawn_end(band);
+                    offset[1] -= (1.0 - (top + bottom) / view.height) * half_height;
+                    half_height *= (bottom - top) / view.height;
+                }
                 for (const Program* program : {&s.raster, &s.splat}) {
                     glUseProgram(program->get());
                     glUniform1i(program->uniform("grid"), ghost_grid);
                     glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
                     glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                                static_cast<float>(view.sensor_height_mm / 2));
+                                static_cast<float>(half_height));
                     glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
                     glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area));
                     glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
@@ -844,8 +900,8 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 for (const Job& job : batch) {
                     const std::size_t g = job.ghost;
                     const int ghost_grid = plans[g].grid;
-                    ++s.stats.ghosts_drawn;
-                    s.stats.rays += static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1);
+                    s.stats.ghosts_drawn += band == 0;
+                    s.stats.rays += band == 0 ? static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1) : 0;
                     dispatch_trace(ghost_grid, estimates[g].rect, rotation, axis.direction, seq.offset[g], seq.count[g],
                                    job.first_vertex);
                 }
@@ -856,6 +912,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
                 for (const int reduce : {16, 8, 4, 2, 1}) {
+                    if (band > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
                     bool bound = false;
                     for (const Job& job : batch) {
                         const std::size_t g = job.ghost;
@@ -863,8 +920,9 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         if (plan.reduce != reduce) continue;
                         if (!bound) {
                             const std::size_t slot = State::slot(reduce);
-                            FloatTarget& t = s.target(reduce, view.width, view.height);
-                            t.bind();
+                            FloatTarget& t = reduce == 1 ? full_target() : s.target(reduce, view.width, view.height);
+                            if (reduce == 1) bind_full();
+                            else t.bind();
                             if (!drawn_into[slot]) t.clear();
                             drawn_into[slot] = true;
                             bound = true;
@@ -896,7 +954,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                     const GhostPlan& plan = plans[job.ghost];
                     if (plan.reduce < kRimReduce) continue;
                     if (!rims_bound) {
-                        full_target().bind();
+                        bind_full();
                         if (!drawn_into[0]) full_target().clear();
                         drawn_into[0] = true;
                     }
@@ -909,7 +967,11 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
             }
         }
     }
-    if (drawn_into[0]) full_target().bind();
+    if (options.per_ghost_power || !drawn_into[0]) continue;
+    add_full_band(full_target(), rgb, view.width, full_bands, band);
+    drawn_into[0] = false;  // the next band clears it
+    }
+    band = 0;
 
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     if (options.per_ghost_power) {
@@ -921,7 +983,6 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         }
         if (ghost_powers) *ghost_powers = std::move(powers);
     } else {
-        if (drawn_into[0]) add_full_target(s.target(1, view.width, view.height), rgb, view.width, view.height);
         std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
         for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into[slot]) continue;
@@ -965,17 +1026,106 @@ void FlareRenderer::release_targets() {
     glFinish();
 }
 
+namespace {
+
+// Bytes of the ghost list (every ghost and its path), made before anything is drawn.
+double ghost_list_bytes(const System& system) {
+    return static_cast<double>(optics::ghost_count(system)) * (sizeof(Ghost) + 4.0 * sizeof(int)) +
+           ghost_steps(system) * sizeof(optics::Step);
+}
+
+// Bytes one pass set of a drawn ghost's steps holds: its StepData per pass, on the CPU and in a GL buffer.
+double drawn_step_bytes(std::size_t passes) { return 2.0 * static_cast<double>(passes) * sizeof(StepData); }
+
+// The factor tables: per surface four (reflected or transmitted, either way) and the stop's, per pass, twice.
+double factor_table_bytes(const System& system, std::size_t passes) {
+    return 2.0 * static_cast<double>(passes) * (4.0 * static_cast<double>(system.interfaces.size()) + 1.0) * kTableSize * sizeof(float);
+}
+
+std::string lens_ghosts_text(const System& system, std::size_t passes) {
+    return fmt::format("lens {}: the ghost data of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
+                       system.interfaces.size(), optics::ghost_count(system), passes);
+}
+
+}  // namespace
+
+double render_target_bytes(int width, int height, double full_target_bytes) {
+    const FullBands bands = full_target_bands(width, height, full_target_bytes, false);
+    double bytes = 16.0 * width * bands.target_rows();
+    for (int reduce : {2, 4, 8, 16}) bytes += 16.0 * ((width + reduce - 1) / reduce) * ((height + reduce - 1) / reduce);
+    return bytes;
+}
+
 double ghost_table_bytes(const System& system, std::size_t passes) {
-    const double ghosts = static_cast<double>(optics::ghost_count(system));
-    const double per_step = sizeof(optics::Step) + 2.0 * static_cast<double>(passes) * (sizeof(StepData) + kTableSize * sizeof(float));
-    return ghosts * (sizeof(Ghost) + 4.0 * sizeof(int)) + ghost_steps(system) * per_step;
+    return ghost_list_bytes(system) + ghost_steps(system) * drawn_step_bytes(passes) + factor_table_bytes(system, passes);
 }
 
 void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget) {
     if (!budget.limited()) return;
-    budget.check(ghost_table_bytes(system, passes),
-                 fmt::format("lens {}: the ghost data of its {} surfaces ({} ghosts, {} wavelengths)", system.name,
-                             system.interfaces.size(), optics::ghost_count(system), passes));
+    // What nothing can shrink, against the half of the budget the ghost data may take: the list of ghosts
+    // (ghosts_within_budget draws fewer of them when the rest does not fit) and the brightest ghost's data.
+    // Checked before the list is made: for 1000 surfaces it alone is some 10 GB.
+    const double longest = 2.0 * static_cast<double>(system.interfaces.size());
+    const double bytes = ghost_list_bytes(system) + longest * drawn_step_bytes(passes) + factor_table_bytes(system, passes);
+    if (bytes > static_cast<double>(budget.limit) / 2.0)
+        throw MemoryLimitError(fmt::format("lens {}: even the list of the {} ghosts of its {} surfaces needs {}, over half the memory "
+                                           "limit of {} (the other half is for frames and flare images; --memory-limit)",
+                                           system.name, optics::ghost_count(system), system.interfaces.size(), format_bytes(bytes),
+                                           format_bytes(static_cast<double>(budget.limit))));
+}
+
+GhostFit ghosts_within_budget(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget) {
+    GhostFit fit;
+    fit.total = ghosts.size();
+    double need = factor_table_bytes(system, passes);
+    for (const Ghost& g : ghosts) need += static_cast<double>(g.path.size()) * drawn_step_bytes(passes);
+    fit.bytes_needed = need + ghost_list_bytes(system);
+    // Half of the budget for the ghost data: frames, flare images and GL targets need the rest.
+    const double room = static_cast<double>(budget.limit) / 2.0 - ghost_list_bytes(system) - factor_table_bytes(system, passes);
+    if (!budget.limited() || fit.bytes_needed <= static_cast<double>(budget.limit) / 2.0) {
+        fit.ghosts = std::move(ghosts);
+        return fit;
+    }
+    // The brightest by their power along the axis (at the d line), as many as fit.
+    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
+    std::vector<std::pair<double, std::size_t>> order;
+    double total_power = 0.0;
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        const double power = optics::ghost_axial_factor(traced, ghosts[g]);
+        const double finite = std::isfinite(power) ? power : 0.0;
+        order.emplace_back(-finite, g);
+        total_power += finite;
+    }
+    std::sort(order.begin(), order.end());
+    double used = 0.0, kept_power = 0.0;
+    std::vector<char> keep(ghosts.size(), 0);
+    for (const auto& [negative_power, g] : order) {
+        const double bytes = static_cast<double>(ghosts[g].path.size()) * drawn_step_bytes(passes);
+        if (used + bytes > room) break;
+        used += bytes;
+        kept_power -= negative_power;
+        keep[g] = 1;
+    }
+    for (std::size_t g = 0; g < ghosts.size(); ++g)
+        if (keep[g]) fit.ghosts.push_back(std::move(ghosts[g]));
+    if (fit.ghosts.empty())
+        throw MemoryLimitError(fmt::format("{} needs {}: not even its brightest ghost fits half the memory limit of {} "
+                                           "beside its ghost list (--memory-limit)",
+                                           lens_ghosts_text(system, passes), format_bytes(fit.bytes_needed), format_bytes(static_cast<double>(budget.limit))));
+    fit.power_left_out = total_power > 0.0 ? 1.0 - kept_power / total_power : 0.0;
+    return fit;
+}
+
+std::vector<Ghost> FlareRenderer::fitted_ghosts(const System& system, const FlareView& view, const MemoryBudget& budget) {
+    GhostFit fit = ghosts_within_budget(system, selected_ghosts(system, view), view.passes().size(), budget);
+    if (fit.ghosts.size() < fit.total && !state_->fit_warned) {
+        state_->fit_warned = true;  // once per renderer: every frame draws the same ghosts
+        fmt::print(stderr, "lensfx: warning: {} needs {}, over half the memory limit of {}: drawing its {} brightest ghosts "
+                           "(by power along the axis); the {} left out carry {:.2g}% of that power\n",
+                   lens_ghosts_text(system, view.passes().size()), format_bytes(fit.bytes_needed), format_bytes(static_cast<double>(budget.limit)),
+                   fit.ghosts.size(), fit.total - fit.ghosts.size(), 100.0 * fit.power_left_out);
+    }
+    return std::move(fit.ghosts);
 }
 
 }  // namespace lensfx::gpu

@@ -5,7 +5,8 @@
 namespace lensfx::gpu::shaders {
 
 // One invocation per grid vertex. Steps: geom = (vertex z, curvature, conic, semi-diameter),
-// media = (n_in, n_out, kind 0 refract / 1 reflect / 2 stop, forward 1 / backward 0). Output per vertex:
+// media = (n_in, n_out, kind 0 refract / 1 reflect / 2 stop + 4 x its factor table, forward 1 / backward 0).
+// Output per vertex:
 // (sensor x, sensor y, r_rel, factor), (stop uv 0, stop uv 1), (stop uv 2, valid, 0).
 inline constexpr const char* ghost_trace_comp = R"GLSL(
 #version 430
@@ -14,7 +15,7 @@ struct StepData { vec4 geom; vec4 media; };
 layout(std430, binding = 0) readonly buffer Steps { StepData steps[]; };
 layout(std430, binding = 1) readonly buffer Tables { float factors[]; };
 layout(std430, binding = 2) writeonly buffer Vertices { vec4 vertices[]; };
-uniform int step_offset;  // this ghost's first step in steps[] (and table in factors[])
+uniform int step_offset;  // this ghost's first step in steps[]
 uniform int step_count;
 uniform uint vertex_offset;  // this ghost's first vertex in vertices[]
 uniform int grid;
@@ -24,11 +25,11 @@ uniform vec3 direction;  // unit, towards +z
 uniform float sensor_z;
 uniform int table_size;
 
-float factor(int s, float cos_i) {
+float factor(int table, float cos_i) {
     float x = clamp(cos_i, 0.0, 1.0) * float(table_size - 1);
     int i = min(int(x), table_size - 2);
     float f = x - float(i);
-    int base = (step_offset + s) * table_size;
+    int base = table * table_size;
     return mix(factors[base + i], factors[base + i + 1], f);
 }
 
@@ -69,7 +70,8 @@ void main() {
         p += t * d;
         vec3 hit = p + vec3(0.0, 0.0, geom.x);
         o = hit;
-        int kind = int(media.z + 0.5);
+        int code = int(media.z + 0.5);
+        int kind = code & 3;
         if (kind == 2) {
             if (crossings < 3) uv[crossings] = hit.xy / geom.w;
             crossings += 1;
@@ -79,7 +81,7 @@ void main() {
         vec3 n = c == 0.0 ? vec3(0.0, 0.0, -1.0) : normalize(vec3(c * p.x, c * p.y, k1 * c * p.z - 1.0));
         float cos_i = dot(n, d);
         if (cos_i > 0.0) n = -n; else cos_i = -cos_i;
-        transmission *= factor(s, cos_i);
+        transmission *= factor(code >> 2, cos_i);
         if (kind == 1) {
             d = d - 2.0 * dot(d, n) * n;
         } else {

@@ -118,3 +118,55 @@ TEST(Frame, HalfConversionsRoundAsImathAndSaturate) {
         else EXPECT_EQ(f.rgb[i], static_cast<float>(h)) << i;
     }
 }
+
+// A released RGB-only frame stored in its working buffer's own memory holds what store_rgb() writes, for
+// every type whose pixel is at most 12 bytes.
+TEST(Frame, StoreInPlaceEqualsStore) {
+    for (PixelType type : {PixelType::half, PixelType::float32, PixelType::uint8, PixelType::uint16}) {
+        Frame f;
+        f.spec = ImageSpec(61, 53, 3, type);  // 3233 pixels: more than one block, the last one short
+        f.pixels = PixelBuffer(f.spec.image_bytes());
+        for (std::size_t i = 0; i < f.pixels.size(); ++i) f.pixels.data()[i] = static_cast<std::byte>((i * 37) % 251);
+        find_rgb_channels(f);
+        load_rgb(f);
+        for (std::size_t i = 0; i < f.rgb.size(); ++i) f.rgb[i] = f.rgb[i] * 0.5f + 0.25f * static_cast<float>(i % 7);
+        Frame expected = f;
+        store_rgb(expected);
+        ASSERT_TRUE(release_rgb_pixels(f));
+        store_rgb_and_drop(f);
+        EXPECT_TRUE(f.rgb.empty());
+        ASSERT_EQ(f.pixels.size(), expected.pixels.size());
+        EXPECT_EQ(std::memcmp(f.pixels.data(), expected.pixels.data(), f.pixels.size()), 0) << "type " << static_cast<int>(type);
+        const PixelBuffer copy = f.pixels;  // an adopted buffer copies like any other
+        EXPECT_EQ(std::memcmp(copy.data(), expected.pixels.data(), copy.size()), 0);
+    }
+}
+
+// A luminance-only frame: Y (with A) stands in for R, G, B; stored back as the Rec. 709 weighted sum;
+// Y beside R or chroma RY/BY is not luminance-only.
+TEST(Frame, LuminanceOnlyLoadsGreyAndStoresLuminance) {
+    Frame f;
+    f.spec = ImageSpec(2, 1, 2, PixelType::float32);
+    f.spec.channelnames = {"A", "Y"};
+    f.pixels = PixelBuffer(f.spec.image_bytes());
+    const float px[4] = {0.5f, 2.0f, 1.0f, 4.0f};
+    std::memcpy(f.pixels.data(), px, sizeof px);
+    find_rgb_channels(f);
+    ASSERT_TRUE(f.luminance_only());
+    load_rgb(f);
+    EXPECT_EQ(f.rgb, (std::vector<float>{2.0f, 2.0f, 2.0f, 4.0f, 4.0f, 4.0f}));
+    store_rgb(f);  // grey in, the same grey out, bit for bit
+    EXPECT_EQ(std::memcmp(f.pixels.data(), px, sizeof px), 0);
+    f.rgb = {1.0f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f};
+    store_rgb(f);
+    float out[4];
+    std::memcpy(out, f.pixels.data(), sizeof out);
+    EXPECT_EQ(out[0], 0.5f);  // A untouched
+    EXPECT_NEAR(out[1], 0.2126f, 1e-6f);
+    EXPECT_NEAR(out[3], 0.0722f, 1e-6f);
+    for (const auto& names : {std::vector<std::string>{"Y", "RY"}, std::vector<std::string>{"R", "Y"}}) {
+        f.spec.channelnames = names;
+        find_rgb_channels(f);
+        EXPECT_FALSE(f.has_rgb());
+    }
+}

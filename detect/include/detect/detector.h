@@ -43,6 +43,8 @@ public:
     [[nodiscard]] const DetectorOptions& options() const { return options_; }
 
 private:
+    void release_large_buffers();  // after a frame above 4K, what scales with its pixels
+
     DetectorOptions options_;
     cv::Mat luminance_;  // CV_32F, sanitised full-resolution luminance
     cv::Mat pooled_;     // CV_32F, block maxima

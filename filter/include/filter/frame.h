@@ -29,12 +29,17 @@ public:
     PixelBuffer& operator=(PixelBuffer&&) noexcept = default;
     ~PixelBuffer() = default;
 
-    std::byte* data() { return data_.get(); }
-    const std::byte* data() const { return data_.get(); }
+    // A buffer of `size` bytes in the storage of `floats` (at least size / 4 of them): store_rgb() writes a
+    // released frame's pixels into its float working buffer's own memory instead of allocating beside it.
+    static PixelBuffer adopt(std::vector<float>&& floats, std::size_t size);
+
+    std::byte* data() { return adopted_.empty() ? data_.get() : reinterpret_cast<std::byte*>(adopted_.data()); }
+    const std::byte* data() const { return adopted_.empty() ? data_.get() : reinterpret_cast<const std::byte*>(adopted_.data()); }
     std::size_t size() const { return size_; }
 
 private:
     std::unique_ptr<std::byte[]> data_;
+    std::vector<float> adopted_;
     std::size_t size_ = 0;
 };
 
@@ -51,19 +56,27 @@ struct Frame {
     // (spec.channeltypes); rows top first. Size spec.image_bytes().
     PixelBuffer pixels;
 
-    // Indices in spec of the channels an effect works on (R, G, B); -1 where the image has none.
+    // Indices in spec of the channels an effect works on (R, G, B); -1 where the image has none. A
+    // luminance-only image (Y, no R, G, B) has Y in all three: see luminance_only().
     std::array<int, 3> rgb_channels{-1, -1, -1};
+    // A luminance-only image's Y in terms of R, G, B: the Y row of its RGB -> XYZ (its chromaticities,
+    // else Rec. 709's, OpenEXR's default). load_rgb() spreads Y to R = G = B; store_rgb() writes back
+    // this weighted sum of `rgb`, so a coloured flare adds its luminance.
+    std::array<double, 3> luminance_weights{0.2126, 0.7152, 0.0722};
     // The working buffer: R, G, B as float, interleaved, over the data window, rows top first.
     // Empty until load_rgb(); the pipeline fills it before the stages that ask for it and writes it back
     // with store_rgb() after them, so a frame no stage touches is written from `pixels` unconverted.
     std::vector<float> rgb;
 
     bool has_rgb() const { return rgb_channels[0] >= 0 && rgb_channels[1] >= 0 && rgb_channels[2] >= 0; }
+    // Y stands in for R, G, B (find_rgb_channels found no R, G, B but a Y).
+    bool luminance_only() const { return has_rgb() && rgb_channels[0] == rgb_channels[1] && rgb_channels[1] == rgb_channels[2]; }
     std::size_t pixel_count() const { return spec.pixel_count(); }
 };
 
 // Finds R, G and B among the spec's channel names (exact names first, then a "layer.R" suffix on the
-// first layer that has all three) and stores their indices in frame.rgb_channels.
+// first layer that has all three) and stores their indices in frame.rgb_channels. An image with none but
+// a luminance channel Y (and no chroma RY, BY) gets Y for all three and its luminance_weights.
 void find_rgb_channels(Frame& frame);
 // Byte offset of each channel inside one pixel of `pixels`.
 std::vector<std::size_t> channel_offsets(const ImageSpec& spec);
@@ -72,6 +85,9 @@ void load_rgb(Frame& frame);
 // Writes `rgb` back into the R, G, B channels of `pixels`, converted to their native types (making
 // `pixels` again when release_rgb_pixels() released them).
 void store_rgb(Frame& frame);
+// store_rgb(), then `rgb` emptied; a frame whose pixels were released is stored into the memory of `rgb`
+// itself (PixelBuffer::adopt), so the frame is not held twice while it is stored.
+void store_rgb_and_drop(Frame& frame);
 // When R, G, B are all of the frame's channels and `rgb` is loaded, releases `pixels` (they hold nothing
 // `rgb` does not) until store_rgb(): a half RGB frame is then held once while the stages run, not twice.
 // Returns whether it did. grow_data_window() and add_rgb_layer() work on a frame in this state.

@@ -23,6 +23,9 @@ using optics::GhostStyle;  // per-ghost colour, gain and offset (optics/flare_lo
 struct GpuFlareOptions {
     int grid = 16;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
+    // The full-size RGBA32F target is drawn in horizontal bands of at most this many bytes (1 GB for one
+    // 8K target); each band re-traces the ghosts drawn at full size. Per-ghost power draws it whole.
+    double full_target_bytes = 400e6;
     Acceleration accel;            // all on by default; fixed grid per ghost with every one off
     // High quality: ghosts are shaded by the iris with its ringing (the fractional Fourier transform of
     // order eq. 5 at each pass's wavelength and the lens's f-number) instead of the sharp iris.
@@ -39,13 +42,30 @@ struct GpuFlareOptions {
     std::vector<std::pair<int, int>> draw_only;
 };
 
+// Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
+// target's band (GpuFlareOptions::full_target_bytes) and the reduced targets (1/2 ... 1/16).
+double render_target_bytes(int width, int height, double full_target_bytes = GpuFlareOptions{}.full_target_bytes);
+
 // Bytes of the per-lens tables the renderer builds for `system` at `passes` wavelengths: the ghost list,
 // every ghost's interface sequence and its Fresnel/coating tables, on the CPU and in GL buffers. Ghosts
 // grow with the square of the surfaces and their sequences with the surfaces, so a lens of a few hundred
 // surfaces asks for tens of GB; this is known before any of it is made.
 double ghost_table_bytes(const System& system, std::size_t passes);
-// Throws MemoryLimitError naming the lens, its surfaces and ghosts when those tables do not fit `budget`.
+// Throws MemoryLimitError naming the lens, its surfaces and ghosts when not even what cannot be made
+// smaller fits `budget`: the ghost list and the brightest ghost's data (ghosts_within_budget draws fewer
+// ghosts when all of them do not fit).
 void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget);
+
+// The ghosts drawn of a lens under a memory budget: all of them when their data fits half the budget,
+// else the brightest by power along the axis that fit (a lens of hundreds of surfaces), with the share of
+// the power left out. Throws MemoryLimitError when not one fits.
+struct GhostFit {
+    std::vector<Ghost> ghosts;
+    std::size_t total = 0;        // ghosts before fitting
+    double bytes_needed = 0.0;    // for all of them
+    double power_left_out = 0.0;  // share of the ghosts' summed axial power not drawn
+};
+GhostFit ghosts_within_budget(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget);
 
 // One light of a frame for render_add: its direction (as FlareView's angles) and the factor per channel its
 // ghosts are added with.
@@ -74,6 +94,8 @@ public:
     void release_targets();
 
 private:
+    // The ghosts of `view` that fit the budget (ghosts_within_budget), warning once when some are left out.
+    std::vector<Ghost> fitted_ghosts(const System& system, const FlareView& view, const MemoryBudget& budget);
     void draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
               const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
     struct State;

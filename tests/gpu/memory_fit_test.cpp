@@ -1,0 +1,88 @@
+// The renderer under a memory budget (issue 14): the full-size target drawn in bands gives the image the
+// whole target gives; a lens whose ghost data does not fit half the budget draws its brightest ghosts, and
+// is refused only when not even its ghost list fits.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include <gpu/context.h>
+#include <gpu/flare.h>
+#include <gpu/flare_renderer.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+#include "../memory/plate_lens.h"
+
+namespace lensfx::gpu {
+namespace {
+
+// The whole of the render, and the sum of one channel.
+double channel_sum(const FlareImage& image, int c) {
+    double sum = 0.0;
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) sum += static_cast<double>(image.at(x, y, c));
+    return sum;
+}
+
+// Bands of a few rows (splats and triangles crossing their edges, the last band shorter) give the image
+// of one whole target: every pixel within float rounding of the sums' order.
+TEST(MemoryFit, BandedFullTargetEqualsTheWholeOne) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.angle_x_deg = 9.0;
+    view.angle_y_deg = 5.0;
+    view.width = 160;
+    view.height = 107;
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    GpuFlareOptions options;
+    options.full_target_bytes = 0.0;  // one target
+    const FlareImage whole = renderer.render(system, view, options);
+    options.full_target_bytes = 16.0 * view.width * 13;  // bands of 13 rows (9 bands)
+    const FlareImage banded = renderer.render(system, view, options);
+    ASSERT_EQ(whole.rgb.size(), banded.rgb.size());
+    double largest = 0.0, worst = 0.0;
+    for (float v : whole.rgb) largest = std::max(largest, static_cast<double>(v));
+    ASSERT_GT(largest, 0.0);
+    for (std::size_t i = 0; i < whole.rgb.size(); ++i)
+        worst = std::max(worst, std::abs(static_cast<double>(whole.rgb[i]) - static_cast<double>(banded.rgb[i])));
+    EXPECT_LT(worst, 1e-5 * largest);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(channel_sum(banded, c), channel_sum(whole, c), 1e-5 * channel_sum(whole, c));
+    EXPECT_LT(render_target_bytes(8192, 8192), 0.8e9);  // 8K: a 1.07 GB full target before
+}
+
+// A lens of 101 surfaces (about 4900 ghosts) under a budget that holds its ghost list but not every
+// ghost's steps: the brightest that fit, and the share of the power left out; a budget smaller than the
+// list is refused naming the lens, its ghosts and the limit.
+TEST(MemoryFit, ManySurfacesDrawTheBrightestGhostsThatFit) {
+    const optics::System system = optics::realize(optics::parse_lens_toml(test::plate_lens_toml(101), "plates"));
+    const std::vector<Ghost> all = optics::enumerate_ghosts(system);
+    const double need = ghost_table_bytes(system, 3);
+    const GhostFit fit_all = ghosts_within_budget(system, all, 3, MemoryBudget{static_cast<std::size_t>(2.5 * need)});
+    EXPECT_EQ(fit_all.ghosts.size(), all.size());
+    EXPECT_EQ(fit_all.power_left_out, 0.0);
+
+    const MemoryBudget tight{static_cast<std::size_t>(need)};  // half of it for the ghost data
+    EXPECT_NO_THROW(check_ghost_tables(system, 3, tight));
+    const GhostFit fit = ghosts_within_budget(system, all, 3, tight);
+    EXPECT_GT(fit.ghosts.size(), 0u);
+    EXPECT_LT(fit.ghosts.size(), all.size());
+    EXPECT_EQ(fit.total, all.size());
+    EXPECT_GT(fit.power_left_out, 0.0);
+    EXPECT_LT(fit.power_left_out, 0.5) << "the brightest half of the data should hold most of the power";
+
+    const MemoryBudget starved{std::size_t{64} << 10};
+    try {
+        check_ghost_tables(system, 3, starved);
+        ADD_FAILURE() << "a 64 KB budget cannot hold the ghost list";
+    } catch (const MemoryLimitError& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("lens plates and a triplet"), std::string::npos) << message;
+        EXPECT_NE(message.find("ghosts of its 101 surfaces"), std::string::npos) << message;
+        EXPECT_NE(message.find("over half the memory limit of 66 KB"), std::string::npos) << message;
+    }
+}
+
+}  // namespace
+}  // namespace lensfx::gpu
