@@ -9,7 +9,9 @@
 #include <fmt/core.h>
 
 #include <dof/deep_exr.h>
+#include <dof/ray_cache.h>
 #include <dof/renderer.h>
+#include <gpu/acceleration.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
@@ -80,11 +82,22 @@ struct DofStage::State {
     std::optional<dof::RayTable> table;
     dof::Camera camera;
     std::shared_ptr<DofShared> shared = std::make_shared<DofShared>();
+    dof::RayTableSource table_source;
     double layers_ms = 0, rays_ms = 0, trace_ms = 0;
+
+    std::string cache_dir() const;
 
     dof::Camera camera_for(const Frame& frame) const;
     dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table) const;
 };
+
+// Sensor points across the raster's width in the ray table.
+constexpr int kRayGrid = 17;
+
+std::string DofStage::State::cache_dir() const {
+    if (settings.cache_dir == "none") return {};
+    return settings.cache_dir.empty() ? gpu::default_cache_dir() : settings.cache_dir;
+}
 
 dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     const ImageSpec& spec = frame.spec;
@@ -157,7 +170,7 @@ void DofStage::process(Frame& frame) {
     const dof::Camera camera = s.camera_for(frame);
     if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||
         camera.centre_y != s.camera.centre_y) {
-        s.table = dof::make_ray_table(camera, std::max(64, 4 * s.settings.rays));
+        s.table = dof::cached_ray_table(camera, std::max(64, 4 * s.settings.rays), kRayGrid, s.cache_dir(), &s.table_source);
         s.camera = camera;
     }
     s.rays_ms = elapsed_ms(t0);
@@ -234,6 +247,7 @@ DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std:
     if (!settings.enabled) return {};
     settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
     settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
+    settings.cache_dir = flare.accel.cache_dir;
     auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs);
     DofStages stages;
     if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());

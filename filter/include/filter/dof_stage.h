@@ -30,6 +30,7 @@ struct DofSettings {
     // Shared with the flare (FlareSettings): the one lens of the run.
     std::string lens, zoom, sensor = "36";
     std::optional<double> fstop, fov_deg;
+    std::string cache_dir;             // --cache-dir: the ray table's file (empty: the default, "none": no file)
 };
 
 // --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --no-chromatic-blur, --tilt, --dof-only.
