@@ -19,7 +19,7 @@ namespace lensfx::dof {
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'D', 'O', 'F', 'R', '1'};
+constexpr char kMagic[8] = {'L', 'F', 'X', 'D', 'O', 'F', 'R', '2'};
 constexpr int kMaxGrid = 4096;
 constexpr int kMaxSamples = 1 << 16;
 constexpr int kMaxChannels = 128;
@@ -35,8 +35,8 @@ struct Checksum {
 
 // Shape and scalars of a table, as stored.
 struct Header {
-    std::int32_t grid_x = 0, grid_y = 0, samples = 0, channels = 0;
-    double cell_w = 0, cell_h = 0, focus_w = 0, max_slope = 0;
+    std::int32_t grid_x = 0, grid_y = 0, samples = 0, channels = 0, achromatic = 0, reserved = 0;
+    double cell_w = 0, cell_h = 0, focus_w = 0, max_slope = 0, focus_spread = 0;
 };
 
 std::size_t entries(const Header& h) {
@@ -46,8 +46,10 @@ std::size_t entries(const Header& h) {
 
 bool plausible(const Header& h) {
     return h.grid_x >= 2 && h.grid_x <= kMaxGrid && h.grid_y >= 2 && h.grid_y <= kMaxGrid && h.samples >= 1 &&
-           h.samples <= kMaxSamples && h.channels >= 1 && h.channels <= kMaxChannels && std::isfinite(h.cell_w) && h.cell_w > 0 &&
-           std::isfinite(h.cell_h) && h.cell_h > 0 && std::isfinite(h.focus_w) && std::isfinite(h.max_slope) && h.max_slope >= 0;
+           h.samples <= kMaxSamples && h.channels >= 1 && h.channels <= kMaxChannels && h.achromatic >= 0 && h.achromatic < h.channels &&
+           h.reserved == 0 && std::isfinite(h.cell_w) && h.cell_w > 0 &&
+           std::isfinite(h.cell_h) && h.cell_h > 0 && std::isfinite(h.focus_w) && std::isfinite(h.max_slope) && h.max_slope >= 0 &&
+           std::isfinite(h.focus_spread) && h.focus_spread >= 0;
 }
 
 // Reads exactly n bytes into data and adds them to the checksum.
@@ -63,6 +65,9 @@ void write_bytes(std::ofstream& out, const void* data, std::size_t n, Checksum& 
 }
 
 bool all_finite(const RayTable& t) {
+    for (const auto& w : t.channel_weight)
+        for (float v : w)
+            if (!std::isfinite(v)) return false;
     for (const auto& l : t.line)
         for (float v : l)
             if (!std::isfinite(v)) return false;
@@ -79,11 +84,14 @@ std::string temporary_beside(const std::string& path) {
 }  // namespace
 
 std::string ray_table_key(const Camera& c, int samples, int grid) {
-    std::string key = fmt::format("lensfx dof rays v1 system {:016x} focus {:.17g} sensor {:.17g} raster {}x{} display {:.17g} "
-                                  "centre {:.17g},{:.17g} tilt {:.17g},{:.17g} samples {} grid {} nm",
+    std::string key = fmt::format("lensfx dof rays v2 system {:016x} focus {:.17g} sensor {:.17g} raster {}x{} display {:.17g} "
+                                  "centre {:.17g},{:.17g} tilt {:.17g},{:.17g} samples {} grid {}",
                                   gpu::system_hash(c.system), c.focus_m, c.sensor_width_mm, c.width, c.height, c.display_width,
                                   c.centre_x, c.centre_y, c.tilt_x_deg, c.tilt_y_deg, samples, grid);
-    for (double nm : c.wavelengths_nm) key += fmt::format(" {:.17g}", nm);
+    key += fmt::format(" surface {:.17g}", c.focus_power);
+    for (const FocusPoint& p : c.focus_points) key += fmt::format(" {:.17g},{:.17g},{:.17g}", p.x, p.y, p.metres);
+    key += " bands";
+    for (const Band& b : bands_of(c)) key += fmt::format(" {:.17g}:{:.17g},{:.17g},{:.17g}", b.wavelength_nm, b.weight[0], b.weight[1], b.weight[2]);
     return key;
 }
 
@@ -109,15 +117,18 @@ std::optional<RayTable> read_ray_table(const std::string& path, const std::strin
     if (!read_bytes(in, stored.data(), stored.size(), sum) || stored != key || !read_bytes(in, &h, sizeof h, sum) || !plausible(h))
         return std::nullopt;
     const std::size_t n = entries(h);
-    const std::size_t expected = sizeof kMagic + sizeof key_size + key.size() + sizeof h + n * (sizeof(float) * 5) + sizeof(std::uint64_t);
+    const std::size_t weights = 3 * static_cast<std::size_t>(h.channels);
+    const std::size_t expected =
+        sizeof kMagic + sizeof key_size + key.size() + sizeof h + weights * sizeof(float) + n * (sizeof(float) * 5) + sizeof(std::uint64_t);
     if (file_size != expected) return std::nullopt;  // truncated or padded: before allocating by the header
     RayTable t;
-    t.grid_x = h.grid_x, t.grid_y = h.grid_y, t.samples = h.samples;
-    t.cell_w = h.cell_w, t.cell_h = h.cell_h, t.focus_w = h.focus_w, t.max_slope = h.max_slope;
+    t.grid_x = h.grid_x, t.grid_y = h.grid_y, t.samples = h.samples, t.channels = h.channels, t.achromatic = h.achromatic;
+    t.channel_weight.resize(static_cast<std::size_t>(h.channels));
+    t.cell_w = h.cell_w, t.cell_h = h.cell_h, t.focus_w = h.focus_w, t.max_slope = h.max_slope, t.focus_spread = h.focus_spread;
     t.line.resize(n);
     t.weight.resize(n);
     std::uint64_t stored_sum = 0;
-    if (!read_bytes(in, t.line.data(), n * sizeof(t.line[0]), sum) || !read_bytes(in, t.weight.data(), n * sizeof(float), sum) ||
+    if (!read_bytes(in, t.channel_weight.data(), weights * sizeof(float), sum) || !read_bytes(in, t.line.data(), n * sizeof(t.line[0]), sum) || !read_bytes(in, t.weight.data(), n * sizeof(float), sum) ||
         !in.read(reinterpret_cast<char*>(&stored_sum), sizeof stored_sum) || stored_sum != sum.h || !all_finite(t))
         return std::nullopt;
     return t;
@@ -132,11 +143,12 @@ bool write_ray_table(const std::string& path, const std::string& key, const RayT
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
         Checksum sum;
         const std::uint64_t key_size = key.size();
-        Header h{t.grid_x, t.grid_y, t.samples, 3, t.cell_w, t.cell_h, t.focus_w, t.max_slope};
+        const Header h{t.grid_x, t.grid_y, t.samples, t.channels, t.achromatic, 0, t.cell_w, t.cell_h, t.focus_w, t.max_slope, t.focus_spread};
         out.write(kMagic, sizeof kMagic);
         write_bytes(out, &key_size, sizeof key_size, sum);
         write_bytes(out, key.data(), key.size(), sum);
         write_bytes(out, &h, sizeof h, sum);
+        write_bytes(out, t.channel_weight.data(), t.channel_weight.size() * sizeof(t.channel_weight[0]), sum);
         write_bytes(out, t.line.data(), t.line.size() * sizeof(t.line[0]), sum);
         write_bytes(out, t.weight.data(), t.weight.size() * sizeof(float), sum);
         out.write(reinterpret_cast<const char*>(&sum.h), sizeof sum.h);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -12,6 +13,7 @@
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
 #include <gpu/acceleration.h>
+#include <gpu/flare.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
@@ -32,6 +34,9 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
     app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")->group(group);
+    app.add_option("--focus-point", s.focus_points,
+                   "X,Y,METRES (display-window pixels; repeat): a focal surface through these, instead of the plane at --focus")
+        ->group(group);
     app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
 }
 
@@ -48,6 +53,16 @@ std::array<double, 2> parse_pair(const std::string& text, const char* what) {
     } catch (const std::exception&) {
         throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
     }
+}
+
+// "X,Y,METRES" of --focus-point, in display-window pixels.
+dof::FocusPoint parse_focus_point(const std::string& text) {
+    dof::FocusPoint p;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !std::isfinite(p.x) || !std::isfinite(p.y) ||
+        !(p.metres > 0.0) || !std::isfinite(p.metres))
+        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels, metres > 0), not \"{}\"", text));
+    return p;
 }
 
 std::vector<std::string> split_commas(const std::string& text) {
@@ -115,6 +130,13 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
         const auto t = parse_pair(settings.tilt, "--tilt");
         c.tilt_x_deg = t[0], c.tilt_y_deg = t[1];
     }
+    for (const std::string& text : settings.focus_points) {
+        dof::FocusPoint p = parse_focus_point(text);
+        p.x += 0.5 - spec.x, p.y += 0.5 - spec.y;  // the pixel's centre, in the raster
+        c.focus_points.push_back(p);
+    }
+    if (settings.bands != 0)
+        for (const gpu::SpectralPass& p : gpu::spectral_passes(settings.bands)) c.bands.push_back({p.wavelength_nm, p.weight});
     return c;
 }
 
@@ -128,6 +150,8 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     const int z = channel_index(frame, settings.depth_channel);
     if (z < 0) throw std::runtime_error(fmt::format("no depth channel \"{}\" for --dof (see --depth-channel)", settings.depth_channel));
     std::vector<float> depth = channels_as_float(frame, {z});
+    const int a = channel_index(frame, "A");
+    const std::vector<float> alpha = a >= 0 ? channels_as_float(frame, {a}) : std::vector<float>{};
     float zmin = 1e30f, zmax = 0.0f;
     for (float& d : depth) {
         d = static_cast<float>(static_cast<double>(d) * settings.depth_scale);
@@ -137,7 +161,8 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     // the hidden layer reaches as far as the widest blur of the frame's depth range
     const double reach = t.max_slope * std::max(std::abs(1.0 / double{zmin} - t.focus_w), std::abs(1.0 / double{std::max(zmax, zmin)} - t.focus_w));
     options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
-    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options);
+    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options,
+                                 alpha.empty() ? nullptr : alpha.data());
 }
 
 DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows) : state_(std::make_unique<State>()) {
@@ -152,6 +177,8 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
         s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images);
     }
     if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame
+    if (settings.bands != 0) gpu::spectral_passes(settings.bands);     // and a bad band count
+    for (const std::string& p : settings.focus_points) parse_focus_point(p);
     s.settings = std::move(settings);
     s.gpu = gpu ? std::move(gpu) : std::make_shared<GpuSession>();
     s.flare_follows = flare_follows;
@@ -183,7 +210,10 @@ void DofStage::process(Frame& frame) {
     dof::TraceSettings trace;
     trace.rays = s.settings.rays;
     trace.chromatic = s.settings.chromatic;
-    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace);
+    const int alpha_channel = channel_index(frame, "A");
+    std::vector<float> alpha;
+    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr);
+    if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, alpha);  // the alpha blurs with the colour
     s.trace_ms = elapsed_ms(t0);
     if (!s.flare_follows) {
         frame.rgb = std::move(blurred);
@@ -248,6 +278,7 @@ DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std:
     settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
     settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
     settings.cache_dir = flare.accel.cache_dir;
+    settings.bands = flare.bands;
     auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs);
     DofStages stages;
     if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());
