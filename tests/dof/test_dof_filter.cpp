@@ -71,7 +71,7 @@ TEST(DofFilter, AlphaBlursWithTheColour) {
     const std::string in = (dir / "element.exr").string(), out = (dir / "out.exr").string();
     write_exr(in, kSize, kSize, {"R", "G", "B", "A", "Z"}, {rgb, rgb, rgb, rgb, z});
     const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
-                                     " --dof --dof-only --lens mld-double-gauss --fstop 2 --focus 2 --sensor 4 --dof-rays 64 --cache-dir none");
+                                     " --dof --dof-only --lens mld-double-gauss --fstop 2.8 --focus 2 --sensor 36 --dof-rays 16 --cache-dir none");
     ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
     int w = 0, h = 0;
     const std::vector<float> a = read_channel(out, "A", w, h), g = read_channel(out, "G", w, h);
@@ -117,6 +117,14 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     EXPECT_NE(no_lens.stderr_text.find("--dof needs --lens"), std::string::npos) << no_lens.stderr_text;
     const auto no_focus = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --lens mld-double-gauss");
     EXPECT_NE(no_focus.stderr_text.find("--focus"), std::string::npos) << no_focus.stderr_text;
+    const std::string dof = " --dof --dof-only --lens mld-double-gauss --focus 1";
+    const auto bad_point = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --focus-point 10,20");
+    EXPECT_NE(bad_point.exit_code, 0);
+    EXPECT_NE(bad_point.stderr_text.find("--focus-point must be X,Y,METRES"), std::string::npos) << bad_point.stderr_text;
+    const auto bad_bands = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --bands 5");
+    EXPECT_NE(bad_bands.exit_code, 0);
+    EXPECT_NE(bad_bands.stderr_text.find("--bands 5"), std::string::npos) << bad_bands.stderr_text;
+    for (const auto* r : {&bad_point, &bad_bands}) EXPECT_EQ(std::count(r->stderr_text.begin(), r->stderr_text.end(), '\n'), 1) << r->stderr_text;
 }
 
 }  // namespace
