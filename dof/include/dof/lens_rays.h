@@ -79,8 +79,8 @@ struct RayTable {
     }
     double focus_w = 0.0;   // 1 / focus distance
     double max_slope = 0.0; // largest |a| over valid rays (pixels per 1/m): the blur's reach
-    // largest distance at focus_w between a grid point and its rays (tilt, a focal surface or aberrations
-    // make rays converge elsewhere): added to the reach where all of a pixel's rays must be bounded
+    // largest distance at focus_w between a grid point's rays and their mean (tilt, a focal surface or
+    // aberrations keep them from converging there): added to the reach where a pixel's rays must be bounded
     double focus_spread = 0.0;
 };
 
