@@ -84,7 +84,7 @@ std::string temporary_beside(const std::string& path) {
 }  // namespace
 
 std::string ray_table_key(const Camera& c, int samples, int grid) {
-    std::string key = fmt::format("lensfx dof rays v2 system {:016x} focus {:.17g} sensor {:.17g} raster {}x{} display {:.17g} "
+    std::string key = fmt::format("lensfx dof rays v3 system {:016x} focus {:.17g} sensor {:.17g} raster {}x{} display {:.17g} "
                                   "centre {:.17g},{:.17g} tilt {:.17g},{:.17g} samples {} grid {}",
                                   gpu::system_hash(c.system), c.focus_m, c.sensor_width_mm, c.width, c.height, c.display_width,
                                   c.centre_x, c.centre_y, c.tilt_x_deg, c.tilt_y_deg, samples, grid);
