@@ -1,4 +1,4 @@
-// bench_dof [--quick] [--csv FILE]: the lens blur's time against its error. For each scene (a synthetic
+// bench_dof [--quick] [--no-uniform-skip] [--csv FILE]: the lens blur's time against its error. For each scene (a synthetic
 // layered scene, a crop of the deep forest) and each quality setting (lens rays per pixel, chromatic or
 // not), the GPU trace's milliseconds and its relative L1 error against the dense CPU reference (512 lens
 // rays per pixel and channel, every layer of every crossed cell), side by side.
@@ -67,13 +67,14 @@ double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    bool quick = false;
+    bool quick = false, skip = true;
     std::string csv_path;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--quick") quick = true;
+        else if (a == "--no-uniform-skip") skip = false;  // trace every pixel (TraceSettings::uniform_skip)
         else if (a == "--csv" && i + 1 < argc) csv_path = argv[++i];
-        else { fmt::print(stderr, "usage: bench_dof [--quick] [--csv FILE]\n"); return 2; }
+        else { fmt::print(stderr, "usage: bench_dof [--quick] [--no-uniform-skip] [--csv FILE]\n"); return 2; }
     }
     const int w = quick ? 128 : 256, h = quick ? 72 : 144;
     std::vector<Scene> scenes{synthetic(w, h)};
@@ -101,7 +102,7 @@ int main(int argc, char** argv) {
         for (bool chromatic : {false, true}) {
             for (int rays : {4, 8, 16, 32, 64, table.samples}) {
                 dof::TraceSettings s;
-                s.rays = rays, s.chromatic = chromatic;
+                s.rays = rays, s.chromatic = chromatic, s.uniform_skip = skip;
                 renderer.render(scene.layers, table, s);  // warm
                 const std::vector<float> out = renderer.render(scene.layers, table, s);
                 const double err = relative_l1(out, ref);

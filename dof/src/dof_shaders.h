@@ -10,14 +10,16 @@ layout(rgba32f, binding = 0) writeonly uniform image2D result;
 uniform sampler2D hiz;            // (lowest, highest) inverse depth per cell, one mip level per hierarchy level
 uniform sampler2DArray layer_w;   // (1/front, 1/back); front < 0: no surface here or in later layers
 uniform sampler2DArray layer_rgba;
-uniform sampler2D ray_line;       // (cx, ax, cy, ay): pixel(w) = c + a w
-uniform sampler2D ray_weight;
+uniform sampler2DArray ray_line;  // (cx, ax, cy, ay): pixel(w) = c + a w; x sample, y grid point, layer band
+uniform sampler2DArray ray_weight;
 uniform sampler2D colour_min, colour_max;  // per hierarchy cell, the range of every layer's RGBA
 uniform float reach_px, focus_w;           // the widest blur radius of the frame, the focused depth
 uniform ivec2 size;
 uniform int layer_count, top_level, start_level, max_iterations;
 uniform float w_near, w_far;
 uniform int samples, rays, chromatic, open_scene;
+uniform int bands, achromatic;     // table channels (RGB's 3 or spectral bands), the one nearest 550 nm
+uniform vec3 band_weight[128];     // what each band's gathered colour adds to R, G, B
 uniform ivec2 grid;
 uniform vec2 cell;
 
@@ -26,6 +28,8 @@ ivec2 clamp_cell(ivec2 c, int level) {
     return clamp(c, ivec2(0), n - 1);
 }
 
+// Each corner's ray relative to its grid point, moved to p (lens_rays.cpp ray_at): a sample that passes at
+// some corners only still converges on this pixel.
 float fetch_ray(int ch, vec2 p, int s, out vec4 line) {
     vec2 f = clamp(p / cell, vec2(0.0), vec2(grid - 1));
     ivec2 g0 = min(ivec2(f), grid - 2);
@@ -34,27 +38,29 @@ float fetch_ray(int ch, vec2 p, int s, out vec4 line) {
     float weight = 0.0;
     for (int j = 0; j < 2; ++j) {
         for (int i = 0; i < 2; ++i) {
-            int row = (ch * grid.y + g0.y + j) * grid.x + g0.x + i;
-            float w = (i == 1 ? t.x : 1.0 - t.x) * (j == 1 ? t.y : 1.0 - t.y) * texelFetch(ray_weight, ivec2(s, row), 0).r;
-            line += w * texelFetch(ray_line, ivec2(s, row), 0);
+            ivec3 at = ivec3(s, (g0.y + j) * grid.x + g0.x + i, ch);
+            float w = (i == 1 ? t.x : 1.0 - t.x) * (j == 1 ? t.y : 1.0 - t.y) * texelFetch(ray_weight, at, 0).r;
+            vec2 g = vec2(g0 + ivec2(i, j)) * cell;
+            line += w * (texelFetch(ray_line, at, 0) - vec4(g.x, 0.0, g.y, 0.0));
             weight += w;
         }
     }
-    if (weight > 0.0) line /= weight;
+    if (weight > 0.0) line = line / weight + vec4(f.x * cell.x, 0.0, f.y * cell.y, 0.0);
     return weight;
 }
 
-vec3 farthest(ivec2 c) {
+vec4 farthest(ivec2 c) {
     ivec2 px = clamp_cell(c, 0);
-    vec3 colour = vec3(0.0);
+    vec4 colour = vec4(0.0);
     for (int k = 0; k < layer_count; ++k) {
         if (texelFetch(layer_w, ivec3(px, k), 0).x < 0.0) break;
-        colour = texelFetch(layer_rgba, ivec3(px, k), 0).rgb;
+        colour = texelFetch(layer_rgba, ivec3(px, k), 0);
     }
     return colour;
 }
 
-vec3 trace(vec4 l) {
+// Premultiplied colour and alpha a lens ray gathers; a flat scene's surfaces are opaque whatever their alpha.
+vec4 trace(vec4 l) {
     vec2 c = l.xz, a = l.yw;
     // w falls along the ray, so it moves along -a on screen
     ivec2 st = ivec2(a.x > 0.0 ? -1 : 1, a.y > 0.0 ? -1 : 1);
@@ -62,7 +68,7 @@ vec3 trace(vec4 l) {
     float w = w_near;
     int level = min(start_level, top_level);
     vec2 nudge = vec2(0.0);
-    vec3 acc = vec3(0.0);
+    vec4 acc = vec4(0.0);
     float trans = 1.0;
     for (int it = 0; it < max_iterations; ++it) {
         float cs = float(1 << level);
@@ -93,8 +99,8 @@ vec3 trace(vec4 l) {
             if (fb.x < 0.0) break;
             if (w_exit > fb.x || w < fb.y) continue;
             vec4 colour = texelFetch(layer_rgba, ivec3(px, k), 0);
-            acc += trans * colour.rgb;
-            trans *= 1.0 - colour.a;
+            acc += trans * colour;
+            trans *= open_scene != 0 ? 1.0 - colour.a : 0.0;
             if (trans < 1e-3) return acc;
         }
         if (w_exit <= w_far) break;
@@ -108,7 +114,7 @@ vec3 trace(vec4 l) {
 
 // Whether every surface any ray of this pixel can reach has one colour (then that is the pixel's): the
 // rays converge on `centre` at the focused depth and spread at most reach_px from it.
-bool uniform_colour(vec2 centre, out vec3 colour) {
+bool uniform_colour(vec2 centre, out vec4 colour) {
     float r = reach_px + 4.0;
     int level = min(top_level, int(ceil(log2(2.0 * r + 2.0))));
     float cs = float(1 << level);
@@ -120,8 +126,8 @@ bool uniform_colour(vec2 centre, out vec3 colour) {
             hi = max(hi, texelFetch(colour_max, ivec2(x, y), level));
         }
     }
-    colour = lo.rgb;
-    return lo.a >= 1.0 && all(lessThanEqual(hi - lo, 1e-6 * (vec4(1.0) + abs(hi))));
+    colour = lo;
+    return (open_scene == 0 || lo.a >= 1.0) && all(lessThanEqual(hi - lo, 1e-6 * (vec4(1.0) + abs(hi))));
 }
 
 uint hash(uvec2 v) {
@@ -137,31 +143,33 @@ void main() {
     int offset = int(hash(uvec2(pix)) % uint(samples));
     for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
         vec4 line;
-        if (fetch_ray(1, p, (offset + k) % samples, line) > 0.0) {
-            vec3 colour;
+        if (fetch_ray(achromatic, p, (offset + k) % samples, line) > 0.0) {
+            vec4 colour;
             if (reach_px >= 0.0 && uniform_colour(line.xz + line.yw * focus_w, colour)) {
-                imageStore(result, pix, vec4(colour, 1.0));
+                imageStore(result, pix, colour);
                 return;
             }
             break;
         }
     }
-    vec3 sum = vec3(0.0), weight = vec3(0.0);
-    for (int k = 0; k < rays; ++k) {
-        int s = (offset + k) % samples;
-        vec4 line;
-        if (chromatic != 0) {
-            for (int ch = 0; ch < 3; ++ch) {
-                float w = fetch_ray(ch, p, s, line);
-                if (w > 0.0) { sum[ch] += w * trace(line)[ch]; weight[ch] += w; }
-            }
-        } else {
-            float w = fetch_ray(1, p, s, line);
-            if (w > 0.0) { sum += w * trace(line); weight += vec3(w); }
+    // each band's mean over its valid rays, into R, G, B by the band's weights; alpha with the achromatic
+    // band's rays; without chromatic blur the achromatic band's rays for everything
+    vec4 colour = vec4(0.0);
+    for (int b = 0; b < bands; ++b) {
+        if (chromatic == 0 && b != achromatic) continue;
+        vec4 sum = vec4(0.0);
+        float weight = 0.0;
+        for (int k = 0; k < rays; ++k) {
+            vec4 line;
+            float w = fetch_ray(b, p, (offset + k) % samples, line);
+            if (w > 0.0) { sum += w * trace(line); weight += w; }
         }
+        if (weight <= 0.0) continue;
+        vec4 mean = sum / weight;
+        colour.rgb += (chromatic != 0 ? band_weight[b] : vec3(1.0)) * mean.rgb;
+        if (b == achromatic) colour.a = mean.a;
     }
-    imageStore(result, pix, vec4(weight.x > 0.0 ? sum.x / weight.x : 0.0, weight.y > 0.0 ? sum.y / weight.y : 0.0,
-                                 weight.z > 0.0 ? sum.z / weight.z : 0.0, 1.0));
+    imageStore(result, pix, colour);
 }
 )GLSL";
 

@@ -75,7 +75,8 @@ float LayerStack::farthest() const {
     return m;
 }
 
-LayerStack layers_from_flat(const float* rgb, const float* depth, int width, int height, const FlatLayerOptions& options) {
+LayerStack layers_from_flat(const float* rgb, const float* depth, int width, int height, const FlatLayerOptions& options,
+                            const float* alpha) {
     const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
     std::vector<float> z(n);
     for (std::size_t i = 0; i < n; ++i) z[i] = valid_depth(depth[i]);
@@ -87,12 +88,12 @@ LayerStack layers_from_flat(const float* rgb, const float* depth, int width, int
     for (std::size_t i = 0; i < n; ++i) {
         layers.front[i] = z[i];
         for (int c = 0; c < 3; ++c) layers.rgba[4 * i + static_cast<std::size_t>(c)] = rgb[3 * i + static_cast<std::size_t>(c)];
-        layers.rgba[4 * i + 3] = 1.0f;
+        layers.rgba[4 * i + 3] = alpha ? alpha[i] : 1.0f;
         if (!any_hidden || hidden[i] < 0) continue;
         const std::size_t h = n + i, s = static_cast<std::size_t>(hidden[i]);
         layers.front[h] = z[s];
         for (int c = 0; c < 3; ++c) layers.rgba[4 * h + static_cast<std::size_t>(c)] = rgb[3 * s + static_cast<std::size_t>(c)];
-        layers.rgba[4 * h + 3] = 1.0f;
+        layers.rgba[4 * h + 3] = alpha ? alpha[s] : 1.0f;
     }
     set_thickness(layers, options.thickness, options.step);
     return layers;
@@ -128,7 +129,7 @@ void composite_pixel(const LayerStack& layers, int x, int y, float* rgb) {
         const std::size_t i = layers.at(k, x, y);
         if (layers.front[i] <= 0.0f) break;
         for (int c = 0; c < 3; ++c) rgb[c] += t * layers.rgba[4 * i + static_cast<std::size_t>(c)];
-        t *= 1.0f - layers.rgba[4 * i + 3];
+        t *= 1.0f - layers.opacity(i);
     }
 }
 

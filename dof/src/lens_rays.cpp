@@ -47,7 +47,7 @@ struct Setup {
     Focus focus;
     double exit_pupil_z = 0.0, exit_pupil_r = 0.0;
     std::vector<optics::Step> back_path;
-    std::array<optics::TraceSystem, 3> systems;
+    std::vector<optics::TraceSystem> systems;  // per band
     optics::IrisSdf iris;
 };
 
@@ -57,7 +57,8 @@ optics::Vec3 sensor_point(const Setup& s, double px, double py) {
     const double pitch = s.camera.pitch_mm();
     const double x = -(px - s.camera.centre_x) * pitch, y = -(s.camera.centre_y - py) * pitch;
     const double pi = std::acos(-1.0);
-    const double z = s.focus.sensor_z_mm + x * std::tan(s.camera.tilt_y_deg * pi / 180.0) + y * std::tan(s.camera.tilt_x_deg * pi / 180.0);
+    const double focused = s.camera.focus_points.empty() ? s.focus.sensor_z_mm : focus_of(s.camera.system, focus_at(s.camera, px, py)).sensor_z_mm;
+    const double z = focused + x * std::tan(s.camera.tilt_y_deg * pi / 180.0) + y * std::tan(s.camera.tilt_x_deg * pi / 180.0);
     return {x, y, z};
 }
 
@@ -102,7 +103,7 @@ std::array<double, 4> pupil_box(const Setup& s, int channel, const optics::Vec3&
 
 void fill_grid_point(const Setup& s, RayTable& t, int gx, int gy) {
     const optics::Vec3 p = sensor_point(s, gx * t.cell_w, gy * t.cell_h);
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < t.channels; ++c) {
         const std::array<double, 4> box = pupil_box(s, c, p);
         for (int k = 0; k < t.samples; ++k) {
             const std::size_t i = t.at(c, gx, gy, k);
@@ -114,26 +115,75 @@ void fill_grid_point(const Setup& s, RayTable& t, int gx, int gy) {
     }
 }
 
+// Largest distance at focus depth between a grid point's rays and their mean there (tilt, a focal surface,
+// aberrations); the mean itself may lie off the grid point (focus breathing, distortion), which the
+// uniform-colour test's centre already follows.
+double focus_spread(const RayTable& t) {
+    double spread = 0.0;
+    for (int c = 0; c < t.channels; ++c)
+        for (int gy = 0; gy < t.grid_y; ++gy)
+            for (int gx = 0; gx < t.grid_x; ++gx) {
+                const auto at_focus = [&](int k) {
+                    const auto& l = t.line[t.at(c, gx, gy, k)];
+                    return std::array<double, 2>{double{l[0]} + double{l[1]} * t.focus_w, double{l[2]} + double{l[3]} * t.focus_w};
+                };
+                double mx = 0.0, my = 0.0, n = 0.0;
+                for (int k = 0; k < t.samples; ++k)
+                    if (t.weight[t.at(c, gx, gy, k)] > 0.0f) mx += at_focus(k)[0], my += at_focus(k)[1], n += 1.0;
+                if (n == 0.0) continue;
+                mx /= n, my /= n;
+                for (int k = 0; k < t.samples; ++k)
+                    if (t.weight[t.at(c, gx, gy, k)] > 0.0f) spread = std::max(spread, std::hypot(at_focus(k)[0] - mx, at_focus(k)[1] - my));
+            }
+    return spread;
+}
+
 }  // namespace
+
+double focus_at(const Camera& camera, double px, double py) {
+    if (camera.focus_points.empty()) return camera.focus_m;
+    double sum = 0.0, weights = 0.0;
+    for (const FocusPoint& p : camera.focus_points) {
+        const double d = std::hypot(px - p.x, py - p.y);
+        if (d < 1e-9) return p.metres;  // the constraint itself, exactly
+        const double w = 1.0 / std::pow(d, camera.focus_power);
+        sum += w / p.metres, weights += w;
+    }
+    return weights / sum;
+}
+
+std::vector<Band> bands_of(const Camera& camera) {
+    if (!camera.bands.empty()) return camera.bands;
+    std::vector<Band> rgb(3);
+    for (std::size_t c = 0; c < 3; ++c) rgb[c].wavelength_nm = camera.wavelengths_nm[c], rgb[c].weight[c] = 1.0;
+    return rgb;
+}
 
 RayTable make_ray_table(const Camera& camera, int samples, int grid) {
     if (camera.width < 1 || camera.height < 1 || samples < 1 || grid < 2) throw std::invalid_argument("lens rays: empty raster or table");
     const optics::Paraxial p = optics::paraxial(camera.system);
-    Setup s{camera, focus_of(camera.system, camera.focus_m), 0.0, 0.0,
-            optics::reversed_path(optics::direct_path(camera.system)),
-            {optics::TraceSystem(camera.system, camera.wavelengths_nm[0]), optics::TraceSystem(camera.system, camera.wavelengths_nm[1]),
-             optics::TraceSystem(camera.system, camera.wavelengths_nm[2])},
+    const std::vector<Band> bands = bands_of(camera);
+    Setup s{camera, focus_of(camera.system, camera.focus_m), 0.0, 0.0, optics::reversed_path(optics::direct_path(camera.system)), {},
             optics::IrisSdf(camera.system.aperture)};
+    for (const Band& b : bands) s.systems.emplace_back(camera.system, b.wavelength_nm);
     s.exit_pupil_z = camera.system.interfaces.back().z_mm + p.exit_pupil_mm;
     s.exit_pupil_r = 0.5 * p.exit_pupil_diameter_mm;
 
     RayTable t;
+    t.channels = static_cast<int>(bands.size());
+    t.achromatic = 0;
+    for (std::size_t b = 0; b < bands.size(); ++b) {
+        t.channel_weight.push_back({static_cast<float>(bands[b].weight[0]), static_cast<float>(bands[b].weight[1]), static_cast<float>(bands[b].weight[2])});
+        if (std::abs(bands[b].wavelength_nm - 550.0) < std::abs(bands[static_cast<std::size_t>(t.achromatic)].wavelength_nm - 550.0))
+            t.achromatic = static_cast<int>(b);
+    }
+    if (camera.bands.empty()) t.achromatic = 1;  // RGB: green, whatever wavelengths_nm say
     t.samples = samples;
     t.grid_x = grid;
     t.cell_w = static_cast<double>(camera.width) / (grid - 1);
     t.grid_y = std::max(2, static_cast<int>(std::ceil(camera.height / t.cell_w)) + 1);
     t.cell_h = static_cast<double>(camera.height) / (t.grid_y - 1);
-    const std::size_t n = 3 * static_cast<std::size_t>(t.grid_x) * static_cast<std::size_t>(t.grid_y) * static_cast<std::size_t>(samples);
+    const std::size_t n = static_cast<std::size_t>(t.channels) * static_cast<std::size_t>(t.grid_x) * static_cast<std::size_t>(t.grid_y) * static_cast<std::size_t>(samples);
     t.line.assign(n, std::array<float, 4>{});
     t.weight.assign(n, 0.0f);
     t.focus_w = 1.0 / camera.focus_m;
@@ -147,6 +197,7 @@ RayTable make_ray_table(const Camera& camera, int samples, int grid) {
     for (auto& th : pool) th.join();
     for (std::size_t i = 0; i < n; ++i)
         if (t.weight[i] > 0.0f) t.max_slope = std::max({t.max_slope, static_cast<double>(std::abs(t.line[i][1])), static_cast<double>(std::abs(t.line[i][3]))});
+    t.focus_spread = focus_spread(t);
     return t;
 }
 
@@ -169,16 +220,23 @@ ScreenRay ray_at(const RayTable& t, int channel, double px, double py, int s) {
     const double fx = std::clamp(px / t.cell_w, 0.0, t.grid_x - 1.0), fy = std::clamp(py / t.cell_h, 0.0, t.grid_y - 1.0);
     const int x0 = std::min(static_cast<int>(fx), t.grid_x - 2), y0 = std::min(static_cast<int>(fy), t.grid_y - 2);
     const double tx = fx - x0, ty = fy - y0;
+    // Each corner's ray relative to its own grid point, moved to (px, py): where a sample passes at some
+    // corners only, it still converges on this pixel, not on the corner's (up to a grid cell away). With
+    // every corner valid this is the plain bilinear mix.
     ScreenRay r{0, 0, 0, 0, 0};
     for (int j = 0; j < 2; ++j) {
         for (int i = 0; i < 2; ++i) {
             const std::size_t k = t.at(channel, x0 + i, y0 + j, s);
             const float w = static_cast<float>((i ? tx : 1.0 - tx) * (j ? ty : 1.0 - ty)) * t.weight[k];
-            r.cx += w * t.line[k][0], r.ax += w * t.line[k][1], r.cy += w * t.line[k][2], r.ay += w * t.line[k][3];
+            const auto gx = static_cast<float>((x0 + i) * t.cell_w), gy = static_cast<float>((y0 + j) * t.cell_h);
+            r.cx += w * (t.line[k][0] - gx), r.ax += w * t.line[k][1], r.cy += w * (t.line[k][2] - gy), r.ay += w * t.line[k][3];
             r.weight += w;
         }
     }
-    if (r.weight > 0.0f) r.cx /= r.weight, r.ax /= r.weight, r.cy /= r.weight, r.ay /= r.weight;
+    if (r.weight > 0.0f) {
+        r.cx = r.cx / r.weight + static_cast<float>(fx * t.cell_w), r.ax /= r.weight;
+        r.cy = r.cy / r.weight + static_cast<float>(fy * t.cell_h), r.ay /= r.weight;
+    }
     return r;
 }
 

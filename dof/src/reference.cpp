@@ -20,7 +20,7 @@ bool shade_cell(const LayerStack& layers, int x, int y, float w_in, float w_out,
         const float w_front = 1.0f / f, w_back = 1.0f / layers.back[i];
         if (w_out > w_front || w_in < w_back) continue;
         acc += trans * layers.rgba[4 * i + static_cast<std::size_t>(channel)];
-        trans *= 1.0f - layers.rgba[4 * i + 3];
+        trans *= 1.0f - layers.opacity(i);
         if (trans < 1e-3f) return false;
     }
     return true;
@@ -58,6 +58,19 @@ float trace_channel(const LayerStack& layers, const DepthSpan& span, float cx, f
     return layers.open ? acc : acc + trans * farthest_colour(layers, x, y, channel);
 }
 
+// The mean of colour channel `colour` (3: alpha) over the first n rays of table channel `rays` at pixel
+// (x, y), each weighted by its share of valid grid corners.
+float pixel_mean(const LayerStack& layers, const DepthSpan& span, const RayTable& table, int x, int y, int rays, int colour, int n) {
+    double sum = 0.0, weight = 0.0;
+    for (int s = 0; s < n; ++s) {
+        const ScreenRay r = ray_at(table, rays, x + 0.5, y + 0.5, s);
+        if (r.weight <= 0.0f) continue;
+        sum += static_cast<double>(r.weight * trace_channel(layers, span, r.cx, r.ax, r.cy, r.ay, colour));
+        weight += static_cast<double>(r.weight);
+    }
+    return weight > 0.0 ? static_cast<float>(sum / weight) : 0.0f;
+}
+
 }  // namespace
 
 DepthSpan depth_span(const LayerStack& layers) {
@@ -68,27 +81,24 @@ float trace_exact(const LayerStack& layers, const DepthSpan& span, const ScreenR
     return trace_channel(layers, span, ray.cx, ray.ax, ray.cy, ray.ay, channel);
 }
 
-std::vector<float> render_reference(const LayerStack& layers, const RayTable& table, int rays, int threads) {
+std::vector<float> render_reference(const LayerStack& layers, const RayTable& table, int rays, int threads, std::vector<float>* alpha) {
     const DepthSpan span = depth_span(layers);
     const int n = rays > 0 ? std::min(rays, table.samples) : table.samples;
-    std::vector<float> out(3 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height), 0.0f);
+    const std::size_t pixels = static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height);
+    std::vector<float> out(3 * pixels, 0.0f);
+    if (alpha) alpha->assign(pixels, 0.0f);
     const unsigned t = threads > 0 ? static_cast<unsigned>(threads) : std::max(1u, std::thread::hardware_concurrency());
     std::vector<std::thread> pool;
     for (unsigned id = 0; id < t; ++id) {
         pool.emplace_back([&, id] {
             for (int y = static_cast<int>(id); y < layers.height; y += static_cast<int>(t)) {
                 for (int x = 0; x < layers.width; ++x) {
-                    for (int c = 0; c < 3; ++c) {
-                        double sum = 0.0, weight = 0.0;
-                        for (int s = 0; s < n; ++s) {
-                            const ScreenRay r = ray_at(table, c, x + 0.5, y + 0.5, s);
-                            if (r.weight <= 0.0f) continue;
-                            sum += static_cast<double>(r.weight * trace_channel(layers, span, r.cx, r.ax, r.cy, r.ay, c));
-                            weight += static_cast<double>(r.weight);
-                        }
-                        out[3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(layers.width) + static_cast<std::size_t>(x)) + static_cast<std::size_t>(c)] =
-                            weight > 0.0 ? static_cast<float>(sum / weight) : 0.0f;
-                    }
+                    const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(layers.width) + static_cast<std::size_t>(x);
+                    for (int b = 0; b < table.channels; ++b)  // each band's gathered colour into R, G, B by its weights
+                        for (int c = 0; c < 3; ++c)
+                            if (const float wc = table.channel_weight[static_cast<std::size_t>(b)][static_cast<std::size_t>(c)]; wc != 0.0f)
+                                out[3 * i + static_cast<std::size_t>(c)] += wc * pixel_mean(layers, span, table, x, y, b, c, n);
+                    if (alpha) (*alpha)[i] = pixel_mean(layers, span, table, x, y, table.achromatic, 3, n);
                 }
             }
         });

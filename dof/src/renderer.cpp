@@ -16,6 +16,8 @@ namespace lensfx::dof {
 
 namespace {
 
+constexpr int kMaxBands = 128;  // band_weight's size in the shader
+
 int next_pow2(int n) {
     int p = 1;
     while (p < n) p *= 2;
@@ -26,13 +28,6 @@ gpu::GlObject make_texture(GLenum target) {
     GLuint n = 0;
     glCreateTextures(target, 1, &n);
     return {gpu::GlObject::Kind::Texture, n};
-}
-
-gpu::GlObject texture_2d(GLenum format, int w, int h, GLenum pixel_format, const float* data) {
-    gpu::GlObject t = make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(t.get(), 1, format, w, h);
-    glTextureSubImage2D(t.get(), 0, 0, 0, w, h, pixel_format, GL_FLOAT, data);
-    return t;
 }
 
 gpu::GlObject texture_array(GLenum format, int w, int h, int layers, GLenum pixel_format, const float* data) {
@@ -156,7 +151,8 @@ std::vector<float> inverse_depths(const LayerStack& layers) {
 
 }  // namespace
 
-std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings) {
+std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings,
+                                    std::vector<float>* alpha) {
     const auto start = std::chrono::steady_clock::now();
     const GLuint prog = state_->program.get();
     int pw = 0, ph = 0;
@@ -168,9 +164,10 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     const std::vector<float> inv = inverse_depths(layers);
     gpu::GlObject layer_w = texture_array(GL_RG32F, layers.width, layers.height, layers.count, GL_RG, inv.data());
     gpu::GlObject layer_rgba = texture_array(GL_RGBA32F, layers.width, layers.height, layers.count, GL_RGBA, layers.rgba.data());
-    const int rows = 3 * table.grid_x * table.grid_y;
-    gpu::GlObject line = texture_2d(GL_RGBA32F, table.samples, rows, GL_RGBA, table.line.front().data());
-    gpu::GlObject weight = texture_2d(GL_R32F, table.samples, rows, GL_RED, table.weight.data());
+    if (table.channels > kMaxBands) throw std::invalid_argument(fmt::format("lens blur: {} bands, at most {}", table.channels, kMaxBands));
+    const int points = table.grid_x * table.grid_y;  // one layer per band
+    gpu::GlObject line = texture_array(GL_RGBA32F, table.samples, points, table.channels, GL_RGBA, table.line.front().data());
+    gpu::GlObject weight = texture_array(GL_R32F, table.samples, points, table.channels, GL_RED, table.weight.data());
     gpu::GlObject out = make_texture(GL_TEXTURE_2D);
     glTextureStorage2D(out.get(), 1, GL_RGBA32F, layers.width, layers.height);
 
@@ -192,11 +189,16 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform1f(p.uniform("w_far"), 1.0f / layers.farthest());
     const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
     const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w));
-    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach) : -1e30f);
+    // every ray of a pixel stays within the reach of where the first one crosses focus_w, plus twice the
+    // table's focus spread (the first ray's own offset, and the others')
+    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach + 2.0 * table.focus_spread) : -1e30f);
     glUniform1f(p.uniform("focus_w"), static_cast<float>(table.focus_w));
     glUniform1i(p.uniform("samples"), table.samples);
     glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));
     glUniform1i(p.uniform("chromatic"), settings.chromatic ? 1 : 0);
+    glUniform1i(p.uniform("bands"), table.channels);
+    glUniform1i(p.uniform("achromatic"), table.achromatic);
+    glUniform3fv(p.uniform("band_weight"), table.channels, table.channel_weight.front().data());
     glUniform1i(p.uniform("open_scene"), layers.open ? 1 : 0);
     glUniform2i(p.uniform("grid"), table.grid_x, table.grid_y);
     glUniform2f(p.uniform("cell"), static_cast<float>(table.cell_w), static_cast<float>(table.cell_h));
@@ -209,6 +211,10 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     std::vector<float> rgb(3 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height));
     for (std::size_t i = 0, n = rgb.size() / 3; i < n; ++i)
         for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = rgba[4 * i + c];
+    if (alpha) {
+        alpha->resize(rgb.size() / 3);
+        for (std::size_t i = 0; i < alpha->size(); ++i) (*alpha)[i] = rgba[4 * i + 3];
+    }
     last_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     return rgb;
 }

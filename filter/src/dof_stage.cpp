@@ -4,12 +4,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include <fmt/core.h>
 
 #include <dof/deep_exr.h>
+#include <dof/ray_cache.h>
 #include <dof/renderer.h>
+#include <gpu/acceleration.h>
+#include <gpu/flare.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
@@ -33,6 +37,9 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
     app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")->group(group);
+    app.add_option("--focus-point", s.focus_points,
+                   "X,Y,METRES (display-window pixels; repeat): a focal surface through these, instead of the plane at --focus")
+        ->group(group);
     app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
 }
 
@@ -41,6 +48,16 @@ namespace {
 std::array<double, 2> parse_pair(const std::string& text, const char* what) {
     if (const auto xy = parse_pair_of<double>(text, ',')) return *xy;
     throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
+}
+
+// "X,Y,METRES" of --focus-point, in display-window pixels.
+dof::FocusPoint parse_focus_point(const std::string& text) {
+    dof::FocusPoint p;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !std::isfinite(p.x) || !std::isfinite(p.y) ||
+        !(p.metres > 0.0) || !std::isfinite(p.metres))
+        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels, metres > 0), not \"{}\"", text));
+    return p;
 }
 
 std::vector<std::string> split_commas(const std::string& text) {
@@ -71,11 +88,22 @@ struct DofStage::State {
     std::optional<dof::RayTable> table;
     dof::Camera camera;
     std::shared_ptr<DofShared> shared = std::make_shared<DofShared>();
+    dof::RayTableSource table_source;
     double layers_ms = 0, rays_ms = 0, trace_ms = 0;
+
+    std::string cache_dir() const;
 
     dof::Camera camera_for(const Frame& frame) const;
     dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table) const;
 };
+
+// Sensor points across the raster's width in the ray table.
+constexpr int kRayGrid = 17;
+
+std::string DofStage::State::cache_dir() const {
+    if (settings.cache_dir == "none") return {};
+    return settings.cache_dir.empty() ? gpu::default_cache_dir() : settings.cache_dir;
+}
 
 dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     const ImageSpec& spec = frame.spec;
@@ -93,6 +121,13 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
         const auto t = parse_pair(settings.tilt, "--tilt");
         c.tilt_x_deg = t[0], c.tilt_y_deg = t[1];
     }
+    for (const std::string& text : settings.focus_points) {
+        dof::FocusPoint p = parse_focus_point(text);
+        p.x += 0.5 - spec.x, p.y += 0.5 - spec.y;  // the pixel's centre, in the raster
+        c.focus_points.push_back(p);
+    }
+    if (settings.bands != 0)
+        for (const gpu::SpectralPass& p : gpu::spectral_passes(settings.bands)) c.bands.push_back({p.wavelength_nm, p.weight});
     return c;
 }
 
@@ -106,6 +141,8 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     const int z = channel_index(frame, settings.depth_channel);
     if (z < 0) throw std::runtime_error(fmt::format("no depth channel \"{}\" for --dof (see --depth-channel)", settings.depth_channel));
     std::vector<float> depth = channels_as_float(frame, {z});
+    const int a = channel_index(frame, "A");
+    const std::vector<float> alpha = a >= 0 ? channels_as_float(frame, {a}) : std::vector<float>{};
     float zmin = 1e30f, zmax = 0.0f;
     for (float& d : depth) {
         d = static_cast<float>(static_cast<double>(d) * settings.depth_scale);
@@ -115,7 +152,8 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     // the hidden layer reaches as far as the widest blur of the frame's depth range
     const double reach = t.max_slope * std::max(std::abs(1.0 / double{zmin} - t.focus_w), std::abs(1.0 / double{std::max(zmax, zmin)} - t.focus_w));
     options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
-    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options);
+    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options,
+                                 alpha.empty() ? nullptr : alpha.data());
 }
 
 DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows) : state_(std::make_unique<State>()) {
@@ -130,6 +168,8 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
         s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images);
     }
     if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame
+    if (settings.bands != 0) gpu::spectral_passes(settings.bands);     // and a bad band count
+    for (const std::string& p : settings.focus_points) parse_focus_point(p);
     s.settings = std::move(settings);
     s.gpu = gpu ? std::move(gpu) : std::make_shared<GpuSession>();
     s.flare_follows = flare_follows;
@@ -148,7 +188,7 @@ void DofStage::process(Frame& frame) {
     const dof::Camera camera = s.camera_for(frame);
     if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||
         camera.centre_y != s.camera.centre_y) {
-        s.table = dof::make_ray_table(camera, std::max(64, 4 * s.settings.rays));
+        s.table = dof::cached_ray_table(camera, std::max(64, 4 * s.settings.rays), kRayGrid, s.cache_dir(), &s.table_source);
         s.camera = camera;
     }
     s.rays_ms = ms_since(t0);
@@ -161,7 +201,10 @@ void DofStage::process(Frame& frame) {
     dof::TraceSettings trace;
     trace.rays = s.settings.rays;
     trace.chromatic = s.settings.chromatic;
-    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace);
+    const int alpha_channel = channel_index(frame, "A");
+    std::vector<float> alpha;
+    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr);
+    if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, alpha);  // the alpha blurs with the colour
     s.trace_ms = ms_since(t0);
     if (!s.flare_follows) {
         frame.rgb = std::move(blurred);
@@ -225,6 +268,8 @@ DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std:
     if (!settings.enabled) return {};
     settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
     settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
+    settings.cache_dir = flare.accel.cache_dir;
+    settings.bands = flare.bands;
     auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs);
     DofStages stages;
     if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());

@@ -355,6 +355,12 @@ std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>&
     return out;
 }
 
+void store_channels(Frame& frame, const std::vector<int>& channels, const std::vector<float>& values) {
+    if (values.size() != frame.pixel_count() * channels.size())
+        throw std::runtime_error(fmt::format("{} values for {} channels of {} pixels", values.size(), channels.size(), frame.pixel_count()));
+    channels_from_floats(frame, channels, values.data());
+}
+
 void rows_as_float(const Frame& frame, const std::vector<int>& channels, int first_row, int rows, float* out) {
     const auto w = static_cast<std::size_t>(frame.spec.width);
     channels_to_floats(frame, channels, static_cast<std::size_t>(first_row) * w,

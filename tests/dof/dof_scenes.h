@@ -50,6 +50,20 @@ inline LayerStack edge_scene(int size) {
     return layers_from_flat(rgb.data(), depth.data(), size, size);
 }
 
+// A premultiplied white square (alpha 1) over [lo, hi)^2 at z_m over nothing (alpha 0, no depth: at
+// infinity), as a rendered foreground element comes (flat RGBA with Z).
+inline LayerStack alpha_square_scene(int size, int lo, int hi, double z_m) {
+    const std::size_t n = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
+    std::vector<float> rgb(3 * n, 0.0f), depth(n, 0.0f), alpha(n, 0.0f);
+    for (int y = lo; y < hi; ++y)
+        for (int x = lo; x < hi; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(size) + static_cast<std::size_t>(x);
+            depth[i] = static_cast<float>(z_m), alpha[i] = 1.0f;
+            for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = 1.0f;
+        }
+    return layers_from_flat(rgb.data(), depth.data(), size, size, {}, alpha.data());
+}
+
 // Sum, centroid and second moment of channel c of an RGB raster.
 struct Moments {
     double sum = 0, cx = 0, cy = 0, r2 = 0;

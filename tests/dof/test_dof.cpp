@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <dof/deep_exr.h>
 #include <dof/reference.h>
+#include <gpu/flare.h>
 #include <optics/tracer.h>
 
 #include "dof_scenes.h"
@@ -57,7 +59,7 @@ double traced_spot_diameter_mm(const Camera& cam, double z_m, double wavelength_
 TEST(DofReference, DefocusedPointHasTheThinLensDiameterAndItsEnergy) {
     Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, kSize, 20.0);
     cam.system.aperture.blades = 0;
-    const RayTable table = make_ray_table(cam, 1024, 3);
+    const RayTable table = make_ray_table(cam, 1024, 9);
     const std::vector<float> out = render_reference(point_scene(kSize, 2.0, kSize / 2, kSize / 2, 1000.0f), table);
     const double thin_lens_px = thin_lens_blur_mm(cam.system, 2.0, 1.0) / cam.pitch_mm();
     const double traced_px = traced_spot_diameter_mm(cam, 2.0) / cam.pitch_mm();
@@ -90,6 +92,24 @@ TEST(DofReference, PointInFocusKeepsItsEnergyWithinFiveByFive) {
     for (int y = kSize / 2 - 2; y <= kSize / 2 + 2; ++y)
         for (int x = kSize / 2 - 2; x <= kSize / 2 + 2; ++x) inside += double{at(out, kSize, x, y, 1)};
     EXPECT_GE(inside / m.sum, 0.8) << inside << " of " << m.sum;
+}
+
+// A foreground square at 0.5 m over nothing, focus at 2 m (16 px blur): its alpha blurs with its colour, so
+// the edge is soft in alpha (not cut at the square's own pixels) and the premultiplied colour stays alpha x 1.
+TEST(DofReference, BlurredForegroundIsSoftInAlphaToo) {
+    const Camera cam = camera_for("mld-double-gauss", 4.0, 2.0, 0.5, kSize, 16.0);
+    std::vector<float> alpha;
+    const std::vector<float> out = render_reference(test::alpha_square_scene(kSize, 20, 60, 0.5), make_ray_table(cam, 256, 5), 0, 0, &alpha);
+    ASSERT_EQ(alpha.size(), static_cast<std::size_t>(kSize * kSize));
+    const auto a = [&](int x, int y) { return alpha[static_cast<std::size_t>(y * kSize + x)]; };
+    const int y = kSize / 2;
+    EXPECT_NEAR(a(kSize / 2, y), 1.0f, 1e-3f) << "inside the square";
+    EXPECT_NEAR(a(2, y), 0.0f, 1e-3f) << "beyond the blur";
+    EXPECT_GT(a(16, y), 0.05f) << "4 px outside the square, its blur covers";
+    EXPECT_LT(a(24, y), 0.95f) << "4 px inside, the blur uncovers";
+    EXPECT_NEAR(a(20, y), 0.5f, 0.15f) << "half at the edge";
+    for (int x = 1; x < kSize / 2; ++x) EXPECT_GE(a(x, y) + 1e-4f, a(x - 1, y)) << "rises towards the square at x " << x;
+    for (std::size_t i = 0; i < alpha.size(); ++i) ASSERT_NEAR(out[3 * i + 1], alpha[i], 1e-4f) << "premultiplied white at pixel " << i;
 }
 
 // An in-focus black edge at 1 m before a bright background at 10 m (test::edge_scene).
@@ -148,6 +168,76 @@ TEST(DofReference, CookeTripletBlursEachChannelAsItsGlassesImply) {
     EXPECT_GT(std::abs(predicted_ratio - 1.0), 0.01) << "the triplet's glasses disperse";
     EXPECT_NEAR(measured_ratio - 1.0, predicted_ratio - 1.0, 0.35 * std::abs(predicted_ratio - 1.0))
         << "red/blue diameters " << measured[0] << "/" << measured[2] << " mm, forward traces " << predicted[0] << "/" << predicted[2];
+}
+
+// A focal surface through two focus points (paper section 5.2): a point at 1 m on the left and one at 2 m
+// on the right, each under its own focus point, are both sharp; the plane at 1 m blurs the right one.
+TEST(DofReference, FocalSurfaceKeepsEachFocusPointSharp) {
+    constexpr int w = 200, h = 24;
+    std::vector<float> rgb(3 * w * h, 0.0f), depth(w * h, 1.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = w / 2; x < w; ++x) depth[static_cast<std::size_t>(y * w + x)] = 2.0f;
+    for (int x : {30, 170})
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * static_cast<std::size_t>(h / 2 * w + x) + c] = 1000.0f;
+    const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
+    Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 2.0, w, 20.0);
+    cam.height = h, cam.centre_y = 0.5 * h;
+    // share of the energy within 30 px of column `near` (inside the frame) that lies in the 5 x 5 px round
+    // its centroid (the focused lens images the plate slightly larger: focus breathing moves the points out)
+    const auto sharp = [&](const std::vector<float>& out, int near) {
+        const int x0 = std::max(0, near - 30), x1 = std::min(w - 1, near + 30);
+        double all = 0, cx = 0, in = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = x0; x <= x1; ++x) all += double{at(out, w, x, y, 1)}, cx += double{at(out, w, x, y, 1)} * x;
+        const int centre = static_cast<int>(std::lround(cx / all));
+        for (int y = h / 2 - 2; y <= h / 2 + 2; ++y)
+            for (int x = std::max(0, centre - 2); x <= std::min(w - 1, centre + 2); ++x) in += double{at(out, w, x, y, 1)};
+        return in / all;
+    };
+    const std::vector<float> plane = render_reference(scene, make_ray_table(cam, 256, 9));
+    cam.focus_points = {{30.5, 12.5, 1.0}, {170.5, 12.5, 2.0}};
+    EXPECT_DOUBLE_EQ(focus_at(cam, 30.5, 12.5), 1.0);
+    EXPECT_DOUBLE_EQ(focus_at(cam, 170.5, 12.5), 2.0);
+    EXPECT_NEAR(focus_at(cam, 100.5, 12.5), 2.0 / 1.5, 1e-9) << "halfway: the mean of 1/1 and 1/2 (inverse distance)";
+    const std::vector<float> surface = render_reference(scene, make_ray_table(cam, 256, 9));
+    EXPECT_GE(sharp(plane, 30), 0.8);
+    EXPECT_LT(sharp(plane, 170), 0.3) << "the plane at 1 m blurs the point at 2 m";
+    EXPECT_GE(sharp(surface, 30), 0.8);
+    EXPECT_GE(sharp(surface, 170), 0.8) << "the surface is at 2 m there";
+}
+
+// Seven spectral bands (--bands 7, CIE 1931 weights into Rec. 709): each channel is exactly its bands' blurs
+// (each band alone, as a one-wavelength camera) mixed by the weights; a uniform plane keeps its value (each
+// channel's weights sum to 1); and the Cooke triplet's dispersion shows as different red and blue blurs.
+TEST(DofReference, SpectralBandsMixEachBandsBlurByTheColourMatchingWeights) {
+    constexpr int n = 48;
+    Camera cam = camera_for("cooke-triplet", 5.6, 1.0, 2.0, n, 14.0);
+    cam.system.aperture.blades = 0;
+    const LayerStack scene = point_scene(n, 2.0, n / 2, n / 2, 1000.0f);
+    std::vector<Band> bands;
+    for (const gpu::SpectralPass& p : gpu::spectral_passes(7)) bands.push_back({p.wavelength_nm, p.weight});
+    std::vector<double> mixed(3 * static_cast<std::size_t>(n * n), 0.0);
+    for (const Band& b : bands) {
+        Camera one = cam;
+        one.bands = {{b.wavelength_nm, {1.0, 1.0, 1.0}}};
+        const std::vector<float> alone = render_reference(scene, make_ray_table(one, 128, 3));
+        for (std::size_t i = 0; i < mixed.size(); ++i) mixed[i] += b.weight[i % 3] * double{alone[i]};
+    }
+    cam.bands = bands;
+    const RayTable table = make_ray_table(cam, 128, 3);
+    ASSERT_EQ(table.channels, 7);
+    EXPECT_LT(std::abs(bands[static_cast<std::size_t>(table.achromatic)].wavelength_nm - 550.0), 0.5 * 400.0 / 7) << "the band holding 550 nm";
+    const std::vector<float> out = render_reference(scene, table);
+    double worst = 0.0, peak = 0.0;
+    for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double{out[i]} - mixed[i])), peak = std::max(peak, mixed[i]);
+    EXPECT_LT(worst, 1e-4 * peak) << "the bands' blurs mixed by their weights";
+    const double red = disc_diameter(moments(out, n, n, 0)), blue = disc_diameter(moments(out, n, n, 2));
+    EXPECT_GT(std::abs(red / blue - 1.0), 0.01) << "red " << red << " px, blue " << blue << " px";
+    // a plane of 1 keeps 1 in every channel: each channel's weights sum to 1
+    std::vector<float> ones(3 * 16 * 16, 1.0f), depth(16 * 16, 1.5f);
+    Camera flat = cam;
+    flat.width = flat.height = 16, flat.centre_x = flat.centre_y = 8.0;
+    for (float v : render_reference(layers_from_flat(ones.data(), depth.data(), 16, 16), make_ray_table(flat, 64, 3))) ASSERT_NEAR(v, 1.0f, 1e-4f);
 }
 
 // Tilt-shift: a sensor tilted about the vertical axis moves each column's focus; points at the focus

@@ -61,6 +61,43 @@ TEST(DofFilter, FlareIsAddedAfterTheBlur) {
     EXPECT_GT(below, -1e-3) << "and takes none away from the blurred plate";
 }
 
+// A rendered foreground element (premultiplied white square, alpha 1, at 0.5 m over alpha 0 with no depth),
+// focus at 2 m: the output's A blurs with its colour.
+TEST(DofFilter, AlphaBlursWithTheColour) {
+    const auto dir = lensfx::test::scratch_dir("dof_alpha");
+    std::vector<float> rgb(kSize * kSize, 0.0f), z(kSize * kSize, 0.0f);
+    for (int y = 12; y < 36; ++y)
+        for (int x = 12; x < 36; ++x) rgb[static_cast<std::size_t>(y * kSize + x)] = 1.0f, z[static_cast<std::size_t>(y * kSize + x)] = 0.5f;
+    const std::string in = (dir / "element.exr").string(), out = (dir / "out.exr").string();
+    write_exr(in, kSize, kSize, {"R", "G", "B", "A", "Z"}, {rgb, rgb, rgb, rgb, z});
+    const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
+                                     " --dof --dof-only --lens mld-double-gauss --fstop 2.8 --focus 2 --sensor 36 --dof-rays 16 --cache-dir none");
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    int w = 0, h = 0;
+    const std::vector<float> a = read_channel(out, "A", w, h), g = read_channel(out, "G", w, h);
+    const auto soft = std::count_if(a.begin(), a.end(), [](float v) { return v > 0.05f && v < 0.95f; });
+    EXPECT_GT(soft, 4 * 24) << "a soft rim all round the square, not its hard edge";
+    double differ = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) differ = std::max(differ, double{std::abs(a[i] - g[i])});
+    EXPECT_LT(differ, 1e-3) << "premultiplied white: the colour is the alpha";
+}
+
+// The ray table is written to --cache-dir by the first run and read by the next: the same output.
+TEST(DofFilter, SecondRunReadsTheCachedRayTable) {
+    const auto dir = lensfx::test::scratch_dir("dof_cache");
+    const std::string in = point_exr(dir, true), cache = (dir / "cache").string();
+    const std::string common = " --dof --dof-only --lens mld-double-gauss --fstop 4 --focus 1 --sensor 6 --dof-rays 16 --cache-dir " + cache;
+    for (const char* out : {"cold.exr", "warm.exr"}) {
+        const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + (dir / out).string() + common);
+        ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    }
+    std::size_t tables = 0;
+    for (const auto& e : std::filesystem::directory_iterator(cache)) tables += e.path().filename().string().starts_with("dof-rays-") ? 1 : 0;
+    EXPECT_EQ(tables, 1u);
+    int w = 0, h = 0;
+    EXPECT_EQ(read_channel((dir / "cold.exr").string(), "G", w, h), read_channel((dir / "warm.exr").string(), "G", w, h));
+}
+
 TEST(DofFilter, MissingDepthIsAOneLineError) {
     const auto dir = lensfx::test::scratch_dir("dof_nodepth");
     const std::string in = point_exr(dir, false);
@@ -80,6 +117,14 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     EXPECT_NE(no_lens.stderr_text.find("--dof needs --lens"), std::string::npos) << no_lens.stderr_text;
     const auto no_focus = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --lens mld-double-gauss");
     EXPECT_NE(no_focus.stderr_text.find("--focus"), std::string::npos) << no_focus.stderr_text;
+    const std::string dof = " --dof --dof-only --lens mld-double-gauss --focus 1";
+    const auto bad_point = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --focus-point 10,20");
+    EXPECT_NE(bad_point.exit_code, 0);
+    EXPECT_NE(bad_point.stderr_text.find("--focus-point must be X,Y,METRES"), std::string::npos) << bad_point.stderr_text;
+    const auto bad_bands = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --bands 5");
+    EXPECT_NE(bad_bands.exit_code, 0);
+    EXPECT_NE(bad_bands.stderr_text.find("--bands 5"), std::string::npos) << bad_bands.stderr_text;
+    for (const auto* r : {&bad_point, &bad_bands}) EXPECT_EQ(std::count(r->stderr_text.begin(), r->stderr_text.end(), '\n'), 1) << r->stderr_text;
 }
 
 }  // namespace

@@ -59,6 +59,23 @@ TEST_F(DofGpu, InFocusEdgeBeforeBlurredBackgroundMatchesTheReferenceWithoutHalo)
     EXPECT_LT(relative_l1(gpu, ref), 0.05);
 }
 
+// The alpha a blurred foreground gets over nothing (flat RGBA + Z) equals the reference's.
+TEST_F(DofGpu, BlurredAlphaMatchesTheReference) {
+    const Camera cam = test::camera_for("mld-double-gauss", 4.0, 2.0, 0.5, kSize, 16.0);
+    const RayTable table = make_ray_table(cam, 128, 5);
+    const LayerStack scene = test::alpha_square_scene(kSize, 20, 60, 0.5);
+    TraceSettings settings;
+    settings.rays = table.samples;
+    std::vector<float> gpu_alpha, ref_alpha;
+    const std::vector<float> gpu = renderer.render(scene, table, settings, &gpu_alpha);
+    const std::vector<float> ref = render_reference(scene, table, 0, 0, &ref_alpha);
+    EXPECT_LT(relative_l1(gpu_alpha, ref_alpha), 0.01);
+    EXPECT_LT(relative_l1(gpu, ref), 0.01);
+    const float edge = gpu_alpha[static_cast<std::size_t>(kSize / 2 * kSize + 20)];
+    EXPECT_GT(edge, 0.3f);
+    EXPECT_LT(edge, 0.7f);
+}
+
 TEST(DofPyramid, EveryLevelBoundsTheLayersBelowIt) {
     std::vector<float> rgb(3 * 13 * 7, 1.0f), depth(13 * 7);
     for (std::size_t i = 0; i < depth.size(); ++i) depth[i] = 1.0f + static_cast<float>((i * 7919) % 23);

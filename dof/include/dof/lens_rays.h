@@ -12,6 +12,19 @@ namespace lensfx::dof {
 
 inline constexpr std::array<double, 3> kRgbWavelengths_nm = {650.0, 550.0, 450.0};  // as the flare's RGB
 
+// One wavelength the lens rays are traced at, and what the colour its rays gather adds to R, G and B.
+struct Band {
+    double wavelength_nm = 550.0;
+    std::array<double, 3> weight{};
+};
+
+// A focus constraint of the focal surface (paper section 5.2): the object distance that is sharp at a
+// raster position.
+struct FocusPoint {
+    double x = 0.0, y = 0.0;  // raster pixels
+    double metres = 1.0;
+};
+
 // The camera: lens, focus and the raster the blur is computed over.
 struct Camera {
     optics::System system;       // realised at the zoom and f-number
@@ -20,7 +33,15 @@ struct Camera {
     int width = 0, height = 0;   // raster (the frame's data window)
     double centre_x = 0.0, centre_y = 0.0;  // optical axis in raster pixels (pixel i spans [i, i + 1))
     double tilt_x_deg = 0.0, tilt_y_deg = 0.0;  // sensor tilt (Scheimpflug): about the x axis, the y axis
+    // A focal surface (empty: the plane of focus_m): each sensor point is moved to where the object distance
+    // interpolated from these points is sharp, the points weighted by 1 / d^focus_power (d: raster distance;
+    // the paper's moving least squares of degree 0, in inverse distance), tilt added on top.
+    std::vector<FocusPoint> focus_points;
+    double focus_power = 2.0;
     std::array<double, 3> wavelengths_nm = kRgbWavelengths_nm;  // per channel (all equal: no chromatic blur)
+    // Spectral bands (--bands, gpu::spectral_passes: CIE 1931 weights, each channel's summing to 1); empty:
+    // one band per channel at wavelengths_nm.
+    std::vector<Band> bands;
 
     double display_width = 0;    // display window width in pixels, which the sensor width spans (0: width)
 
@@ -44,6 +65,9 @@ Focus focus_of(const optics::System& system, double focus_m);
 // come from the exact trace.
 struct RayTable {
     int grid_x = 0, grid_y = 0, samples = 0;
+    int channels = 3;   // bands: RGB's three, or the spectral bands
+    std::vector<std::array<float, 3>> channel_weight;  // per band, what its gathered colour adds to R, G, B
+    int achromatic = 1; // the band nearest 550 nm: alpha, the uniform-colour test, and --no-chromatic-blur
     double cell_w = 0.0, cell_h = 0.0;  // raster pixels between grid points; grid point (0,0) at pixel (0,0)
     // [channel][gy][gx][sample]: (cx, ax, cy, ay) raster pixels and pixels per (1/m); weight 0 or 1
     std::vector<std::array<float, 4>> line;
@@ -55,7 +79,13 @@ struct RayTable {
     }
     double focus_w = 0.0;   // 1 / focus distance
     double max_slope = 0.0; // largest |a| over valid rays (pixels per 1/m): the blur's reach
+    // largest distance at focus_w between a grid point's rays and their mean (tilt, a focal surface or
+    // aberrations keep them from converging there): added to the reach where a pixel's rays must be bounded
+    double focus_spread = 0.0;
 };
+
+// The camera's bands: its spectral bands, or one per RGB channel (weight 1 into that channel only).
+std::vector<Band> bands_of(const Camera& camera);
 
 // grid: sensor points across the raster's width (rows follow the aspect). Throws std::invalid_argument
 // for a focus inside the lens's focal length or a raster of no size.
@@ -72,6 +102,10 @@ ScreenRay ray_at(const RayTable& table, int channel, double px, double py, int s
 // the centre of the raster: above 1 when the focused lens magnifies (focus breathing). A point's gathered
 // energy is its input energy over this squared.
 double scene_scale(const RayTable& table, int channel, double w);
+
+// The object distance (m) the camera's focal surface makes sharp at raster position (px, py): focus_m
+// without focus points.
+double focus_at(const Camera& camera, double px, double py);
 
 // The R2 sequence point i in [0,1)^2 (Roberts 2018).
 std::array<double, 2> r2(int i);

@@ -17,8 +17,11 @@ struct DepthSpan {
 DepthSpan depth_span(const LayerStack& layers);
 float trace_exact(const LayerStack& layers, const DepthSpan& span, const ScreenRay& ray, int channel);
 
-// The blurred raster (RGB interleaved): per pixel and channel the mean over the table's valid rays (all
-// `table.samples`, or the first `rays` of them), so an in-focus plane keeps its values (energy conserved).
-std::vector<float> render_reference(const LayerStack& layers, const RayTable& table, int rays = 0, int threads = 0);
+// The blurred raster (RGB interleaved): per pixel, band and channel the mean over the table's valid rays (all
+// `table.samples`, or the first `rays` of them), the bands mixed into R, G, B by their weights, so an
+// in-focus plane keeps its values (energy conserved). With `alpha`: the blurred alpha too (one per pixel,
+// through the achromatic band's rays), gathered as the colour is.
+std::vector<float> render_reference(const LayerStack& layers, const RayTable& table, int rays = 0, int threads = 0,
+                                    std::vector<float>* alpha = nullptr);
 
 }  // namespace lensfx::dof

@@ -30,9 +30,11 @@ public:
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
-    // The blurred raster, RGB interleaved, rows top first (as the layers). Throws std::runtime_error when
-    // the GL driver fails.
-    std::vector<float> render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings);
+    // The blurred raster, RGB interleaved, rows top first (as the layers); with `alpha`, the blurred alpha
+    // (one per pixel, gathered with green's rays as the reference does). Throws std::runtime_error when the
+    // GL driver fails.
+    std::vector<float> render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings,
+                              std::vector<float>* alpha = nullptr);
     double last_ms() const { return last_ms_; }  // upload + trace + read back of the last render
 
 private:

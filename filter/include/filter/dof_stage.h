@@ -26,13 +26,17 @@ struct DofSettings {
     int rays = 32;                     // lens rays per pixel and channel
     bool chromatic = true;
     std::string tilt;                  // "AX,AY" degrees of sensor tilt (Scheimpflug)
+    std::vector<std::string> focus_points;  // "X,Y,METRES" each (display-window pixels): a focal surface
     bool dof_only = false;             // blur without the flare
     // Shared with the flare (FlareSettings): the one lens of the run.
     std::string lens, zoom, sensor = "36";
     std::optional<double> fstop, fov_deg;
+    std::string cache_dir;             // --cache-dir: the ray table's file (empty: the default, "none": no file)
+    int bands = 0;                     // --bands: 0 RGB (650/550/450 nm), else spectral bands (CIE 1931, Rec. 709)
 };
 
-// --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --no-chromatic-blur, --tilt, --dof-only.
+// --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --no-chromatic-blur, --tilt, --focus-point,
+// --dof-only.
 void add_dof_options(CLI::App& app, DofSettings& settings);
 
 struct DofShared;  // the sharp and blurred plates of the current frame, between the two stages

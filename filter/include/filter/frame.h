@@ -94,6 +94,8 @@ void store_rgb_and_drop(Frame& frame);
 bool release_rgb_pixels(Frame& frame);
 // The given channels of `pixels` as float, interleaved in the order given.
 std::vector<float> channels_as_float(const Frame& frame, const std::vector<int>& channels);
+// Writes floats (interleaved in the order given) into those channels of `pixels`, in their native types.
+void store_channels(Frame& frame, const std::vector<int>& channels, const std::vector<float>& values);
 // The same for `rows` rows of the data window from `first_row` (0: its top), into `out`
 // (rows x width x channels.size() floats): for converting an output a strip at a time.
 void rows_as_float(const Frame& frame, const std::vector<int>& channels, int first_row, int rows, float* out);

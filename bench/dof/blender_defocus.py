@@ -1,0 +1,80 @@
+# Blender's Defocus compositor node (Z-buffer mode) on an EXR with R, G, B and Z, for bench/dof's peer
+# comparison (docs/dof.md). Not run by CI. Usage:
+#   blender -b --factory-startup --python bench/dof/blender_defocus.py -- IN.exr OUT.exr FSTOP FOCAL_MM FOCUS_M MAX_BLUR_PX WxH
+# Prints the compositing time: a render with the Defocus node minus the same render with it muted (the
+# empty scene's render and the image's load and save are in both).
+import sys
+import time
+
+import bpy
+
+args = sys.argv[sys.argv.index("--") + 1:]
+src, dst = args[0], args[1]
+fstop, focal_mm, focus_m = float(args[2]), float(args[3]), float(args[4])
+max_blur = float(args[5])
+
+scene = bpy.context.scene
+image = bpy.data.images.load(src)
+width, height = (int(v) for v in args[6].split("x"))  # Blender reads R, G, B, Z as a multilayer image: no size
+scene.render.resolution_x, scene.render.resolution_y = width, height
+scene.render.resolution_percentage = 100
+scene.render.engine = "CYCLES"
+scene.cycles.samples = 1
+scene.cycles.device = "CPU"
+scene.render.use_compositing = True
+scene.render.use_sequencer = False
+scene.view_settings.view_transform = "Standard"
+scene.render.image_settings.file_format = "OPEN_EXR"
+scene.render.image_settings.color_depth = "32"
+scene.render.image_settings.exr_codec = "ZIP"
+
+camera = bpy.data.cameras.new("lens")
+camera.lens = focal_mm
+camera.sensor_fit = "HORIZONTAL"
+camera.sensor_width = 36.0
+camera.dof.use_dof = True
+camera.dof.focus_distance = focus_m
+camera.dof.aperture_fstop = fstop
+camera_object = bpy.data.objects.new("lens", camera)
+scene.collection.objects.link(camera_object)
+scene.camera = camera_object
+for obj in list(scene.objects):
+    if obj.type != "CAMERA":
+        bpy.data.objects.remove(obj)
+
+scene.use_nodes = True
+tree = scene.node_tree
+tree.nodes.clear()
+source = tree.nodes.new("CompositorNodeImage")
+source.image = image
+print("image outputs:", [o.name for o in source.outputs if o.enabled])
+depth = next(o for o in source.outputs if o.name in ("Depth", "Z") and o.enabled)
+defocus = tree.nodes.new("CompositorNodeDefocus")
+defocus.scene = scene
+defocus.use_zbuffer = True
+defocus.z_scale = 1.0
+defocus.f_stop = fstop
+defocus.blur_max = max_blur
+defocus.threshold = 0.0
+defocus.use_preview = False
+defocus.use_gamma_correction = False
+defocus.bokeh = "CIRCLE"
+out = tree.nodes.new("CompositorNodeComposite")
+colour = next(o for o in source.outputs if o.name in ("Image", "Combined") and o.enabled)
+tree.links.new(colour, defocus.inputs["Image"])
+tree.links.new(depth, defocus.inputs["Z"])
+tree.links.new(defocus.outputs["Image"], out.inputs["Image"])
+
+
+def render(path):
+    scene.render.filepath = path
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    return time.perf_counter() - start
+
+
+with_node = render(dst)
+defocus.mute = True
+without = render(dst + ".muted.exr")
+print(f"blender defocus: render {with_node:.2f} s, muted {without:.2f} s, node {with_node - without:.2f} s, "
+      f"{width}x{height}, f/{fstop} {focal_mm} mm focus {focus_m} m")
