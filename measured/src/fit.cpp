@@ -18,6 +18,19 @@ namespace lensfx::measured {
 
 namespace {
 
+// The capture's black level under Gaussian noise, from the 1st and 5th percentiles (mu - 2.326 sigma and
+// mu - 1.645 sigma): below the wide faint ghosts that may cover most of the frame, as long as some 5% of
+// it is dark.
+double black_level(std::vector<double> values) {
+    auto percentile = [&](double q) {
+        const auto at = values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+        std::nth_element(values.begin(), at, values.end());
+        return *at;
+    };
+    const double p1 = percentile(0.01), p5 = percentile(0.05);
+    return p5 + 1.645 * (p5 - p1) / (2.326 - 1.645);
+}
+
 // A frame with its background taken off, and what the detector and the fit need of it.
 struct Prepared {
     int width = 0, height = 0;
@@ -50,7 +63,7 @@ Prepared prepare(const SweepFrame& f, const FitOptions& o) {
     for (std::size_t c = 0; c < 3; ++c) {
         std::vector<double> channel(n);
         for (std::size_t i = 0; i < n; ++i) channel[i] = static_cast<double>(f.rgb[i * 3 + c]);
-        level[c] = median(channel);
+        level[c] = black_level(channel);
     }
     p.rgb.resize(n * 3);
     for (std::size_t i = 0; i < n; ++i)
@@ -83,13 +96,21 @@ std::vector<Detection> detect(const Prepared& p, int frame, const FitOptions& o)
     const double pw = pixel_mm(o, p.width), ph = o.sensor_height_mm / p.height;
     std::vector<Detection> found;
     for (int x = 0; x < p.width;) {
-        const auto lit = [&](int i) { return profile[static_cast<std::size_t>(i)] > threshold && std::abs(i - p.light_x) > p.light_radius; };
+        const auto in_light = [&](int i) { return std::abs(i - p.light_x) <= p.light_radius; };
+        const auto lit = [&](int i) { return profile[static_cast<std::size_t>(i)] > threshold && !in_light(i); };
         if (!lit(x)) {
             ++x;
             continue;
         }
         int end = x;
-        while (end + 1 < p.width && lit(end + 1)) ++end;
+        // A ghost passing over the light is one run across it when it is lit on both sides (the fit masks the
+        // light's own pixels).
+        while (end + 1 < p.width && (lit(end + 1) || (in_light(end + 1) && profile[static_cast<std::size_t>(end)] > threshold && [&] {
+                                         int after = end + 1;
+                                         while (after < p.width && in_light(after)) ++after;
+                                         return after < p.width && lit(after);
+                                     }())))
+            ++end;
         const int run = end - x + 1, middle = (x + end) / 2;
         int row = r0;
         while (row > 0 && p.smooth[static_cast<std::size_t>((row - 1) * p.width + middle)] > 0.5 * threshold) --row;

@@ -30,7 +30,7 @@ struct FitOptions {
     int track_iterations = 30;        // at the frames tracked from it (seeded by the neighbour's fit)
     int max_ghosts = 16;
     double min_snr = 6.0;            // a ghost's level on the axis against the noise (after smoothing)
-    double light_radius = 0.04;      // around the light's own image nothing is a ghost: fraction of the width
+    double light_radius = 0.02;      // around the light's own image nothing is a ghost: fraction of the width
     int min_frames = 3;              // a ghost seen in fewer frames is dropped
     int threads = 0;                 // 0: one per core
     Capture capture;                 // f-number, ISO, exposure (light_energy is measured)
