@@ -193,6 +193,10 @@ void write_map(const std::string& path, const std::vector<double>& angles, const
             const double ax = ((x + 0.5) / kSize * 2.0 - 1.0) * end, ay = (1.0 - (y + 0.5) / kSize * 2.0) * end;
             const double field = measured::field_and_roll(ax, ay)[0];
             if (field < angles.front() || field > angles.back()) continue;
+            if (angles.size() < 2) {
+                std::copy_n(heat(totals[0] > 0.0 ? 1.0 : 0.0).begin(), 3, rgb.begin() + (y * kSize + x) * 3);
+                continue;
+            }
             const auto it = std::upper_bound(angles.begin(), angles.end(), field);
             const std::size_t i = std::min<std::size_t>(static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - angles.begin(), 1)), angles.size() - 1);
             const double w = angles[i] > angles[i - 1] ? (field - angles[i - 1]) / (angles[i] - angles[i - 1]) : 0.0;
