@@ -246,6 +246,7 @@ std::unique_ptr<CLI::App> build_app() {
     register_track_command(*app);
     register_bench_command(*app);
     register_farm_command(*app);
+    register_predict_command(*app);
     return app;
 }
 

@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <random>
 #include <thread>
 #include <vector>
 
@@ -26,6 +27,7 @@
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
+#include <measured/model_file.h>
 #include <optics/lens_file.h>
 #include <optics/flare_look.h>
 #include <optics/paraxial.h>
@@ -72,6 +74,9 @@ struct FlareArgs {
     std::string gpu = "auto";
     bool ringing = false;
     std::string flare_look;
+    std::optional<double> iso, shutter;  // a measured lens's target (paper equation 2)
+    double background = 0.0, noise = 0.0;  // a synthetic capture's black level and sensor noise
+    std::uint64_t seed = 1;
 };
 
 std::pair<double, double> parse_pair(const std::string& text, char sep, const char* option) {
@@ -118,18 +123,8 @@ void write_preview(const gpu::FlareImage& image, const std::string& path, std::o
     fmt::print(stderr, "lensfx flare: preview {} at exposure {:+.2f} EV\n", path, ev);
 }
 
-void run_flare(const FlareArgs& args) {
-    optics::Lens lens = optics::load_lens(args.lens);
-    if (args.blades) {
-        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2 || *args.blades > 64) {
-            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *args.blades));
-        }
-        lens.aperture.blades = *args.blades;
-    }
-    const double zoom = args.zoom.empty() ? 0.0 : optics::parse_zoom(lens, args.zoom);
-    optics::System system = optics::realize(lens, zoom, args.fstop);
-    filter::apply_coatings(system, args.coating, args.coating_spread);
-
+// The light's direction, the sensor and the image size of the command line.
+gpu::FlareView flare_view(const FlareArgs& args) {
     gpu::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
     if (args.sensor.find('x') == std::string::npos) {
@@ -161,6 +156,49 @@ void run_flare(const FlareArgs& args) {
     view.wavelength_nm = args.wavelength;
     view.bands = args.bands;
     view.passes();  // checks --bands before any work
+    return view;
+}
+
+// --background and --noise: a synthetic capture's black level and Gaussian sensor noise (seeded).
+void add_sensor_noise(gpu::FlareImage& image, const FlareArgs& args) {
+    if (args.background == 0.0 && args.noise == 0.0) return;
+    std::mt19937_64 random(args.seed);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    for (float& v : image.rgb) v = static_cast<float>(static_cast<double>(v) + args.background + args.noise * normal(random));
+}
+
+void write_outputs(gpu::FlareImage& image, const FlareArgs& args) {
+    add_sensor_noise(image, args);
+    if (!args.output.empty()) write_exr(image, args.output);
+    if (!args.preview.empty()) write_preview(image, args.preview, args.preview_exposure);
+}
+
+// A measured lens (kind = "measured"): its fitted ghosts, scaled from its capture by paper equation 2.
+void run_measured_flare(const FlareArgs& args) {
+    const gpu::FlareView view = flare_view(args);
+    measured::Capture target = measured::read_measured(args.lens).capture;
+    if (args.fstop) target.f_number = *args.fstop;
+    if (args.iso) target.iso = *args.iso;
+    if (args.shutter) target.exposure_s = *args.shutter;
+    gpu::FlareImage image = render_measured_flare(args.lens, view, target, args.reference, args.gpu);
+    for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
+    write_outputs(image, args);
+}
+
+void run_flare(const FlareArgs& args) {
+    if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
+    if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
+    optics::Lens lens = optics::load_lens(args.lens);
+    if (args.blades) {
+        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2 || *args.blades > 64) {
+            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *args.blades));
+        }
+        lens.aperture.blades = *args.blades;
+    }
+    const double zoom = args.zoom.empty() ? 0.0 : optics::parse_zoom(lens, args.zoom);
+    optics::System system = optics::realize(lens, zoom, args.fstop);
+    filter::apply_coatings(system, args.coating, args.coating_spread);
+    gpu::FlareView view = flare_view(args);
     const MemoryBudget memory = memory_budget_option(args.memory_limit);
     // The image, the GL targets at full and reduced sizes and a band of read-back rows.
     memory.check(bytes_of(view.width, view.height, 3 * sizeof(float) + 16.0 * (1.0 + 1.0 / 3)),
@@ -245,8 +283,7 @@ void run_flare(const FlareArgs& args) {
         }
         fmt::print("total                  {:<15.6e} {:<15.6e} {:<15.6e}\n", total[0], total[1], total[2]);
     }
-    if (!args.output.empty()) write_exr(image, args.output);
-    if (!args.preview.empty()) write_preview(image, args.preview, args.preview_exposure);
+    write_outputs(image, args);
 }
 
 }  // namespace
@@ -291,6 +328,11 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
+    cmd->add_option("--iso", args->iso, "Measured lenses: the ISO to render for (paper equation 2; default the capture's)")->check(CLI::Range(1.0, 1e7));
+    cmd->add_option("--shutter", args->shutter, "Measured lenses: the exposure time in seconds (default the capture's)")->check(CLI::Range(1e-6, 1e5));
+    cmd->add_option("--background", args->background, "Add this level to every pixel (a synthetic capture's black level)")->check(CLI::Range(-1e6, 1e6));
+    cmd->add_option("--noise", args->noise, "Add Gaussian noise of this standard deviation (a synthetic capture)")->check(CLI::Range(0.0, 1e6));
+    cmd->add_option("--seed", args->seed, "Seed of --noise")->capture_default_str();
     cmd->callback([args] {
         if (args->output.empty() && args->preview.empty() && !args->list) {
             throw std::invalid_argument("flare: nothing to do; give -o OUT.exr, --preview OUT.png or --list");

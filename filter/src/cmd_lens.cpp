@@ -167,6 +167,8 @@ void register_lens_commands(CLI::App& app) {
 
     lens->add_subcommand("list", "The lens presets")->callback(lens_list);
 
+    register_lens_fit_command(*lens);
+
     auto in = std::make_shared<std::string>();
     auto out = std::make_shared<std::string>();
     auto* cmd_convert = lens->add_subcommand("convert", "Write a lens (preset or file) in the project's TOML format");

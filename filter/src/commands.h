@@ -9,6 +9,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <gpu/flare.h>
+#include <measured/model.h>
 #include <optics/memory_budget.h>
 
 namespace lensfx::filter {
@@ -45,6 +47,18 @@ void register_track_command(CLI::App& app);
 void register_bench_command(CLI::App& app);
 // `lensfx farm -i IN -o OUT --chunk N --engine slurm|local`: a shot as a job array (cmd_farm.cpp).
 void register_farm_command(CLI::App& app);
+
+// `lensfx lens fit SWEEP --angles A:B:S -o MODEL.toml` under the `lens` command (cmd_measured.cpp).
+void register_lens_fit_command(CLI::App& lens);
+// `lensfx predict --lens LENS --angles A:B:S [--json] [--map OUT.png]`.
+void register_predict_command(CLI::App& app);
+// "START:END:STEP" in degrees (0..89) as the list of angles; a CLI::ValidationError naming `option` otherwise.
+std::vector<double> parse_angles(const std::string& text, const char* option);
+// A measured preset's ghosts for one light of the view, scaled by paper equation 2 from its capture to
+// `target` (f-number, ISO, exposure): on the GPU, or by the CPU reference.
+gpu::FlareImage render_measured_flare(const std::string& path, const gpu::FlareView& view, const measured::Capture& target, bool reference,
+                                      const std::string& gpu_platform);
+measured::MeasuredView measured_view(const gpu::FlareView& view);
 
 // --memory-limit's value: parse_memory_limit(text), or default_memory_budget() when it was not given.
 inline MemoryBudget memory_budget_option(const std::string& text) {

@@ -28,6 +28,8 @@
 #include <gpu/context.h>
 #include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
+#include <gpu/measured_renderer.h>
+#include <measured/model_file.h>
 #include <optics/coating.h>
 #include <optics/flare_look.h>
 #include <optics/ghosts.h>
@@ -482,6 +484,8 @@ struct FlareStage::State {
     detect::Tracker tracker;
     std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first frame with a light
     std::unique_ptr<gpu::FlareRenderer> renderer;
+    std::optional<measured::MeasuredLens> measured_lens;  // a measured preset instead of a prescription
+    std::unique_ptr<gpu::MeasuredRenderer> measured_renderer;
     FlareParts parts;
     double f_number = 0.0;
     optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
@@ -518,17 +522,14 @@ struct FlareStage::State {
         summary.tracks = settings.tracks;
         primaries_source = std::move(primaries);
         check_input_files(settings);
-        const optics::Lens lens = optics::load_lens(settings.lens);
-        const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
-        system = optics::realize(lens, zoom, settings.fstop);
-        apply_coatings(system, settings.coating, settings.coating_spread);
-        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {} coating {} spread {:.17g}", optics::write_lens_toml(lens), zoom,
-                                settings.fstop.value_or(0.0), settings.blades.value_or(-1), settings.coating, settings.coating_spread);
-        if (settings.blades) system.aperture.blades = *settings.blades;
-        const optics::Paraxial first_order = optics::paraxial(system);
-        efl_mm = first_order.efl_mm;
-        f_number = first_order.f_number;
+        if (measured::is_measured_file(settings.lens)) {
+            measured_lens = measured::read_measured(settings.lens);
+            efl_mm = measured_lens->focal_length_mm;
+        } else {
+            load_physical_lens();
+        }
         parts = parse_parts(settings.parts);
+        parts.starburst = parts.starburst && !measured_lens;  // a measured lens models its ghosts only
         parts.ghosts = parts.ghosts && settings.controls.ghost_gain > 0.0;  // a gain of 0 renders nothing
         parts.starburst = parts.starburst && settings.starburst_gain > 0.0;
         if (!settings.tracks.empty() && detection_input.changes_the_plate())
@@ -541,14 +542,49 @@ struct FlareStage::State {
         render_options.accel = settings.accel.acceleration();
         render_options.memory = settings.memory;
         // A lens of many surfaces has ghosts by the square of them: refused here, before any table is built.
-        gpu::check_ghost_tables(system, settings.bands == 0 ? 3 : static_cast<std::size_t>(settings.bands), settings.memory);
-        if (!settings.flare_look.empty())
+        if (!measured_lens) gpu::check_ghost_tables(system, settings.bands == 0 ? 3 : static_cast<std::size_t>(settings.bands), settings.memory);
+        if (!settings.flare_look.empty() && !measured_lens)
             render_options.styles =
                 optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
         if (settings.bands != 0) gpu::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
         if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
+    }
+
+    // The prescription, realized at --zoom and --fstop with its coatings and blades.
+    void load_physical_lens() {
+        const optics::Lens lens = optics::load_lens(settings.lens);
+        const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
+        system = optics::realize(lens, zoom, settings.fstop);
+        apply_coatings(system, settings.coating, settings.coating_spread);
+        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {} coating {} spread {:.17g}", optics::write_lens_toml(lens), zoom,
+                                settings.fstop.value_or(0.0), settings.blades.value_or(-1), settings.coating, settings.coating_spread);
+        if (settings.blades) system.aperture.blades = *settings.blades;
+        const optics::Paraxial first_order = optics::paraxial(system);
+        efl_mm = first_order.efl_mm;
+        f_number = first_order.f_number;
+    }
+
+    // A measured lens's ghosts for every light (no starburst): each light's recorded energy over the
+    // capture's light energy scales the fitted ghosts (the ratio paper equation 2 keeps, in the frame's own
+    // units), times the light's gains; composited like the physical flare.
+    void add_measured_flare(Frame& frame, const std::vector<detect::Light>& lights, const FlareGeometry& geo) {
+        const auto t = Clock::now();
+        if (!measured_renderer) measured_renderer = std::make_unique<gpu::MeasuredRenderer>(gpu_session->get());
+        std::vector<float> flare(static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) * 3, 0.0f);
+        measured::MeasuredView view{0.0, 0.0, geo.sensor_width_mm, geo.sensor_height_mm, geo.width, geo.height};
+        for (const detect::Light& light : lights) {
+            const auto [ax, ay] = geo.angles_at(light.x, light.y);
+            view.angle_x_deg = ax, view.angle_y_deg = ay;
+            std::array<double, 3> scale{};
+            for (std::size_t c = 0; c < 3; ++c)
+                scale[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / measured_lens->capture.light_energy * boost(light, false) *
+                                        settings.controls.ghost_gain, kMaxLightScale);
+            measured_renderer->render_add(*measured_lens, view, scale, flare.data());
+        }
+        times.emplace_back("ghosts", ms_since(t));
+        composite(frame, flare, geo, settings.layer);
     }
 
     // The working space's primaries and the passes in them; asked once, at the first light.
@@ -650,6 +686,7 @@ void FlareStage::process(Frame& frame) {
     }
 
     const FlareGeometry geo = s.geometry(frame);
+    if (s.measured_lens) return s.add_measured_flare(frame, lights, geo);
     s.resolve_primaries();
     if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
     // Scene culling needs the plate the flare is added to: not with --flare-only or --layer (composited later).

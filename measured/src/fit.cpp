@@ -1,0 +1,531 @@
+// Fitting measured ghosts to a sweep (paper section 3.3): detection on the light-centre axis, key frames,
+// gradient descent on MSE + smoothed-Laplacian edge cost, tracking, polynomials over the angle.
+#include <measured/fit.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <numeric>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/core.h>
+
+#include "fit_image.h"
+
+namespace lensfx::measured {
+
+namespace {
+
+// The capture's black level under Gaussian noise, from the 1st and 5th percentiles (mu - 2.326 sigma and
+// mu - 1.645 sigma): below the wide faint ghosts that may cover most of the frame, as long as some 5% of
+// it is dark.
+double black_level(std::vector<double> values) {
+    auto percentile = [&](double q) {
+        const auto at = values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+        std::nth_element(values.begin(), at, values.end());
+        return *at;
+    };
+    const double p1 = percentile(0.01), p5 = percentile(0.05);
+    return p5 + 1.645 * (p5 - p1) / (2.326 - 1.645);
+}
+
+// A frame with its background taken off, and what the detector and the fit need of it.
+struct Prepared {
+    int width = 0, height = 0;
+    double angle_deg = 0.0;
+    std::vector<double> rgb;      // minus the background
+    std::vector<double> smooth;    // luminance, Gaussian sigma 1 px
+    double background = 0.0, noise = 0.0, smooth_noise = 0.0;
+    double light_x = 0.0, light_y = 0.0, light_radius = 0.0;  // pixels
+};
+
+// A ghost found on the axis of one frame.
+struct Detection {
+    int frame = 0;
+    GhostParams seed{};
+    double snr = 0.0;
+};
+
+struct Track {
+    std::vector<Detection> seen;
+    std::vector<std::pair<int, GhostParams>> fitted;  // frame, parameters
+};
+
+double pixel_mm(const FitOptions& o, int width) { return o.sensor_width_mm / width; }
+
+Prepared prepare(const SweepFrame& f, const FitOptions& o) {
+    Prepared p;
+    p.width = f.width, p.height = f.height, p.angle_deg = f.angle_deg;
+    const std::size_t n = static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height);
+    std::array<double, 3> level{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        std::vector<double> channel(n);
+        for (std::size_t i = 0; i < n; ++i) channel[i] = static_cast<double>(f.rgb[i * 3 + c]);
+        level[c] = black_level(channel);
+    }
+    p.rgb.resize(n * 3);
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t c = 0; c < 3; ++c) p.rgb[i * 3 + c] = static_cast<double>(f.rgb[i * 3 + c]) - level[c];
+    p.background = luminance(level[0], level[1], level[2]);
+    const std::vector<double> lum = luminance_of(p.rgb, n);
+    p.noise = robust_sigma(lum);
+    p.smooth = gaussian_blur(lum, f.width, f.height, 1.0);
+    p.smooth_noise = robust_sigma(p.smooth);
+    const double k = 3.14159265358979323846 / 180.0;
+    const double pw = pixel_mm(o, f.width), ph = o.sensor_height_mm / f.height;
+    p.light_x = o.focal_length_mm * std::tan(f.angle_deg * k) / pw + 0.5 * f.width - 0.5;
+    p.light_y = 0.5 * f.height - 0.5;
+    p.light_radius = o.light_radius * f.width;
+    (void)ph;
+    return p;
+}
+
+// Ghosts on the light-centre axis of one frame: runs of the smoothed luminance above the threshold, away
+// from the light, taller than a starburst spike.
+std::vector<Detection> detect(const Prepared& p, int frame, const FitOptions& o) {
+    const int r0 = std::clamp(p.height / 2 - 1, 0, p.height - 1), r1 = std::min(r0 + 1, p.height - 1);
+    std::vector<double> profile(static_cast<std::size_t>(p.width));
+    double top = 0.0;
+    for (int x = 0; x < p.width; ++x) {
+        profile[static_cast<std::size_t>(x)] = 0.5 * (p.smooth[static_cast<std::size_t>(r0 * p.width + x)] + p.smooth[static_cast<std::size_t>(r1 * p.width + x)]);
+        if (std::abs(x - p.light_x) > p.light_radius) top = std::max(top, profile[static_cast<std::size_t>(x)]);
+    }
+    const double threshold = std::max(o.min_snr * p.smooth_noise, 0.02 * top);
+    const double pw = pixel_mm(o, p.width), ph = o.sensor_height_mm / p.height;
+    std::vector<Detection> found;
+    for (int x = 0; x < p.width;) {
+        const auto in_light = [&](int i) { return std::abs(i - p.light_x) <= p.light_radius; };
+        const auto lit = [&](int i) { return profile[static_cast<std::size_t>(i)] > threshold && !in_light(i); };
+        if (!lit(x)) {
+            ++x;
+            continue;
+        }
+        int end = x;
+        // A ghost passing over the light is one run across it when it is lit on both sides (the fit masks the
+        // light's own pixels).
+        while (end + 1 < p.width && (lit(end + 1) || (in_light(end + 1) && profile[static_cast<std::size_t>(end)] > threshold && [&] {
+                                         int after = end + 1;
+                                         while (after < p.width && in_light(after)) ++after;
+                                         return after < p.width && lit(after);
+                                     }())))
+            ++end;
+        const int run = end - x + 1, middle = (x + end) / 2;
+        int row = r0;
+        while (row > 0 && p.smooth[static_cast<std::size_t>((row - 1) * p.width + middle)] > 0.5 * threshold) --row;
+        const int half_height = r0 - row + 1;
+        if (run >= 3 && half_height >= std::max(2.0, 0.2 * run)) {
+            std::array<double, 3> level{};
+            for (int i = x; i <= end; ++i)
+                for (std::size_t c = 0; c < 3; ++c)
+                    level[c] += 0.5 * (p.rgb[static_cast<std::size_t>(r0 * p.width + i) * 3 + c] + p.rgb[static_cast<std::size_t>(r1 * p.width + i) * 3 + c]) / run;
+            Detection d;
+            d.frame = frame;
+            d.seed = disc_ghost((0.5 * (x + end) + 0.5 - 0.5 * p.width) * pw, 0.5 * run * pw, level);
+            d.seed[kHeight] = half_height * ph;
+            double sum = 0.0;
+            for (int i = x; i <= end; ++i) sum += profile[static_cast<std::size_t>(i)];
+            d.snr = sum / run / std::max(p.smooth_noise, 1e-30) * std::sqrt(static_cast<double>(run));
+            found.push_back(d);
+        }
+        x = end + 1;
+    }
+    std::sort(found.begin(), found.end(), [](const Detection& a, const Detection& b) { return a.snr > b.snr; });
+    if (found.size() > static_cast<std::size_t>(o.max_ghosts)) found.resize(static_cast<std::size_t>(o.max_ghosts));
+    return found;
+}
+
+// Links each frame's detections to the tracks by their predicted position along the axis.
+std::vector<Track> link(const std::vector<std::vector<Detection>>& per_frame, double pixel) {
+    std::vector<Track> tracks;
+    for (std::size_t f = 0; f < per_frame.size(); ++f) {
+        std::vector<char> taken(per_frame[f].size(), 0);
+        for (Track& t : tracks) {
+            const Detection& last = t.seen.back();
+            if (static_cast<int>(f) - last.frame > 2) continue;
+            double predicted = last.seed[kPosition];
+            if (t.seen.size() >= 2) {
+                const Detection& before = t.seen[t.seen.size() - 2];
+                predicted += (last.seed[kPosition] - before.seed[kPosition]) / (last.frame - before.frame) * (static_cast<double>(f) - last.frame);
+            }
+            const double gate = std::max(4.0 * pixel, 0.5 * (last.seed[kLeft] + last.seed[kRight]));
+            int best = -1;
+            double best_d = gate;
+            for (std::size_t i = 0; i < per_frame[f].size(); ++i) {
+                const double d = std::abs(per_frame[f][i].seed[kPosition] - predicted);
+                if (!taken[i] && d < best_d) best_d = d, best = static_cast<int>(i);
+            }
+            if (best >= 0) taken[static_cast<std::size_t>(best)] = 1, t.seen.push_back(per_frame[f][static_cast<std::size_t>(best)]);
+        }
+        for (std::size_t i = 0; i < per_frame[f].size(); ++i)
+            if (!taken[i]) tracks.push_back({{per_frame[f][i]}, {}});
+    }
+    return tracks;
+}
+
+// The cost of one ghost against one frame's crop (paper section 3.3.1), the levels solved exactly.
+class GhostCost {
+public:
+    GhostCost(const Prepared& p, const GhostParams& seed, const FitOptions& o) : options_(o) {
+        view_.sensor_width_mm = o.sensor_width_mm, view_.sensor_height_mm = o.sensor_height_mm;
+        view_.width = p.width, view_.height = p.height;
+        GhostParams wide = seed;
+        for (int i : {kLeft, kRight, kHeight}) wide[i] *= 1.4;
+        wide[kFallOutside] = std::max(wide[kFallOutside], 0.0) + 3.0 * o.sensor_width_mm / p.width;
+        box_ = ghost_box(wide, 0.0, view_);
+        // A large ghost is fitted on every stride-th pixel: the cost stays that of a 48 x 48 crop.
+        const int bw = std::max(0, box_[2] - box_[0]), bh = std::max(0, box_[3] - box_[1]);
+        stride_ = std::max(1, (std::max(bw, bh) + kCropSamples - 1) / kCropSamples);
+        w_ = (bw + stride_ - 1) / stride_, h_ = (bh + stride_ - 1) / stride_;
+        const std::size_t n = static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_);
+        target_.resize(n * 3), mask_.resize(n);
+        std::vector<double> lum(n);
+        for (int y = 0; y < h_; ++y)
+            for (int x = 0; x < w_; ++x) {
+                const int px = box_[0] + x * stride_, py = box_[1] + y * stride_;
+                const std::size_t i = static_cast<std::size_t>(y * w_ + x), src = static_cast<std::size_t>(py * p.width + px);
+                for (std::size_t c = 0; c < 3; ++c) target_[i * 3 + c] = p.rgb[src * 3 + c];
+                lum[i] = luminance(target_[i * 3], target_[i * 3 + 1], target_[i * 3 + 2]);
+                mask_[i] = std::hypot(px - p.light_x, py - p.light_y) > p.light_radius ? 1.0 : 0.0;
+            }
+        target_edges_ = edge_image(lum, w_, h_);
+        for (std::size_t i = 0; i < n; ++i) {
+            target_power_ += mask_[i] * (target_[i * 3] * target_[i * 3] + target_[i * 3 + 1] * target_[i * 3 + 1] + target_[i * 3 + 2] * target_[i * 3 + 2]);
+            edge_power_ += mask_[i] * target_edges_[i] * target_edges_[i];
+        }
+        target_power_ = std::max(target_power_, 1e-30), edge_power_ = std::max(edge_power_, 1e-30);
+    }
+
+    bool empty() const { return w_ < 3 || h_ < 3; }
+
+    // The cost at p; p's levels are set to their least-squares values.
+    double operator()(GhostParams& p) {
+        p = clamped(p);
+        distances(p);
+        solve_levels(p);
+        const std::size_t n = distance_.size();
+        std::vector<double> lum(n);
+        double mse = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto [a, b] = level_weights(p, distance_[i]);
+            std::array<double, 3> y{};
+            for (std::size_t c = 0; c < 3; ++c) {
+                y[c] = p[kBorderR + static_cast<int>(c)] * a + p[kInsideR + static_cast<int>(c)] * b + local_background_[c];
+                const double e = target_[i * 3 + c] - y[c];
+                mse += mask_[i] * e * e;
+            }
+            lum[i] = luminance(y[0], y[1], y[2]);
+        }
+        const std::vector<double> edges = edge_image(lum, w_, h_);
+        double edge = 0.0;
+        for (std::size_t i = 0; i < n; ++i) edge += mask_[i] * (edges[i] - target_edges_[i]) * (edges[i] - target_edges_[i]);
+        return mse / target_power_ + options_.edge_weight * edge / edge_power_;
+    }
+
+    // sum |target - model| / sum |target| over the crop (outside the light).
+    double residual(const GhostParams& p) {
+        distances(p);
+        double diff = 0.0, total = 0.0;
+        for (std::size_t i = 0; i < distance_.size(); ++i)
+            for (std::size_t c = 0; c < 3; ++c) {
+                diff += mask_[i] * std::abs(target_[i * 3 + c] - local_background_[c] - intensity(p, static_cast<int>(c), distance_[i]));
+                total += mask_[i] * std::abs(target_[i * 3 + c]);
+            }
+        return total > 0.0 ? diff / total : 0.0;
+    }
+
+private:
+    void distances(const GhostParams& p) {
+        if (!distance_.empty() && std::equal(p.begin(), p.begin() + kShapeParams, shape_.begin())) return;
+        std::copy(p.begin(), p.begin() + kShapeParams, shape_.begin());
+        distance_.resize(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_));
+        const double pw = view_.sensor_width_mm / view_.width, ph = view_.sensor_height_mm / view_.height;
+        for (int y = 0; y < h_; ++y)
+            for (int x = 0; x < w_; ++x) {
+                const double xs = (box_[0] + x * stride_ + 0.5 - 0.5 * view_.width) * pw, ys = (0.5 * view_.height - (box_[1] + y * stride_ + 0.5)) * ph;
+                distance_[static_cast<std::size_t>(y * w_ + x)] = signed_distance(p, xs - p[kPosition], ys);
+            }
+    }
+
+    // Ib, Ii and the local background per channel by least squares (the intensity is linear in them),
+    // Ib and Ii kept >= 0: the background absorbs the glow of other, larger flare around the ghost.
+    void solve_levels(GhostParams& p) {
+        double m[3][3] = {};
+        std::array<std::array<double, 3>, 3> rhs{};  // [channel][basis]
+        for (std::size_t i = 0; i < distance_.size(); ++i) {
+            const auto [a, b] = level_weights(p, distance_[i]);
+            const double basis[3] = {a, b, 1.0};
+            for (int r = 0; r < 3; ++r) {
+                for (int c = 0; c < 3; ++c) m[r][c] += mask_[i] * basis[r] * basis[c];
+                for (std::size_t ch = 0; ch < 3; ++ch) rhs[ch][static_cast<std::size_t>(r)] += mask_[i] * basis[r] * target_[i * 3 + ch];
+            }
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+            const auto& r = rhs[static_cast<std::size_t>(ch)];
+            std::array<double, 3> x = solve3(m, r);
+            if (!(x[0] >= 0.0 && x[1] >= 0.0)) {
+                // One level for border and inside (basis a + b, 1), or none.
+                const double ss = m[0][0] + 2 * m[0][1] + m[1][1], s1 = m[0][2] + m[1][2], n = m[2][2];
+                const double st = r[0] + r[1], t1 = r[2], det = ss * n - s1 * s1;
+                const double level = det > 1e-12 * std::max(ss * n, 1e-300) ? (n * st - s1 * t1) / det : 0.0;
+                x = level > 0.0 ? std::array<double, 3>{level, level, (t1 - s1 * level) / std::max(n, 1e-300)}
+                                : std::array<double, 3>{0.0, 0.0, t1 / std::max(n, 1e-300)};
+            }
+            p[kBorderR + ch] = x[0], p[kInsideR + ch] = x[1], local_background_[static_cast<std::size_t>(ch)] = x[2];
+        }
+    }
+
+    // The 3 x 3 system m x = r by Cramer's rule (a singular one: no levels, the mean as background).
+    static std::array<double, 3> solve3(const double m[3][3], const std::array<double, 3>& r) {
+        auto det3 = [](const double a[3][3]) {
+            return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                   a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        };
+        const double d = det3(m);
+        if (!(std::abs(d) > 1e-12 * std::max(m[0][0] * m[1][1] * m[2][2], 1e-300))) return {-1.0, -1.0, 0.0};
+        std::array<double, 3> x{};
+        for (int k = 0; k < 3; ++k) {
+            double a[3][3];
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) a[i][j] = j == k ? r[static_cast<std::size_t>(i)] : m[i][j];
+            x[static_cast<std::size_t>(k)] = det3(a) / d;
+        }
+        return x;
+    }
+
+    std::array<double, 3> local_background_{};
+    const FitOptions& options_;
+    MeasuredView view_;
+    static constexpr int kCropSamples = 48;
+    std::array<int, 4> box_{};
+    int stride_ = 1, w_ = 0, h_ = 0;
+    std::vector<double> target_, mask_, target_edges_, distance_;
+    double target_power_ = 0.0, edge_power_ = 0.0;
+    std::array<double, kShapeParams> shape_{};
+};
+
+// Per-parameter steps (paper 3.3.2): a quarter pixel for lengths, 0.05 for curves, 0.25 for slopes.
+std::array<double, kFallOutside + 2> parameter_steps(double pixel) {
+    return {0.5 * pixel, 0.5 * pixel, 0.5 * pixel, 0.5 * pixel, 0.05, 0.05, 0.5 * pixel, 0.25, 0.5 * pixel, 0.25};
+}
+
+// Gradient descent with per-parameter steps and a decaying learning rate, shape before shade, each change
+// taken at once (online); the levels follow by least squares at every evaluation.
+GhostParams descend(GhostCost& cost, GhostParams p, int iterations, double learning_rate, double pixel) {
+    const auto steps = parameter_steps(pixel);
+    double current = cost(p);
+    for (int it = 0; it < iterations && learning_rate > 1.0 / 32; ++it) {
+        bool improved = false;
+        for (std::size_t k = 0; k < steps.size(); ++k) {
+            GhostParams up = p, down = p;
+            up[static_cast<int>(k)] += learning_rate * steps[k];
+            down[static_cast<int>(k)] -= learning_rate * steps[k];
+            const double cu = cost(up), cd = cost(down);
+            if (std::min(cu, cd) < current) {
+                p = cu < cd ? up : down;
+                current = std::min(cu, cd);
+                improved = true;
+            }
+        }
+        if (!improved) learning_rate *= 0.5;
+        if (it % 100 == 99) learning_rate *= 0.8;  // the paper's decay: 20% every 100 iterations
+    }
+    cost(p);  // the levels for the final shape
+    return p;
+}
+
+// Least-squares polynomial of degree <= 2 (fewer points: lower degree) through (x, y).
+std::array<double, 3> fit_polynomial(const std::vector<double>& x, const std::vector<double>& y) {
+    const int degree = std::min<int>(2, static_cast<int>(x.size()) - 1);
+    if (degree <= 0) return {y.empty() ? 0.0 : y[0], 0.0, 0.0};
+    double m[3][4] = {};
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        const double pw[3] = {1.0, x[i], x[i] * x[i]};
+        for (int r = 0; r <= degree; ++r) {
+            for (int c = 0; c <= degree; ++c) m[r][c] += pw[r] * pw[c];
+            m[r][3] += pw[r] * y[i];
+        }
+    }
+    const int n = degree + 1;
+    for (int c = 0; c < n; ++c) {
+        int pivot = c;
+        for (int r = c + 1; r < n; ++r)
+            if (std::abs(m[r][c]) > std::abs(m[pivot][c])) pivot = r;
+        for (int k = 0; k < 4; ++k) std::swap(m[c][k], m[pivot][k]);
+        if (std::abs(m[c][c]) < 1e-300) return {y[0], 0.0, 0.0};
+        for (int r = 0; r < n; ++r) {
+            if (r == c) continue;
+            const double f = m[r][c] / m[c][c];
+            for (int k = 0; k < 4; ++k) m[r][k] -= f * m[c][k];
+        }
+    }
+    std::array<double, 3> out{};
+    for (int r = 0; r < n; ++r) out[static_cast<std::size_t>(r)] = m[r][3] / m[r][r];
+    return out;
+}
+
+// The seed for the next frame: the neighbour's fit, its shape extrapolated by a polynomial over the
+// frames fitted so far on this side of the key frame (paper 3.3.2).
+GhostParams next_seed(const std::vector<std::pair<double, GhostParams>>& walk, double angle) {
+    GhostParams seed = walk.back().second;
+    if (walk.size() < 3) return seed;
+    const std::size_t first = walk.size() > 6 ? walk.size() - 6 : 0;
+    for (int k = 0; k < kShapeParams; ++k) {
+        std::vector<double> x, y;
+        for (std::size_t i = first; i < walk.size(); ++i) x.push_back(walk[i].first), y.push_back(walk[i].second[k]);
+        const auto c = fit_polynomial(x, y);
+        seed[k] = c[0] + angle * (c[1] + angle * c[2]);
+    }
+    return clamped(seed);
+}
+
+// Fits one track: its key frame from the detection, then frame by frame away from it in both directions.
+void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
+    const auto key = std::max_element(track.seen.begin(), track.seen.end(), [](const Detection& a, const Detection& b) {
+        return a.snr * a.seed[kLeft] < b.snr * b.seed[kLeft];
+    });
+    const double pixel = o.sensor_width_mm / frames[0].width;
+    GhostCost key_cost(frames[static_cast<std::size_t>(key->frame)], key->seed, o);
+    if (key_cost.empty()) return;
+    const GhostParams key_fit = descend(key_cost, key->seed, o.key_iterations, 4.0, pixel);
+    track.fitted.emplace_back(key->frame, key_fit);
+    const int first = track.seen.front().frame, last = track.seen.back().frame;
+    for (int direction : {1, -1}) {
+        std::vector<std::pair<double, GhostParams>> walk{{frames[static_cast<std::size_t>(key->frame)].angle_deg, key_fit}};
+        for (int f = key->frame + direction; f >= first && f <= last; f += direction) {
+            const Prepared& frame = frames[static_cast<std::size_t>(f)];
+            const GhostParams seed = next_seed(walk, frame.angle_deg);
+            GhostCost cost(frame, seed, o);
+            if (cost.empty()) break;
+            const GhostParams fit = descend(cost, seed, o.track_iterations, 1.0, pixel);
+            walk.emplace_back(frame.angle_deg, fit);
+            track.fitted.emplace_back(f, fit);
+        }
+    }
+    std::sort(track.fitted.begin(), track.fitted.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+}
+
+MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames) {
+    MeasuredGhost g;
+    std::vector<double> x;
+    for (const auto& [f, p] : track.fitted) x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
+    if (x.empty()) return g;
+    g.angle_min_deg = *std::min_element(x.begin(), x.end()), g.angle_max_deg = *std::max_element(x.begin(), x.end());
+    for (int k = 0; k < kParamCount; ++k) {
+        std::vector<double> y;
+        for (const auto& fp : track.fitted) y.push_back(fp.second[k]);
+        g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y);
+    }
+    return g;
+}
+
+// sum |frame - model| / sum |frame| over the pixels `model_of` lights, outside the light's own image.
+double frame_residual(const Prepared& p, const std::vector<double>& model) {
+    double diff = 0.0, total = 0.0;
+    for (int y = 0; y < p.height; ++y)
+        for (int x = 0; x < p.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y * p.width + x);
+            if (std::hypot(x - p.light_x, y - p.light_y) <= p.light_radius) continue;
+            if (model[i * 3] == 0.0 && model[i * 3 + 1] == 0.0 && model[i * 3 + 2] == 0.0) continue;
+            for (std::size_t c = 0; c < 3; ++c) diff += std::abs(p.rgb[i * 3 + c] - model[i * 3 + c]), total += std::abs(p.rgb[i * 3 + c]);
+        }
+    return total > 0.0 ? diff / total : 0.0;
+}
+
+void check_frames(const std::vector<SweepFrame>& frames) {
+    if (frames.size() < 3) throw std::invalid_argument(fmt::format("a sweep needs at least 3 frames, not {}", frames.size()));
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const SweepFrame& f = frames[i];
+        if (f.width != frames[0].width || f.height != frames[0].height)
+            throw std::invalid_argument(fmt::format("frame {} is {}x{}, the first {}x{}", i, f.width, f.height, frames[0].width, frames[0].height));
+        if (f.width < 16 || f.height < 16) throw std::invalid_argument(fmt::format("frame {} is {}x{}: at least 16x16 pixels", i, f.width, f.height));
+        if (f.rgb.size() != static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height) * 3)
+            throw std::invalid_argument(fmt::format("frame {}: {} values for {}x{} RGB", i, f.rgb.size(), f.width, f.height));
+        if (i > 0 && !(f.angle_deg > frames[i - 1].angle_deg)) throw std::invalid_argument("the sweep's angles must increase");
+    }
+}
+
+// Fits every track, on `threads` threads.
+void fit_tracks(std::vector<Track>& tracks, const std::vector<Prepared>& frames, const FitOptions& o) {
+    std::atomic<std::size_t> next{0};
+    std::mutex mutex;
+    std::size_t done = 0;
+    auto work = [&] {
+        for (std::size_t i = next++; i < tracks.size(); i = next++) {
+            fit_track(tracks[i], frames, o);
+            const std::lock_guard<std::mutex> lock(mutex);
+            ++done;
+            if (o.progress && !tracks[i].fitted.empty())
+                o.progress(fmt::format("ghost {}/{}: fitted over {:g}..{:g} deg ({} frames)", done, tracks.size(),
+                                       frames[static_cast<std::size_t>(tracks[i].fitted.front().first)].angle_deg,
+                                       frames[static_cast<std::size_t>(tracks[i].fitted.back().first)].angle_deg, tracks[i].fitted.size()));
+        }
+    };
+    const unsigned n = o.threads > 0 ? static_cast<unsigned>(o.threads) : std::max(1u, std::thread::hardware_concurrency());
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < std::min<unsigned>(n, static_cast<unsigned>(tracks.size())); ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+}
+
+}  // namespace
+
+FitResult fit_sweep(const std::vector<SweepFrame>& input, const FitOptions& o) {
+    check_frames(input);
+    std::vector<Prepared> frames;
+    std::vector<std::vector<Detection>> per_frame;
+    for (std::size_t i = 0; i < input.size(); ++i) {
+        frames.push_back(prepare(input[i], o));
+        per_frame.push_back(detect(frames.back(), static_cast<int>(i), o));
+        if (o.progress)
+            o.progress(fmt::format("frame {}/{} ({:g} deg): background {:.4g}, noise {:.3g}, {} ghosts on the axis", i + 1, input.size(),
+                                   input[i].angle_deg, frames.back().background, frames.back().noise, per_frame.back().size()));
+    }
+    std::vector<Track> tracks = link(per_frame, o.sensor_width_mm / input[0].width);
+    std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.seen.size()) < o.min_frames; });
+    fit_tracks(tracks, frames, o);
+    std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.fitted.size()) < o.min_frames; });
+
+    FitResult result;
+    MeasuredLens& lens = result.lens;
+    lens.focal_length_mm = o.focal_length_mm;
+    lens.sensor_mm = {o.sensor_width_mm, o.sensor_height_mm};
+    lens.capture = o.capture;
+    for (const Track& t : tracks) lens.ghosts.push_back(to_polynomials(t, frames));
+
+    // The report, and the light's own energy: what each frame holds beyond the background and the ghosts.
+    std::vector<double> light_energy;
+    const double pixel_area = (o.sensor_width_mm / input[0].width) * (o.sensor_height_mm / input[0].height);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        const Prepared& p = frames[f];
+        MeasuredView view;
+        view.sensor_width_mm = o.sensor_width_mm, view.sensor_height_mm = o.sensor_height_mm, view.width = p.width, view.height = p.height;
+        std::vector<double> fitted(p.rgb.size(), 0.0);
+        std::vector<float> modelled_float(p.rgb.size(), 0.0f);
+        FrameFit report;
+        report.angle_deg = p.angle_deg, report.background = p.background, report.noise = p.noise;
+        for (const Track& t : tracks)
+            for (const auto& [frame, params] : t.fitted)
+                if (frame == static_cast<int>(f)) {
+                    const auto box = ghost_box(params, 0.0, view);
+                    if (box[2] <= box[0] || box[3] <= box[1]) continue;
+                    add_box(fitted, p.width, box, params, view);
+                    ++report.ghosts;
+                }
+        view.angle_x_deg = p.angle_deg;
+        render_add(lens, view, {1.0, 1.0, 1.0}, modelled_float.data());
+        const std::vector<double> modelled(modelled_float.begin(), modelled_float.end());
+        report.residual = frame_residual(p, fitted);
+        report.model_residual = frame_residual(p, modelled);
+        double energy = 0.0;
+        for (std::size_t i = 0; i < fitted.size() / 3; ++i)
+            energy += luminance(p.rgb[i * 3] - fitted[i * 3], p.rgb[i * 3 + 1] - fitted[i * 3 + 1], p.rgb[i * 3 + 2] - fitted[i * 3 + 2]);
+        light_energy.push_back(energy * pixel_area);
+        result.frames.push_back(report);
+    }
+    lens.capture.light_energy = std::max(1e-30, median(light_energy));
+    return result;
+}
+
+}  // namespace lensfx::measured
