@@ -776,6 +776,16 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 glUniform1i(s.raster.uniform("rim_mode"), rim_mode);
                 glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
             };
+            // Draws go into the target at 1/reduce of the image from here on, cleared if this render has not
+            // drawn into it yet. Returns true (bound).
+            auto bind_level = [&](int reduce) {
+                const std::size_t slot = State::slot(reduce);
+                FloatTarget& t = s.target(reduce, view.width, view.height);
+                t.bind();
+                if (!drawn_into[slot]) t.clear();
+                drawn_into[slot] = true;
+                return true;
+            };
             for (std::size_t next = 0; next < todo.size();) {
                 std::vector<Job> batch;
                 std::size_t used = 0;
@@ -808,14 +818,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         const std::size_t g = job.ghost;
                         const GhostPlan& plan = plans[g];
                         if (plan.reduce != reduce) continue;
-                        if (!bound) {
-                            const std::size_t slot = State::slot(reduce);
-                            FloatTarget& t = s.target(reduce, view.width, view.height);
-                            t.bind();
-                            if (!drawn_into[slot]) t.clear();
-                            drawn_into[slot] = true;
-                            bound = true;
-                        }
+                        if (!bound) bound = bind_level(reduce);
                         if (reduce > 1) ++s.stats.ghosts_reduced;
                         ghost_uniforms(job, reduce, reduce >= kRimReduce ? 1 : 0);
                         glUseProgram(s.raster.get());
@@ -844,14 +847,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                     for (const Job& job : batch) {
                         const GhostPlan& plan = plans[job.ghost];
                         if (plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
-                        if (!rims_bound) {
-                            const std::size_t slot = State::slot(level);
-                            FloatTarget& t = s.target(level, view.width, view.height);
-                            t.bind();
-                            if (!drawn_into[slot]) t.clear();
-                            drawn_into[slot] = true;
-                            rims_bound = true;
-                        }
+                        if (!rims_bound) rims_bound = bind_level(level);
                         ghost_uniforms(job, plan.reduce, 2);
                         glUseProgram(s.raster.get());
                         glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
