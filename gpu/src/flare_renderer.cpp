@@ -32,8 +32,11 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
-// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at full resolution (at 1/2 the
-// upsampling softens a rim by a pixel or two; their rim passes cost more than they show).
+// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
+// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
+// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
+// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
+// rest of the render.
 constexpr int kRimReduce = 4;
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
@@ -605,10 +608,30 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
         glDispatchCompute(groups, groups, 1);
     };
 
-    // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done.
-    auto dispatch_shade = [&](int res, GLuint vertex_offset) {
+    // A pixel's sensor area (mm^2) at 1/reduce of the image: the ghost's triangles under kSplatArea of them are
+    // splatted, the others rasterised.
+    auto level_pixel_area = [&](int reduce) {
+        const int level_w = (view.width + reduce - 1) / reduce;
+        const int level_h = (view.height + reduce - 1) / reduce;
+        return (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
+    };
+
+    // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
+    // triangles that are rasterised at 1/reduce of the image.
+    // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
+    auto dispatch_shade = [&](int res, GLuint vertex_offset, int reduce, int stop_crossings) {
         glUniform1i(s.shade.uniform("grid"), res);
         glUniform1ui(s.shade.uniform("vertex_offset"), vertex_offset);
+        glUniform1f(s.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+        const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
+        const double per_mm_x = rim_target > 0 ? ((view.width + rim_target - 1) / rim_target) / view.sensor_width_mm : 0.0;
+        const double per_mm_y = rim_target > 0 ? ((view.height + rim_target - 1) / rim_target) / view.sensor_height_mm : 0.0;
+        glUniform2f(s.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
+        glUniform1f(s.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
+        glUniform1i(s.shade.uniform("stop_crossings"), stop_crossings);
+        glUniform1i(s.shade.uniform("ringing"), options.ringing ? 1 : 0);
+        glUniform1i(s.shade.uniform("iris_sdf"), 0);
+        glUniform1f(s.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
         const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
         glDispatchCompute(groups, groups, 1);
     };
@@ -832,7 +855,8 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                     }
                     continue;
                 }
-                if (band > 0 && plans[g].reduce > 1 && plans[g].reduce < kRimReduce) continue;  // no full-size part
+                // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
+                if (band > 0 && plans[g].reduce != 1 && plans[g].reduce != kRimReduce) continue;
                 s.stats.ghosts_faint += band == 0 && verdict == SceneVerdict::Faint;
                 todo.push_back(g);
             }
@@ -848,12 +872,11 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 const int ghost_grid = plans[g].grid;
                 const PupilRect& rect = estimates[g].rect;
                 const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-                const int level_w = (view.width + reduce - 1) / reduce;
-                const int level_h = (view.height + reduce - 1) / reduce;
-                const double level_pixel_area = (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
-                const bool full = reduce == 1 || rim_mode == 2;
-                const int target_w = full ? view.width : level_w;
-                const int target_h = full ? full_bands.rows_drawn(band) : level_h;
+                // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
+                const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
+                const bool full = target_reduce == 1;
+                const int target_w = (view.width + target_reduce - 1) / target_reduce;
+                const int target_h = full ? full_bands.rows_drawn(band) : (view.height + target_reduce - 1) / target_reduce;
                 const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
                 std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
                 // A band of the full-size image: its rows' span of clip space stretched over the viewport.
@@ -870,7 +893,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                     glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
                                 static_cast<float>(half_height));
                     glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                    glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area));
+                    glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
                     glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
                     glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
                     glUniform1i(program->uniform("iris_sdf"), 0);
@@ -883,7 +906,18 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 }
                 glUseProgram(s.raster.get());
                 glUniform1i(s.raster.uniform("rim_mode"), rim_mode);
-                glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce));
+                glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+            };
+            // Draws go into the target at 1/reduce of the image from here on, cleared if this render has not
+            // drawn into it yet. Returns true (bound).
+            auto bind_level = [&](int reduce) {
+                const std::size_t slot = State::slot(reduce);
+                FloatTarget& t = reduce == 1 ? full_target() : s.target(reduce, view.width, view.height);
+                if (reduce == 1) bind_full();  // the full-size target holds the band being drawn
+                else t.bind();
+                if (!drawn_into[slot]) t.clear();
+                drawn_into[slot] = true;
+                return true;
             };
             for (std::size_t next = 0; next < todo.size();) {
                 std::vector<Job> batch;
@@ -907,7 +941,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                 }
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 glUseProgram(s.shade.get());
-                for (const Job& job : batch) dispatch_shade(plans[job.ghost].grid, job.first_vertex);
+                for (const Job& job : batch) dispatch_shade(plans[job.ghost].grid, job.first_vertex, plans[job.ghost].reduce, seq.stop_crossings[job.ghost]);
                 glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
                 check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
 
@@ -918,15 +952,7 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         const std::size_t g = job.ghost;
                         const GhostPlan& plan = plans[g];
                         if (plan.reduce != reduce) continue;
-                        if (!bound) {
-                            const std::size_t slot = State::slot(reduce);
-                            FloatTarget& t = reduce == 1 ? full_target() : s.target(reduce, view.width, view.height);
-                            if (reduce == 1) bind_full();
-                            else t.bind();
-                            if (!drawn_into[slot]) t.clear();
-                            drawn_into[slot] = true;
-                            bound = true;
-                        }
+                        if (!bound) bound = bind_level(reduce);
                         if (reduce > 1) ++s.stats.ghosts_reduced;
                         ghost_uniforms(job, reduce, reduce >= kRimReduce ? 1 : 0);
                         glUseProgram(s.raster.get());
@@ -948,21 +974,20 @@ void FlareRenderer::draw(const System& system, const FlareView& view, std::span<
                         }
                     }
                 }
-                // The reduced ghosts' rims, at full resolution (ghost_raster_frag's rim_mode 2).
-                bool rims_bound = false;
-                for (const Job& job : batch) {
-                    const GhostPlan& plan = plans[job.ghost];
-                    if (plan.reduce < kRimReduce) continue;
-                    if (!rims_bound) {
-                        bind_full();
-                        if (!drawn_into[0]) full_target().clear();
-                        drawn_into[0] = true;
+                // The reduced ghosts' rims, at kRimReduce times their level's resolution (ghost_raster_frag's
+                // rim_mode 2), grouped by target.
+                for (const int level : {1, 2, 4}) {
+                    if (band > 0 && level > 1) continue;  // only the full-size rims have rows in later bands
+                    bool rims_bound = false;
+                    for (const Job& job : batch) {
+                        const GhostPlan& plan = plans[job.ghost];
+                        if (plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
+                        if (!rims_bound) rims_bound = bind_level(level);
+                        ghost_uniforms(job, plan.reduce, 2);
+                        glUseProgram(s.raster.get());
+                        glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+                        check_gl(fmt::format("the rim of ghost {},{}", ghosts[job.ghost].second, ghosts[job.ghost].first));
                     }
-                    rims_bound = true;
-                    ghost_uniforms(job, plan.reduce, 2);
-                    glUseProgram(s.raster.get());
-                    glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-                    check_gl(fmt::format("the rim of ghost {},{}", ghosts[job.ghost].second, ghosts[job.ghost].first));
                 }
             }
         }

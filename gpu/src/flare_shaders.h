@@ -108,19 +108,29 @@ void main() {
 )GLSL";
 
 // One invocation per grid vertex, after the trace: the vertex's irradiance for Gouraud shading (flare paper
-// 4.3, "Smooth shading"), the average over the six triangles around it whose rays got through, weighted
-// by their sensor areas: (triangles) / (their summed sensor area), per unit triangle flux. Since each
-// triangle's Gouraud integral is its area x the mean of its corners, the drawn power sums to exactly the
-// triangles' flux. Written into the vertex's spare fourth float; 0 where no triangle touches it. Also, for the cell whose first
+// 4.3, "Smooth shading"), the average over the rasterised triangles around it (of the six, those whose rays
+// got through and that are not splatted), weighted by their sensor areas: (triangles) / (their summed
+// sensor area), per unit triangle flux. Since each triangle's Gouraud integral is its area x the mean of
+// its corners, the rasterised triangles' drawn power sums to exactly their flux (a splatted neighbour,
+// counted in, lent its tiny area to the vertex and so raised its rasterised neighbours' light). Written
+// into the vertex's spare fourth float; 0 where no triangle touches it. Also, for the cell whose first
 // corner this vertex is, which of its four neighbours is dropped (a corner's ray failed): bits 1 below,
-// 2 right, 4 above, 8 left, added to the valid flag as mask / 16 (still > 0.5: valid), so the rim pass
-// knows the cell's outer edges.
+// 2 right, 4 above, 8 left, and for a ghost drawn reduced which of its two triangles reach the rim band
+// (16 lower, 32 upper; near_rim, once per triangle here rather than at each of its vertices in the rim
+// pass, where it cost more than the pass's fill), added to the valid flag as bits / 1024 (still > 0.5: valid).
 inline constexpr const char* ghost_shade_comp = R"GLSL(
 #version 430
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };
 uniform int grid;
 uniform uint vertex_offset;
+uniform float splat_limit;  // mm^2: triangles smaller than this are splatted (ghost_splat_vert), not shaded here
+uniform vec2 pixels_per_mm;  // of the rim pass's target (a ghost drawn reduced); 0: no rim pass
+uniform float rim_band;      // pixels of that target: the band along the rim the rim pass draws
+uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, extent]^2
+uniform float iris_extent;
+uniform int stop_crossings;
+uniform bool ringing;
 
 bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
 
@@ -129,6 +139,46 @@ bool cell_valid(int cx, int cy) {
     uint stride = uint(grid + 1);
     uint a = vertex_offset + uint(cy) * stride + uint(cx);
     return valid(a) && valid(a + 1u) && valid(a + stride + 1u) && valid(a + stride);
+}
+
+// Signed distances (pixels, positive where f < 0) of the corners p to where f, linear over the
+// triangle, is 0.
+vec3 corner_distances(vec2 p0, vec2 p1, vec2 p2, vec3 f) {
+    vec2 e1 = p1 - p0;
+    vec2 e2 = p2 - p0;
+    float det = e1.x * e2.y - e1.y * e2.x;
+    if (abs(det) < 1e-12) return vec3(0.0);  // degenerate: kept
+    vec2 g = vec2((f.y - f.x) * e2.y - (f.z - f.x) * e1.y, (f.z - f.x) * e1.x - (f.y - f.x) * e2.x) / det;
+    float len = length(g);
+    if (len < 1e-20) return vec3(f.x < 0.0 ? 1e9 : -1e9);
+    return -f / len;
+}
+
+// Whether part of the triangle lies within the rim band (3 reduced pixels) and inside the ghost: the
+// distances are linear over the triangle, so corners all deeper than the band, or all beyond one edge of
+// the ghost, settle it.
+bool near_rim(uvec3 i, int outer) {
+    vec2 p0 = vertices[3u * i.x].xy * pixels_per_mm;
+    vec2 p1 = vertices[3u * i.y].xy * pixels_per_mm;
+    vec2 p2 = vertices[3u * i.z].xy * pixels_per_mm;
+    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3u * i.x].z, vertices[3u * i.y].z, vertices[3u * i.z].z) - 1.0);
+    bool outside = all(lessThan(d, vec3(-1.0)));
+    vec3 nearest = d;
+    for (int c = 0; c < 3 && c < stop_crossings && !ringing; ++c) {
+        vec2 uv[3];
+        for (int k = 0; k < 3; ++k) {
+            vec4 s = vertices[3u * i[k] + 1u];
+            uv[k] = c == 0 ? s.xy : c == 1 ? s.zw : vertices[3u * i[k] + 2u].xy;
+        }
+        vec3 f = vec3(textureLod(iris_sdf, uv[0] / (2.0 * iris_extent) + 0.5, 0.0).r,
+                      textureLod(iris_sdf, uv[1] / (2.0 * iris_extent) + 0.5, 0.0).r,
+                      textureLod(iris_sdf, uv[2] / (2.0 * iris_extent) + 0.5, 0.0).r);
+        vec3 ds = corner_distances(p0, p1, p2, f);
+        outside = outside || all(lessThan(ds, vec3(-1.0)));
+        nearest = min(nearest, ds);
+    }
+    if (outside) return false;
+    return outer != 0 || any(lessThan(nearest, vec3(rim_band)));
 }
 
 float triangle_area(uint a, uint b, uint c) {
@@ -144,7 +194,7 @@ void main() {
     float area = 0.0;
     float triangles = 0.0;
     // The triangles with this corner (ghost_grid_glsl's split): of the cell at (x, y) both, of (x-1, y) the
-    // lower, of (x-1, y-1) both, of (x, y-1) the upper.
+    // lower, of (x-1, y-1) both, of (x, y-1) the upper. Left out: those whose rays failed and those splatted.
     const ivec3 around[6] = ivec3[6](ivec3(0, 0, 0), ivec3(0, 0, 1), ivec3(-1, 0, 0), ivec3(-1, -1, 0), ivec3(-1, -1, 1),
                                      ivec3(0, -1, 1));
     for (int k = 0; k < 6; ++k) {
@@ -155,17 +205,32 @@ void main() {
         uint b = around[k].z == 0 ? a + 1u : a + stride + 1u;
         uint c = around[k].z == 0 ? a + stride + 1u : a + stride;
         if (!(valid(a) && valid(b) && valid(c))) continue;
-        area += triangle_area(a, b, c);
+        float t = triangle_area(a, b, c);
+        if (!(t >= splat_limit)) continue;
+        area += t;
         triangles += 1.0;
     }
     uint me = vertex_offset + id.y * stride + id.x;
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
+    if (!valid(me)) return;
+    int bits = 0;
     int cx = int(id.x), cy = int(id.y);
     if (cx < grid && cy < grid && cell_valid(cx, cy)) {
         int outer = (cell_valid(cx, cy - 1) ? 0 : 1) | (cell_valid(cx + 1, cy) ? 0 : 2) | (cell_valid(cx, cy + 1) ? 0 : 4) |
                     (cell_valid(cx - 1, cy) ? 0 : 8);
-        if (outer != 0) vertices[3u * me + 2u].z = 1.0 + float(outer) / 16.0;
+        // Which of the cell's two triangles the rim pass draws (bits 16 lower, 32 upper), with their edges
+        // along dropped cells as ghost_raster_vert numbers them.
+        int near = 0;
+        if (pixels_per_mm.x > 0.0) {
+            uint a = me;
+            int lower = ((outer & 1) != 0 ? 4 : 0) | ((outer & 2) != 0 ? 1 : 0);
+            int upper = ((outer & 4) != 0 ? 1 : 0) | ((outer & 8) != 0 ? 2 : 0);
+            if (near_rim(uvec3(a, a + 1u, a + stride + 1u), lower)) near |= 16;
+            if (near_rim(uvec3(a, a + stride + 1u, a + stride), upper)) near |= 32;
+        }
+        bits |= outer | near;
     }
+    if (bits != 0) vertices[3u * me + 2u].z = 1.0 + float(bits) / 1024.0;
 }
 )GLSL";
 
@@ -222,53 +287,7 @@ out vec2 v_uv2;
 out float v_irradiance;
 out vec3 v_bary;           // barycentric: 1 at this corner
 flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
-uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim
-uniform float rim_reduce;
-uniform vec2 viewport;     // pixels
-uniform sampler2D iris_sdf;
-uniform float iris_extent;
-uniform int stop_crossings;
-uniform bool ringing;
-
-// Signed distances (pixels, positive where f < 0) of the corners p to where f, linear over the
-// triangle, is 0.
-vec3 corner_distances(vec2 p0, vec2 p1, vec2 p2, vec3 f) {
-    vec2 e1 = p1 - p0;
-    vec2 e2 = p2 - p0;
-    float det = e1.x * e2.y - e1.y * e2.x;
-    if (abs(det) < 1e-12) return vec3(0.0);  // degenerate: kept
-    vec2 g = vec2((f.y - f.x) * e2.y - (f.z - f.x) * e1.y, (f.z - f.x) * e1.x - (f.y - f.x) * e2.x) / det;
-    float len = length(g);
-    if (len < 1e-20) return vec3(f.x < 0.0 ? 1e9 : -1e9);
-    return -f / len;
-}
-
-// Whether part of the triangle lies within the rim band (3 reduced pixels) and inside the ghost: the
-// distances are linear over the triangle, so corners all deeper than the band, or all beyond one edge of
-// the ghost, settle it.
-bool near_rim(ivec3 i, int outer) {
-    vec2 p0 = (clip_position(vertices[3 * i.x].xy).xy * 0.5 + 0.5) * viewport;
-    vec2 p1 = (clip_position(vertices[3 * i.y].xy).xy * 0.5 + 0.5) * viewport;
-    vec2 p2 = (clip_position(vertices[3 * i.z].xy).xy * 0.5 + 0.5) * viewport;
-    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3 * i.x].z, vertices[3 * i.y].z, vertices[3 * i.z].z) - 1.0);
-    bool outside = all(lessThan(d, vec3(-1.0)));
-    vec3 nearest = d;
-    for (int c = 0; c < 3 && c < stop_crossings && !ringing; ++c) {
-        vec2 uv[3];
-        for (int k = 0; k < 3; ++k) {
-            vec4 s = vertices[3 * i[k] + 1];
-            uv[k] = c == 0 ? s.xy : c == 1 ? s.zw : vertices[3 * i[k] + 2].xy;
-        }
-        vec3 f = vec3(textureLod(iris_sdf, uv[0] / (2.0 * iris_extent) + 0.5, 0.0).r,
-                      textureLod(iris_sdf, uv[1] / (2.0 * iris_extent) + 0.5, 0.0).r,
-                      textureLod(iris_sdf, uv[2] / (2.0 * iris_extent) + 0.5, 0.0).r);
-        vec3 ds = corner_distances(p0, p1, p2, f);
-        outside = outside || all(lessThan(ds, vec3(-1.0)));
-        nearest = min(nearest, ds);
-    }
-    if (outside) return false;
-    return outer != 0 || any(lessThan(nearest, vec3(3.0 * rim_reduce)));
-}
+uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim (ghost_shade_comp's bits)
 
 void main() {
     int tri = gl_VertexID / 3;
@@ -276,7 +295,9 @@ void main() {
     ivec3 i = triangle_corners(tri);
     // The cell's outer edges (ghost_shade_comp): lower triangle (a, a+1, a+stride+1): below is opposite
     // corner 2, right opposite 0; upper (a, a+stride+1, a+stride): above opposite 0, left opposite 1.
-    int cell_outer = int(round((vertices[3 * i.x + 2].z - 1.0) * 16.0));
+    int cell_bits = int(round((vertices[3 * i.x + 2].z - 1.0) * 1024.0));
+    int cell_outer = cell_bits & 15;
+    bool in_band = (cell_bits & ((tri & 1) == 0 ? 16 : 32)) != 0;
     v_outer = (tri & 1) == 0 ? (((cell_outer & 1) != 0 ? 4 : 0) | ((cell_outer & 2) != 0 ? 1 : 0))
                              : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
@@ -285,7 +306,7 @@ void main() {
     vec4 q = vertices[3 * me];
     vec4 s = vertices[3 * me + 1];
     vec4 w = vertices[3 * me + 2];
-    if (!corners_valid(i) || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !near_rim(i, v_outer))) {
+    if (!corners_valid(i) || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
     } else {
