@@ -53,7 +53,7 @@ COMMAND [options]
 lensfx finds the bright lights of each HDR frame, traces ray bundles through a real lens prescription on
 the GPU, adds the ghosts and the diffraction starburst in scene\\-linear light, and tone maps with
 OpenColorIO. Only R, G and B change: every other channel, the windows and the metadata pass through.
-A luminance\-only image (channel Y, or Y and A) is flared as grey (R = G = B = Y) and written back as Y,
+A luminance\\-only image (channel Y, or Y and A) is flared as grey (R = G = B = Y) and written back as Y,
 the luminance of the coloured flare; luminance/chroma images (Y, RY, BY) are refused.
 .SH OPTIONS
 ${main_roff}")

@@ -32,7 +32,7 @@
 #include <filter/flare_stage.h>
 
 #include "commands.h"
-#include "option_checks.h"
+#include <filter/option_checks.h>
 
 namespace lensfx::filter {
 
