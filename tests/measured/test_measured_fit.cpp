@@ -24,14 +24,14 @@
 namespace lensfx::measured {
 namespace {
 
-constexpr int kWidth = 240, kHeight = 160;
+constexpr int kImageWidth = 240, kImageHeight = 160;
 constexpr double kSensorW = 72.0, kSensorH = 48.0;
 
 gpu::FlareView view_at(double ax, double ay) {
     gpu::FlareView v;
     v.angle_x_deg = ax, v.angle_y_deg = ay;
     v.sensor_width_mm = kSensorW, v.sensor_height_mm = kSensorH;
-    v.width = kWidth, v.height = kHeight;
+    v.width = kImageWidth, v.height = kImageHeight;
     return v;
 }
 
@@ -48,7 +48,7 @@ std::vector<SweepFrame> sweep(Truth& truth) {
     std::normal_distribution<double> noise(0.0, 2e-5);
     std::vector<SweepFrame> frames;
     for (int i = 0; i <= 16; ++i) {
-        SweepFrame f{kWidth, kHeight, truth.render(i, 0.0), static_cast<double>(i)};
+        SweepFrame f{kImageWidth, kImageHeight, truth.render(i, 0.0), static_cast<double>(i)};
         for (float& v : f.rgb) v = static_cast<float>(static_cast<double>(v) + 1e-4 + noise(random));
         frames.push_back(std::move(f));
     }
@@ -58,13 +58,13 @@ std::vector<SweepFrame> sweep(Truth& truth) {
 // sum over 8x8 blocks of |fit - true| (each block's sum, all channels) over the true image's sum.
 double block_l1(const std::vector<float>& fit, const std::vector<float>& truth) {
     double diff = 0.0, total = 0.0;
-    for (int by = 0; by < kHeight; by += 8)
-        for (int bx = 0; bx < kWidth; bx += 8)
+    for (int by = 0; by < kImageHeight; by += 8)
+        for (int bx = 0; bx < kImageWidth; bx += 8)
             for (int c = 0; c < 3; ++c) {
                 double a = 0.0, b = 0.0;
-                for (int y = by; y < std::min(by + 8, kHeight); ++y)
-                    for (int x = bx; x < std::min(bx + 8, kWidth); ++x) {
-                        const std::size_t i = static_cast<std::size_t>((y * kWidth + x) * 3 + c);
+                for (int y = by; y < std::min(by + 8, kImageHeight); ++y)
+                    for (int x = bx; x < std::min(bx + 8, kImageWidth); ++x) {
+                        const std::size_t i = static_cast<std::size_t>((y * kImageWidth + x) * 3 + c);
                         a += static_cast<double>(fit[i]), b += static_cast<double>(truth[i]);
                     }
                 diff += std::abs(a - b), total += b;
@@ -105,8 +105,8 @@ protected:
         delete truth_;
     }
     static std::vector<float> fitted(double ax, double ay) {
-        std::vector<float> rgb(static_cast<std::size_t>(kWidth * kHeight * 3), 0.0f);
-        render_add(fit_->lens, MeasuredView{ax, ay, kSensorW, kSensorH, kWidth, kHeight}, {1, 1, 1}, rgb.data());
+        std::vector<float> rgb(static_cast<std::size_t>(kImageWidth * kImageHeight * 3), 0.0f);
+        render_add(fit_->lens, MeasuredView{ax, ay, kSensorW, kSensorH, kImageWidth, kImageHeight}, {1, 1, 1}, rgb.data());
         return rgb;
     }
     static Truth* truth_;
@@ -141,7 +141,7 @@ TEST_F(MeasuredFit, DISABLED_PredictedTotalRanksLikeThePhysicalGhostPower) {
     for (double a = 4.5; a <= 16.0; a += 1.5) {
         const std::vector<float> fit = fitted(a, 0.0);
         const std::vector<float> truth = truth_->render(a, 0.0);
-        predicted.push_back(estimate(fit, kWidth, kHeight, {1e-3f}, 1.0).total);
+        predicted.push_back(estimate(fit, kImageWidth, kImageHeight, {1e-3f}, 1.0).total);
         physical.push_back(sum(truth));
     }
     const double rho = spearman(predicted, physical);
@@ -156,8 +156,8 @@ struct KnownSweep {
     MeasuredLens known;
     FitResult fit;
     std::vector<float> render(const MeasuredLens& lens, double ax, double ay) const {
-        std::vector<float> rgb(static_cast<std::size_t>(kWidth * kHeight * 3), 0.0f);
-        render_add(lens, MeasuredView{ax, ay, kSensorW, kSensorH, kWidth, kHeight}, {1, 1, 1}, rgb.data());
+        std::vector<float> rgb(static_cast<std::size_t>(kImageWidth * kImageHeight * 3), 0.0f);
+        render_add(lens, MeasuredView{ax, ay, kSensorW, kSensorH, kImageWidth, kImageHeight}, {1, 1, 1}, rgb.data());
         return rgb;
     }
     KnownSweep() {
@@ -178,7 +178,7 @@ struct KnownSweep {
         std::normal_distribution<double> noise(0.0, 2e-5);
         std::vector<SweepFrame> frames;
         for (int i = 0; i <= 16; i += 2) {
-            SweepFrame f{kWidth, kHeight, render(known, i, 0.0), static_cast<double>(i)};
+            SweepFrame f{kImageWidth, kImageHeight, render(known, i, 0.0), static_cast<double>(i)};
             for (float& v : f.rgb) v = static_cast<float>(static_cast<double>(v) + 1e-4 + noise(random));
             frames.push_back(std::move(f));
         }
