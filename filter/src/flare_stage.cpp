@@ -101,7 +101,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
         ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
     app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
     app.add_option("--visibility", s.visibility,
-                   "Scene culling: leave out ghosts that together add at most V thousandths of the plate where they land")
+                   "Scene culling: leave out ghosts that together change no 32-pixel cell's 8-bit sRGB view by more than V codes")
         ->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
     app.add_flag("--no-scene-cull", s.no_scene_cull, "Draw every ghost, however faint against the plate")->group(group);
     app.add_option("--grid", s.grid, "Base ray grid cells per side of each ghost (the adaptive grid scales it)")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
