@@ -27,6 +27,10 @@ struct DofShared {
     std::vector<float> sharp, blurred;        // RGB interleaved
 };
 
+namespace {
+dof::FocusPoint parse_focus_point(const std::string& text);
+}  // namespace
+
 void add_dof_options(CLI::App& app, DofSettings& s) {
     const std::string group = "Lens blur";
     app.add_flag("--dof", s.enabled, "Lens blur (depth of field) from Z or deep samples through --lens")->group(group);
@@ -39,7 +43,18 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")->group(group);
     app.add_option("--focus-point", s.focus_points,
                    "X,Y,METRES (display-window pixels; repeat): a focal surface through these, instead of the plane at --focus")
-        ->group(group);
+        ->group(group)
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                try {
+                    parse_focus_point(text);
+                } catch (const std::exception& e) {
+                    const std::string message = e.what();  // CLI11 names the option itself
+                    return message.rfind("--focus-point ", 0) == 0 ? message.substr(14) : message;
+                }
+                return std::string();
+            },
+            "X,Y,METRES"));
     app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
 }
 
@@ -50,14 +65,26 @@ std::array<double, 2> parse_pair(const std::string& text, const char* what) {
     throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
 }
 
-// "X,Y,METRES" of --focus-point, in display-window pixels.
+// "X,Y,METRES" of --focus-point, in display-window pixels: X and Y within a million pixels (as a track
+// file's positions), METRES positive and at most a light year.
 dof::FocusPoint parse_focus_point(const std::string& text) {
+    constexpr double kMaxPixels = 1e6, kMaxMetres = 1e16;
     dof::FocusPoint p;
     char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !std::isfinite(p.x) || !std::isfinite(p.y) ||
-        !(p.metres > 0.0) || !std::isfinite(p.metres))
-        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels, metres > 0), not \"{}\"", text));
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !(std::abs(p.x) <= kMaxPixels) ||
+        !(std::abs(p.y) <= kMaxPixels) || !(p.metres > 0.0) || !(p.metres <= kMaxMetres))
+        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels within 1e6, 0 < metres <= 1e16), not \"{}\"", text));
     return p;
+}
+
+// A focus point's distance must be one the lens can focus at (beyond its focal length), checked here: the
+// focal surface between points stays within their distances, so no ray thread meets a bad one.
+void check_focus_distance(const optics::System& system, double metres, const std::string& text) {
+    try {
+        (void)dof::focus_of(system, metres);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("--focus-point {}: {}", text, e.what()));
+    }
 }
 
 std::vector<std::string> split_commas(const std::string& text) {
@@ -123,6 +150,7 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     }
     for (const std::string& text : settings.focus_points) {
         dof::FocusPoint p = parse_focus_point(text);
+        check_focus_distance(system, p.metres, text);
         p.x += 0.5 - spec.x, p.y += 0.5 - spec.y;  // the pixel's centre, in the raster
         c.focus_points.push_back(p);
     }

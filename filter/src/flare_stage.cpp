@@ -117,7 +117,7 @@ void add_coating_options(CLI::App& app, std::string& coating, double& spread, co
                    "1950s-70s), multi (broadband multi-layer, since the 1970s) or lens (the lens file's)")
         ->capture_default_str()->group(group)->check(CLI::IsMember({"uncoated", "single", "multi", "lens", "none"}));
     app.add_option("--coating-spread", spread, "Relative thickness spread of the coating layers (seeded per surface; 0 = exact)")
-        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 0.49));
+        ->capture_default_str()->group(group)->check(finite_number())->check(CLI::Range(0.0, 0.49));
 }
 
 void apply_coatings(optics::System& system, const std::string& coating, double spread) {

@@ -1,5 +1,6 @@
 // GPU ghost renderer: CPU side (ghost sequences, coating tables, pupil bounds) and the GL passes.
 #include <gpu/flare_renderer.h>
+#include <gpu/ghost_cap.h>
 
 #include <algorithm>
 #include <atomic>
@@ -1099,36 +1100,74 @@ void check_ghost_tables(const System& system, std::size_t passes, const MemoryBu
                                            format_bytes(static_cast<double>(budget.limit))));
 }
 
+namespace {
+
+// The ghosts' indices from the brightest down by their power along the axis (at the d line), and each
+// one's power (0 where it is not finite).
+std::vector<std::pair<double, std::size_t>> brightest_first(const System& system, const std::vector<Ghost>& ghosts) {
+    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
+    std::vector<std::pair<double, std::size_t>> order;
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        const double power = optics::ghost_axial_factor(traced, ghosts[g]);
+        order.emplace_back(std::isfinite(power) ? power : 0.0, g);
+    }
+    std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    return order;
+}
+
+// The warning when fit left ghosts out: why, how many are drawn and the share of the power left out.
+std::string fit_warning(const System& system, std::size_t passes, const GhostFit& fit, const MemoryBudget& budget) {
+    const std::string why =
+        fit_over_budget(fit, budget) ? fmt::format("needs {}, over half the memory limit of {}", format_bytes(fit.bytes_needed),
+                                      format_bytes(static_cast<double>(budget.limit)))
+                        : fmt::format("takes more than the {} interface steps a lens's ghosts are drawn with", kMaxLensGhostSteps);
+    return fmt::format("lensfx: warning: {} {}: drawing its {} brightest ghosts (by power along the axis); the {} left out "
+                       "carry {:.2g}% of that power\n",
+                       lens_ghosts_text(system, passes), why, fit.ghosts.size(), fit.total - fit.ghosts.size(), 100.0 * fit.power_left_out);
+}
+
+}  // namespace
+
+bool fit_over_budget(const GhostFit& fit, const MemoryBudget& budget) {
+    return budget.limited() && fit.bytes_needed > static_cast<double>(budget.limit) / 2.0;
+}
+
 GhostFit ghosts_within_budget(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget) {
+    return ghosts_within(system, std::move(ghosts), passes, budget, kMaxLensGhostSteps);
+}
+
+std::size_t summed_steps(const std::vector<Ghost>& ghosts) {
+    std::size_t steps = 0;
+    for (const Ghost& g : ghosts) steps += g.path.size();
+    return steps;
+}
+
+GhostFit ghosts_within(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget,
+                       std::size_t max_steps) {
     GhostFit fit;
     fit.total = ghosts.size();
     double need = factor_table_bytes(system, passes);
     for (const Ghost& g : ghosts) need += static_cast<double>(g.path.size()) * drawn_step_bytes(passes);
     fit.bytes_needed = need + ghost_list_bytes(system);
     // Half of the budget for the ghost data: frames, flare images and GL targets need the rest.
-    const double room = static_cast<double>(budget.limit) / 2.0 - ghost_list_bytes(system) - factor_table_bytes(system, passes);
-    if (!budget.limited() || fit.bytes_needed <= static_cast<double>(budget.limit) / 2.0) {
+    const double room = budget.limited() ? static_cast<double>(budget.limit) / 2.0 - ghost_list_bytes(system) - factor_table_bytes(system, passes)
+                                         : std::numeric_limits<double>::infinity();
+    if (!fit_over_budget(fit, budget) && summed_steps(ghosts) <= max_steps) {
         fit.ghosts = std::move(ghosts);
         return fit;
     }
-    // The brightest by their power along the axis (at the d line), as many as fit.
-    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
-    std::vector<std::pair<double, std::size_t>> order;
-    double total_power = 0.0;
-    for (std::size_t g = 0; g < ghosts.size(); ++g) {
-        const double power = optics::ghost_axial_factor(traced, ghosts[g]);
-        const double finite = std::isfinite(power) ? power : 0.0;
-        order.emplace_back(-finite, g);
-        total_power += finite;
-    }
-    std::sort(order.begin(), order.end());
-    double used = 0.0, kept_power = 0.0;
+    double used = 0.0, kept_power = 0.0, total_power = 0.0;
+    std::size_t steps = 0;
+    bool full = false;
     std::vector<char> keep(ghosts.size(), 0);
-    for (const auto& [negative_power, g] : order) {
+    for (const auto& [power, g] : brightest_first(system, ghosts)) {
+        total_power += power;
         const double bytes = static_cast<double>(ghosts[g].path.size()) * drawn_step_bytes(passes);
-        if (used + bytes > room) break;
+        full = full || used + bytes > room || steps + ghosts[g].path.size() > max_steps;
+        if (full) continue;
         used += bytes;
-        kept_power -= negative_power;
+        steps += ghosts[g].path.size();
+        kept_power += power;
         keep[g] = 1;
     }
     for (std::size_t g = 0; g < ghosts.size(); ++g)
@@ -1145,10 +1184,7 @@ std::vector<Ghost> FlareRenderer::fitted_ghosts(const System& system, const Flar
     GhostFit fit = ghosts_within_budget(system, selected_ghosts(system, view), view.passes().size(), budget);
     if (fit.ghosts.size() < fit.total && !state_->fit_warned) {
         state_->fit_warned = true;  // once per renderer: every frame draws the same ghosts
-        fmt::print(stderr, "lensfx: warning: {} needs {}, over half the memory limit of {}: drawing its {} brightest ghosts "
-                           "(by power along the axis); the {} left out carry {:.2g}% of that power\n",
-                   lens_ghosts_text(system, view.passes().size()), format_bytes(fit.bytes_needed), format_bytes(static_cast<double>(budget.limit)),
-                   fit.ghosts.size(), fit.total - fit.ghosts.size(), 100.0 * fit.power_left_out);
+        fmt::print(stderr, "{}", fit_warning(system, view.passes().size(), fit, budget));
     }
     return std::move(fit.ghosts);
 }
