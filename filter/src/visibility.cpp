@@ -13,9 +13,25 @@ double srgb8_code_step(double plate) {
     return 1.0 / (255.0 * slope);
 }
 
+namespace {
+
+// Cells a visibility map holds at most (8 bytes each while it is made: 128 MB): a display window of more
+// than 4096 x 4096 cells gets cells twice as wide, as often as needed (a tiny file declaring a 10^6 x 10^6
+// window once made this map of 10^9 cells, 8 GB, before the flare's own memory check refused the frame).
+constexpr std::size_t kMaxVisibilityCells = std::size_t{1} << 24;
+
+int cell_within_bound(int width, int height, int cell) {
+    auto cells = [&](int c) { return static_cast<std::size_t>((width + c - 1) / c) * static_cast<std::size_t>((height + c - 1) / c); };
+    while (cells(cell) > kMaxVisibilityCells && cell < std::max(width, height)) cell *= 2;
+    return cell;
+}
+
+}  // namespace
+
 std::shared_ptr<gpu::VisibilityMap> plate_visibility(const Frame& frame, double budget, int cell) {
     auto map = std::make_shared<gpu::VisibilityMap>();
     const ImageSpec& spec = frame.spec;
+    cell = cell_within_bound(spec.full_width, spec.full_height, cell);
     map->width = spec.full_width;
     map->height = spec.full_height;
     map->cell = cell;

@@ -11,8 +11,8 @@ namespace lensfx::gpu {
 // Interface steps the drawn ghosts of a lens take at most, summed over them: the brightest ghosts by
 // power along the axis are drawn up to it. Each step is traced at every vertex of a ghost's grid, so the
 // draw time follows this sum. The largest real lens of presets/ (34 surfaces, 528 ghosts) takes under half
-// of it; a generated lens of 300 surfaces (44,000 ghosts of some 600 steps) still drew after 12 minutes
-// with its 1024 brightest ghosts.
+// of it; a generated lens of 300 surfaces (44,253 ghosts) still drew after 12 minutes with its 1024
+// brightest ghosts, and draws 217 under this cap.
 inline constexpr std::size_t kMaxLensGhostSteps = 65536;
 
 // ghosts_within_budget with a cap of `max_steps` summed interface steps: all of them when their data fits
