@@ -36,7 +36,7 @@ lensfx::filter::Frame split_plate(float left, float right) {
 }
 
 // A ghost over pixels [x0, x0 + 60) x [30, 90) adding `peak` at most.
-CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, peak}; }
+CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, {peak, peak, peak}}; }
 
 }  // namespace
 
