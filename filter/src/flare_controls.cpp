@@ -2,6 +2,9 @@
 // sees (matte, added lights), and the run's summary of lights found.
 #include <filter/flare_controls.h>
 
+#include <CLI/CLI.hpp>
+#include <filter/option_checks.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>

@@ -117,9 +117,11 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     out.copyTo(image);
 }
 
-void add_extended_starburst(const optics::Starburst& sb, double f_number, double cx, double cy,
-                            const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                            double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height) {
+void add_extended_starburst(const optics::Starburst& sb, const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+                            const detect::Shape& shape, const optics::SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    const int width = image.width, height = image.height;
     if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
     // The region the pattern and then the footprint can reach: the same sums as over the whole frame
     // (nothing is drawn or spread beyond it), at the cost of the source and its pattern.
@@ -140,15 +142,15 @@ void add_extended_starburst(const optics::Starburst& sb, double f_number, double
     std::size_t cells = 0;
     for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
     const double radius_px = std::sqrt(static_cast<double>(cells) / std::numbers::pi) * footprint.cell;
-    const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
+    const double core = std::max(at.core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
     if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
-    optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h, core);
+    optics::splat_starburst(sb, {cx - x0, cy - y0, f_number, core}, power, {own.data(), w, h, pixel_w_mm, pixel_h_mm});
     convolve_footprint(own, w, h, shape, 1.0);
     // Over the light's own pixels the recording already holds its light, spread by the lens or not: the
     // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
     for (int y = 0; y < h; ++y) {
         const float* from = own.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
-        float* to = rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
+        float* to = image.rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
         for (int x = 0; x < w; ++x) {
             const float beyond = 1.0f - footprint.inside(x0 + x + 0.5 - cx, y0 + y + 0.5 - cy);
             if (beyond <= 0.0f) continue;

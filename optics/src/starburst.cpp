@@ -185,9 +185,12 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
     return sb;
 }
 
-void splat_starburst(const Starburst& sb, double f_number, double cx, double cy, const std::array<double, 3>& power,
-                     double pixel_w_mm, double pixel_h_mm, float* rgb, int width, int height,
-                     double core_radius_texels) {
+void splat_starburst(const Starburst& sb, const StarburstPlacement& at, const std::array<double, 3>& power,
+                     const SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy, core_radius_texels = at.core_radius_texels;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    float* const rgb = image.rgb;
+    const int width = image.width, height = image.height;
     if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
     const double texel_mm = sb.texel_per_fnumber_mm * f_number;
     const double tx = texel_mm / pixel_w_mm;  // texel size in pixels
@@ -399,9 +402,12 @@ void add_curved_tail(const IrisOutline& iris, const std::array<double, 3>& a, co
 
 double starburst_tail_coefficient(const Aperture& aperture) { return iris_outline(aperture).coefficient; }
 
-StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double f_number, double length_scale,
-                             double cx, double cy, const std::array<double, 3>& power, double pixel_w_mm,
-                             double pixel_h_mm, float* rgb, int width, int height, double core_radius_texels) {
+StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
+                             const std::array<double, 3>& power, const SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    float* const rgb = image.rgb;
+    const int width = image.width, height = image.height;
     StarburstTail tail;
     if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return tail;
     const IrisOutline iris = iris_outline(aperture);
@@ -425,7 +431,7 @@ StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, doub
         tail.share[c] = std::min(1.0, a[c] * outside);
         texture_power[c] = power[c] * (1.0 - tail.share[c]);
     }
-    splat_starburst(sb, f_number, cx, cy, texture_power, pixel_w_mm, pixel_h_mm, rgb, width, height, core_radius_texels);
+    splat_starburst(sb, at, texture_power, image);
 
     const double pixel_area = pixel_w_mm * pixel_h_mm;
     // The farthest frame corner from the light, in mm: where the walk along a spike ends.

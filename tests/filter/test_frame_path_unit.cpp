@@ -326,10 +326,10 @@ TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
     for (const double cx : {150.4, 290.7}) {
         const double cy = 80.2;
         std::vector<float> whole(static_cast<std::size_t>(w * h * 3), 0.0f);
-        optics::splat_starburst(sb, f_number, cx, cy, power, pixel, pixel, whole.data(), w, h, 2.0 * radius_px);
+        optics::splat_starburst(sb, {cx, cy, f_number, 2.0 * radius_px}, power, {whole.data(), w, h, pixel, pixel});
         filter::convolve_footprint(whole, w, h, bar, 1.0);
         std::vector<float> added(whole.size(), 0.0f);
-        filter::add_extended_starburst(sb, f_number, cx, cy, power, pixel, pixel, core, bar, added.data(), w, h);
+        filter::add_extended_starburst(sb, {cx, cy, f_number, core}, power, bar, {added.data(), w, h, pixel, pixel});
         float peak = 0.0f;
         for (float v : whole) peak = std::max(peak, v);
         ASSERT_GT(peak, 0.0f);
@@ -364,7 +364,7 @@ TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
     for (const double x : {3e9, -3e9, 1e300, 40.0}) {
         for (const double f_number : {8.0, 8000.0}) {  // texels smaller and far larger than pixels
             std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
-            optics::splat_starburst(sb, f_number, x, x == 40.0 ? 3e9 : 20.0, {1.0, 1.0, 1.0}, pixel, pixel, rgb.data(), w, h, 0.0);
+            optics::splat_starburst(sb, {x, x == 40.0 ? 3e9 : 20.0, f_number, 0.0}, {1.0, 1.0, 1.0}, {rgb.data(), w, h, pixel, pixel});
             EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return v == 0.0f; })) << x << " f/" << f_number;
         }
     }

@@ -71,8 +71,8 @@ std::vector<double> reference_outside(const Aperture& aperture, const std::vecto
 std::vector<float> render(double scale, StarburstTail* tail = nullptr) {
     static const Starburst texture = make_starburst(kHexagon);
     std::vector<float> rgb(static_cast<std::size_t>(kWidth) * kHeight * 3, 0.0f);
-    const StarburstTail t = draw_starburst(texture, kHexagon, kFNumber, scale, kWidth / 2.0, kHeight / 2.0, {1.0, 1.0, 1.0},
-                                           kPixelMm, kPixelMm, rgb.data(), kWidth, kHeight);
+    const StarburstTail t = draw_starburst(texture, kHexagon, scale, {kWidth / 2.0, kHeight / 2.0, kFNumber}, {1.0, 1.0, 1.0},
+                                           {rgb.data(), kWidth, kHeight, kPixelMm, kPixelMm});
     if (tail) *tail = t;
     return rgb;
 }

@@ -38,13 +38,11 @@ inline constexpr int kMaxKernelRadius = 64;
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
 
 // An extended light's diffraction: every point's starburst over its footprint (magnification 1), less what
-// the recorded source already holds, added to an RGB image of width x height (arguments as
-// optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'
+// the recorded source already holds, added to `image` (placed as optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'
 // area) is left out, as is all that lands on the light's own pixels (its cells holding any of its light,
 // interpolated between cell centres): the source does not bloom, the spikes reaching beyond it remain.
 // Only the region the pattern and the footprint reach is drawn and convolved.
-void add_extended_starburst(const optics::Starburst& sb, double f_number, double cx, double cy,
-                            const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                            double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height);
+void add_extended_starburst(const optics::Starburst& sb, const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+                            const detect::Shape& shape, const optics::SensorImage& image);
 
 }  // namespace lensfx::filter
