@@ -36,7 +36,7 @@ lensfx::filter::Frame split_plate(float left, float right) {
 }
 
 // A ghost over pixels [x0, x0 + 60) x [30, 90) adding `peak` at most.
-CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, peak}; }
+CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, {peak, peak, peak}}; }
 
 }  // namespace
 
@@ -63,15 +63,56 @@ TEST(SceneCull, CulledGhostsTogetherStayWithinTheBudget) {
     EXPECT_EQ(again[1], SceneVerdict::Cull);
 }
 
+namespace {
+
+// A ghost of one spectral pass: over the same pixels as ghost_at, adding `peak` to channel `channel` only.
+CullItem ghost_in(std::size_t channel, double peak) {
+    CullItem item = ghost_at(40.0, 0.0);
+    item.peak[channel] = peak;
+    return item;
+}
+
+}  // namespace
+
+// Each of R, G and B has its own budget: a pass adds to one channel, and the 8-bit view's codes are per
+// channel, so ten third-of-a-code ghosts per channel cull three in each (one shared budget culled three in all).
+TEST(SceneCull, EachChannelSpendsItsOwnBudget) {
+    auto map = lensfx::filter::plate_visibility(split_plate(0.5f, 0.5f), 1.0);
+    const double step = lensfx::filter::srgb8_code_step(0.5);
+    std::vector<CullItem> items;
+    for (std::size_t c = 0; c < 3; ++c)
+        for (int i = 0; i < 10; ++i) items.push_back(ghost_in(c, 0.3 * step));
+    const auto verdicts = lensfx::gpu::scene_cull(items, *map);
+    for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_EQ(std::count(verdicts.begin() + static_cast<std::ptrdiff_t>(c * 10), verdicts.begin() + static_cast<std::ptrdiff_t>(c * 10 + 10),
+                             SceneVerdict::Cull), 3) << "channel " << c;
+    ASSERT_EQ(map->used.size(), map->visible.size());
+    for (double used : map->used) EXPECT_LE(used, 1.0 + 1e-12);
+}
+
+// A plate bright in R and dark in G and B hides a ghost in R, not the same ghost in G.
+TEST(SceneCull, ABrightChannelHidesOnlyItsOwnGhosts) {
+    lensfx::filter::Frame plate = split_plate(0.001f, 0.001f);
+    for (std::size_t i = 0; i < plate.rgb.size(); i += 3) plate.rgb[i] = 1.0f;
+    auto map = lensfx::filter::plate_visibility(plate, 1.0);
+    const double peak = 0.3 * lensfx::filter::srgb8_code_step(1.0);
+    const auto verdicts = lensfx::gpu::scene_cull({ghost_in(0, peak), ghost_in(1, peak)}, *map);
+    EXPECT_EQ(verdicts[0], SceneVerdict::Cull);
+    EXPECT_EQ(verdicts[1], SceneVerdict::Draw);  // several codes over the dark G
+}
+
 TEST(SceneCull, UnknownGhostsAreDrawnAndGhostsOffTheImageCulled) {
     auto map = lensfx::filter::plate_visibility(split_plate(1.0f, 1.0f), 1.0);
+    CullItem negative = ghost_at(20.0, 1e-9);
+    negative.peak[2] = -1e-9;
     const auto verdicts = lensfx::gpu::scene_cull(
-        {CullItem{}, ghost_at(20.0, 0.0), ghost_at(20.0, std::nan("")), ghost_at(20.0, HUGE_VAL), ghost_at(400.0, 1e6)}, *map);
+        {CullItem{}, ghost_at(20.0, 0.0), ghost_at(20.0, std::nan("")), ghost_at(20.0, HUGE_VAL), ghost_at(400.0, 1e6), negative}, *map);
     EXPECT_EQ(verdicts[0], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[1], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[2], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[3], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[4], SceneVerdict::Cull);
+    EXPECT_EQ(verdicts[5], SceneVerdict::Draw);  // a negative channel: not a peak scene culling can weigh
 }
 
 namespace {
