@@ -58,13 +58,13 @@ std::vector<std::unique_ptr<Stage>> make_view_stages(const FilterArgs& args, con
     std::vector<std::unique_ptr<Stage>> stages;
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
     bool flare_runs = false;
-    DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs);
+    auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
+        if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
+        return std::nullopt;
+    };
+    DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs, primaries);
     if (dof.blur) stages.push_back(std::move(dof.blur));
     if (flare_runs) {
-        auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
-            if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
-            return std::nullopt;
-        };
         FlareSettings flare = args.flare;
         flare.layer = layer;
         auto stage = std::make_unique<FlareStage>(flare, gpu, primaries);
