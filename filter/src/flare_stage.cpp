@@ -773,10 +773,8 @@ void FlareStage::process(Frame& frame) {
             const double f_number = s.f_number;
             const double pixel_w_mm = geo.sensor_width_mm / geo.width, pixel_h_mm = geo.sensor_height_mm / geo.height;
             if (extended) {
-                // An extended light's pattern is spread over its footprint from the texture alone, which
-                // --starburst-scale enlarges as a whole (the point lights' spikes are lengthened instead).
-                add_extended_starburst(*s.starburst, f_number * s.settings.starburst_scale, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
-                                       core_texels, *light.shape, flare_rgb.data(), geo.width, geo.height);
+                add_extended_starburst(*s.starburst, s.system.aperture, f_number, s.settings.starburst_scale, light.x, light.y, energy,
+                                       pixel_w_mm, pixel_h_mm, core_texels, *light.shape, flare_rgb.data(), geo.width, geo.height);
             } else {
                 optics::draw_starburst(*s.starburst, s.system.aperture, f_number, s.settings.starburst_scale, light.x,
                                        light.y, energy, pixel_w_mm, pixel_h_mm, flare_rgb.data(), geo.width, geo.height,
