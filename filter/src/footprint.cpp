@@ -119,6 +119,14 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
 
 namespace {
 
+// The radius in pixels of the disc of the footprint's cells holding any of the light: each point's pattern
+// within it, spread over the source, would only blur the source within its own size.
+double own_radius_px(const detect::Shape& shape) {
+    std::size_t cells = 0;
+    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
+    return std::sqrt(static_cast<double>(cells) / std::numbers::pi) * FootprintSampler{shape}.cell;
+}
+
 // The texture's part of an extended light's diffraction (see add_extended_starburst).
 void add_extended_texture(const optics::Starburst& sb, double f_number, double cx, double cy,
                           const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
@@ -139,9 +147,7 @@ void add_extended_texture(const optics::Starburst& sb, double f_number, double c
     // Each point's pattern within the source's radius (of the disc of its cells' area), spread over the
     // source, would only blur it within its own size: the recording holds that. What reaches farther (the
     // spikes) is new.
-    std::size_t cells = 0;
-    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
-    const double radius_px = std::sqrt(static_cast<double>(cells) / std::numbers::pi) * footprint.cell;
+    const double radius_px = own_radius_px(shape);
     const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
     if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
     optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h, core);
@@ -173,6 +179,14 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
     std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3, 0.0f);
     optics::draw_starburst_tail(sb, aperture, f_number, length_scale, cx / factor, cy / factor, power, pixel_w_mm * factor,
                                 pixel_h_mm * factor, small.data(), sw, sh);
+    // As the texture's: the pattern within the source's own radius is left out (bounds clamped in double,
+    // so a light far outside the frame never reaches int arithmetic).
+    const double inner = own_radius_px(shape) / factor, ux = cx / factor, uy = cy / factor;
+    const auto clamp_to = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n))); };
+    for (int y = clamp_to(std::floor(uy - inner), sh); y < clamp_to(std::ceil(uy + inner) + 1.0, sh); ++y)
+        for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
+            if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
+                std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
     detect::Shape reduced = shape;
     reduced.cell /= factor;
     reduced.origin_x /= factor;
