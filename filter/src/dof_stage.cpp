@@ -12,6 +12,7 @@
 #include <dof/deep_exr.h>
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
+#include <filter/colour/matrix.h>
 #include <gpu/acceleration.h>
 #include <gpu/flare.h>
 #include <optics/lens_file.h>
@@ -235,7 +236,7 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     }
     if (settings.bands != 0) {  // mixed into the working space's R, G, B, as the flare's bands
         const auto rgb_to_xyz = primaries ? primaries() : std::nullopt;
-        const optics::Mat3 xyz_to_rgb = rgb_to_xyz ? xyz_to_rgb_of(*rgb_to_xyz) : optics::kXyzToRec709;
+        const optics::Mat3 xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
         for (const gpu::SpectralPass& p : gpu::spectral_passes(settings.bands, xyz_to_rgb)) c.bands.push_back({p.wavelength_nm, p.weight});
     }
     return c;

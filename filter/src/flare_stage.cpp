@@ -698,9 +698,8 @@ struct FlareStage::State {
         const double core_texels = std::min(optics::starburst_core_radius_texels(*starburst), 0.75 / texel_px);
         const optics::SensorImage image{rgb.data(), geo.width, geo.height, geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height};
         if (is_extended(light)) {
-            // Spread over its footprint from the texture alone, which --starburst-scale enlarges as a whole (the
-            // point lights' spikes are lengthened instead).
-            add_extended_starburst(*starburst, {light.x, light.y, f_number * settings.starburst_scale, core_texels}, energy, *light.shape, image);
+            add_extended_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy,
+                                   *light.shape, image);
         } else {
             optics::draw_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy, image);
         }

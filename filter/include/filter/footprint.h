@@ -38,11 +38,16 @@ inline constexpr int kMaxKernelRadius = 64;
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
 
 // An extended light's diffraction: every point's starburst over its footprint (magnification 1), less what
-// the recorded source already holds, added to `image` (placed as optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'
+// the recorded source already holds, added to an RGB image of width x height (arguments as
+// optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'
 // area) is left out, as is all that lands on the light's own pixels (its cells holding any of its light,
 // interpolated between cell centres): the source does not bloom, the spikes reaching beyond it remain.
-// Only the region the pattern and the footprint reach is drawn and convolved.
-void add_extended_starburst(const optics::Starburst& sb, const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+// Only the region the pattern and the footprint reach is drawn and convolved. As for a point light, the
+// texture gives up its tail's share and the tail (optics::draw_starburst_tail, lengthened by
+// length_scale, --starburst-scale) runs to the frame edge, spread over the footprint too: the spikes of a
+// source are as wide as the source, and a longer scale lengthens them without widening them.
+void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
+                            const optics::StarburstPlacement& at, const std::array<double, 3>& power,
                             const detect::Shape& shape, const optics::SensorImage& image);
 
 }  // namespace lensfx::filter

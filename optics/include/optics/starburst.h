@@ -84,7 +84,8 @@ void splat_starburst(const Starburst& starburst, const StarburstPlacement& at, c
 // directions of its normals (a round iris: a faint halo all round). Whatever the shape, the light outside
 // radius r is P R / (pi^2 A) x wavelength x N / r (P, A: the iris's perimeter and area, R its radius;
 // 0.234 / rho for a hexagon, rho = r / (wavelength N)), so a spike's energy per unit length falls as 1 / r^2.
-// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length.
+// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length,
+// each channel at its own wavelength (the red widest), as its energy outside r is.
 // length_scale (--starburst-scale) lengthens the tail only: the energy outside r becomes that of r / scale.
 struct StarburstTail {
     std::array<double, 3> share{};   // of the light, per channel, in the tail (drawn or beyond the frame)
@@ -95,6 +96,14 @@ struct StarburstTail {
 // edge, starting where the texture fades out.
 StarburstTail draw_starburst(const Starburst& starburst, const Aperture& aperture, double length_scale,
                              const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image);
+
+// The tail's share of the light per channel for this lens and length scale (what the texture gives up).
+StarburstTail starburst_tail_share(const Starburst& starburst, const Aperture& aperture, double f_number, double length_scale);
+
+// The tail alone of a light of `power` per channel (its whole power), drawn to the frame edge from where
+// the texture fades out; arguments as draw_starburst's.
+void draw_starburst_tail(const Starburst& starburst, const Aperture& aperture, double length_scale,
+                         const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image);
 
 // Energy of the iris's pattern outside radius rho (in wavelength x f-number), asymptotically: P R / (pi^2 A rho).
 double starburst_tail_coefficient(const Aperture& aperture);
