@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
         write_row(fmt::format("{}/ghosts-{}-{}.ppm", out, ax, ay), singles, gain);
     }
     std::vector<double> predicted, physical;
-    for (double a = 4.5; a <= 16.0; a += 1.5) {
+    for (double a = 0.0; a <= 16.0; a += 1.0) {
         predicted.push_back(measured::estimate(fitted(a, 0.0), kW, kH, {1e-3f}, 1.0).total);
         physical.push_back(sum(truth(a, 0.0)));
         fmt::print("  {:4.1f} deg: predicted total {:.4g}, physical sum {:.4g}\n", a, predicted.back(), physical.back());

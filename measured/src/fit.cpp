@@ -452,13 +452,15 @@ void settle_on_polynomials(Track& track, const std::vector<Prepared>& frames, co
     }
 }
 
-// The seed for frame f: the walk's, placed and sized by the frame's own detection where the track has one
+// The seed for frame f: the walk's, placed by the frame's own detection where the track has one
 // (so that a fit cannot drift along the track, onto the light or a neighbour); a glow's from its frame alone.
 GhostParams anchored_seed(GhostParams seed, const Track& track, int f) {
     const auto seen = std::find_if(track.seen.begin(), track.seen.end(), [&](const Detection& d) { return d.frame == f; });
     if (seen == track.seen.end()) return seed;
     if (track.glow) return seen->seed;
-    for (int k : {kPosition, kLeft, kRight, kHeight}) seed[k] = seen->seed[k];
+    // The middle of the seed's extent along the axis moved onto the detection's.
+    const auto middle = [](const GhostParams& p) { return p[kPosition] + 0.5 * (p[kRight] - p[kLeft]); };
+    seed[kPosition] += middle(seen->seed) - middle(seed);
     return seed;
 }
 

@@ -118,14 +118,14 @@ FitResult* MeasuredFit::fit_ = nullptr;
 TEST_F(MeasuredFit, FindsGhostsAndReportsEveryFrame) {
     EXPECT_GE(fit_->lens.ghosts.size(), 1u);
     EXPECT_EQ(fit_->frames.size(), 17u);
-    // The black level is 1e-4; the petzval's wide faint ghosts cover the whole frame and raise it.
-    for (const FrameFit& f : fit_->frames) EXPECT_TRUE(f.background > 0.9e-4 && f.background < 2e-4) << f.angle_deg << ": " << f.background;
+    // The black level is 1e-4, under the petzval's wide faint ghosts that cover most of every frame.
+    for (const FrameFit& f : fit_->frames) EXPECT_NEAR(f.background, 1e-4, 3e-6) << f.angle_deg;
 }
 
-// Issue 19's "done when" against the physical lens: NOT MET yet (docs/measured-lenses.md). The petzval's
-// ghost power lies mostly in wide faint ghosts covering the frame, which the fit takes for background, and
-// its disc ghost is lost to the light's neighbourhood while tracked. Disabled: run with
-// --gtest_also_run_disabled_tests to print the figures.
+// Issue 19's "done when" against the physical lens: NOT MET yet at (11.5, 0), L1 0.360 against 0.35 (the
+// others: L1 0.18-0.31, power 0.01-0.10; docs/measured-lenses.md). The fitted disc ghost beside the light
+// is a diamond where the true one is an ellipse. Disabled: run with --gtest_also_run_disabled_tests to print
+// the figures.
 TEST_F(MeasuredFit, DISABLED_GhostsBetweenSamplesAndOffTheMeridian) {
     for (const auto& [ax, ay] : {std::pair{8.5, 0.0}, std::pair{11.5, 0.0}, std::pair{6.0, 6.5}, std::pair{-7.0, 8.0}}) {
         const std::vector<float> truth = truth_->render(ax, ay), fit = fitted(ax, ay);
@@ -136,16 +136,16 @@ TEST_F(MeasuredFit, DISABLED_GhostsBetweenSamplesAndOffTheMeridian) {
     }
 }
 
-TEST_F(MeasuredFit, DISABLED_PredictedTotalRanksLikeThePhysicalGhostPower) {
+TEST_F(MeasuredFit, PredictedTotalRanksLikeThePhysicalGhostPower) {
     std::vector<double> predicted, physical;
-    for (double a = 4.5; a <= 16.0; a += 1.5) {
+    for (double a = 0.0; a <= 16.0; a += 1.0) {  // the sweep's whole range (the model does not reach beyond it)
         const std::vector<float> fit = fitted(a, 0.0);
         const std::vector<float> truth = truth_->render(a, 0.0);
         predicted.push_back(estimate(fit, kImageWidth, kImageHeight, {1e-3f}, 1.0).total);
         physical.push_back(sum(truth));
     }
     const double rho = spearman(predicted, physical);
-    std::printf("Spearman of the predicted total against the physical ghost power, 4.5..15 deg: %.3f\n", rho);
+    std::printf("Spearman of the predicted total against the physical ghost power, 0..16 deg: %.3f\n", rho);
     EXPECT_GE(rho, 0.9);
 }
 
@@ -214,9 +214,8 @@ TEST(MeasuredFitKnownModel, RecoversTheSeparateGhostBetweenSamples) {
     }
 }
 
-// Issue 19's bounds on the known model: NOT MET yet (the ghost crossing the light is merged with the other
-// where they are concentric near 0 degrees). Disabled; run with --gtest_also_run_disabled_tests for figures.
-TEST(MeasuredFitKnownModel, DISABLED_RecoversAllGhostsWithinIssueBounds) {
+// Issue 19's bounds on the known model: every ghost, between samples and off the meridian.
+TEST(MeasuredFitKnownModel, RecoversAllGhostsWithinIssueBounds) {
     const KnownSweep& s = known_sweep();
     for (const auto& [ax, ay] : {std::pair{7.0, 0.0}, std::pair{11.0, 0.0}, std::pair{5.0, 6.0}, std::pair{-6.0, 7.0}}) {
         const std::vector<float> truth = s.render(s.known, ax, ay), fitted = s.render(s.fit.lens, ax, ay);
