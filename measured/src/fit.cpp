@@ -541,6 +541,20 @@ void fit_tracks(std::vector<Track>& tracks, const std::vector<Prepared>& frames,
     for (auto& t : pool) t.join();
 }
 
+// Pixels brighter than the 97th percentile of the frame's luminance dimmed to it: the light's own image
+// and its starburst reach past any radius around the light, are small and much brighter than a glow.
+void clip_bright(Prepared& p) {
+    const std::size_t n = p.rgb.size() / 3;
+    const std::vector<double> lum = luminance_of(p.rgb, n);
+    std::vector<double> sorted = lum;
+    const auto at = sorted.begin() + static_cast<std::ptrdiff_t>(0.97 * static_cast<double>(n - 1));
+    std::nth_element(sorted.begin(), at, sorted.end());
+    const double cap = std::max(*at, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+        if (lum[i] > cap)
+            for (std::size_t c = 0; c < 3; ++c) p.rgb[i * 3 + c] *= cap / lum[i];
+}
+
 // Each frame less the fitted ghosts (and the glows fitted before), smoothed (sigma 2 px): what a glow is
 // fitted to.
 std::vector<Prepared> residual_frames(const std::vector<Prepared>& frames, const std::vector<Track>& tracks, const FitOptions& o) {
@@ -563,6 +577,7 @@ std::vector<Prepared> residual_frames(const std::vector<Prepared>& frames, const
             channel = gaussian_blur(channel, p.width, p.height, 2.0);
             for (std::size_t i = 0; i < n; ++i) p.rgb[i * 3 + c] = channel[i];
         }
+        clip_bright(p);
     }
     return out;
 }
