@@ -1,4 +1,4 @@
-// diag_measured OUT_DIR [LENS]: the fit test's synthetic sweep (240x160, 72x48 mm, 0..16 degrees by 1,
+// diag_measured OUT_DIR [LENS [SEED]]: the fit test's synthetic sweep (240x160, 72x48 mm, 0..16 degrees by 1,
 // background 1e-4, noise 2e-5), the fit, then for the test's angles the true ghosts beside the fitted
 // model's (PPM: true | fitted | |difference|, one gain per row) with the figures of measured_fit_test and
 // the physical lens's ghosts by power: what the fit misses and where.
@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
     gpu::FlareRenderer renderer(context);
     auto truth = [&](double ax, double ay) { return renderer.render(system, view_at(ax, ay), {}).rgb; };
 
-    std::mt19937_64 random(19);
+    std::mt19937_64 random(argc > 3 ? std::stoul(argv[3]) : 19);
     std::normal_distribution<double> noise(0.0, 2e-5);
     std::vector<measured::SweepFrame> frames;
     for (int i = 0; i <= 16; ++i) {
