@@ -15,10 +15,10 @@ double srgb8_code_step(double plate) {
 
 namespace {
 
-// Cells a visibility map holds at most (8 bytes each while it is made: 128 MB): a display window of more
-// than 4096 x 4096 cells gets cells twice as wide, as often as needed (a tiny file declaring a 10^6 x 10^6
+// Cells a visibility map holds at most (24 bytes each while it is made, a float per channel twice: 100 MB): a display window of more
+// than 2048 x 2048 cells gets cells twice as wide, as often as needed (a tiny file declaring a 10^6 x 10^6
 // window once made this map of 10^9 cells, 8 GB, before the flare's own memory check refused the frame).
-constexpr std::size_t kMaxVisibilityCells = std::size_t{1} << 24;
+constexpr std::size_t kMaxVisibilityCells = std::size_t{1} << 22;
 
 int cell_within_bound(int width, int height, int cell) {
     auto cells = [&](int c) { return static_cast<std::size_t>((width + c - 1) / c) * static_cast<std::size_t>((height + c - 1) / c); };

@@ -15,6 +15,7 @@
 
 #include <Imath/half.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filter/flare_stage.h>
 #include <filter/footprint.h>
@@ -31,7 +32,8 @@ using Imath::half;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("lensfx_frame_path_" + name);
+    // Named by the process too: runs of other checkouts at the same time must not share it.
+    const fs::path dir = fs::temp_directory_path() / ("lensfx_frame_path_" + name + "_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     return dir;

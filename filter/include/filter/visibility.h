@@ -23,7 +23,7 @@ double srgb8_code_step(double plate);
 // The visibility map of a frame's plate (R, G, B as loaded, over its data window; pixels of the display window
 // outside it are black) over its display window, with --visibility `budget`: per cell of `cell` pixels and
 // channel, the code step at the least of its pixels' values in that channel. Cells grow (doubling) where the
-// display window would need more than 4096 x 4096 of them.
+// display window would need more than 2048 x 2048 of them.
 std::shared_ptr<gpu::VisibilityMap> plate_visibility(const Frame& frame, double budget, int cell = kVisibilityCell);
 
 }  // namespace lensfx::filter
