@@ -13,6 +13,7 @@
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
 #include <filter/colour/matrix.h>
+#include <filter/option_checks.h>
 #include <gpu/acceleration.h>
 #include <gpu/flare.h>
 #include <optics/lens_file.h>
@@ -62,22 +63,6 @@ void check_focus_distance(const optics::System& system, double metres, const std
     }
 }
 
-// A CLI11 check that runs `parse` on the option's text: a bad value is a usage error (exit 2, one line).
-template <class Parse>
-CLI::Validator parsed_by(Parse parse, const char* name) {
-    return CLI::Validator(
-        [parse](std::string& text) -> std::string {
-            try {
-                parse(text);
-            } catch (const std::runtime_error& e) {
-                const std::string what = e.what();
-                return what.substr(what.find(' ') + 1);  // without the option's name, which CLI11 puts first
-            }
-            return {};
-        },
-        name);
-}
-
 }  // namespace
 
 void add_dof_options(CLI::App& app, DofSettings& s) {
@@ -91,11 +76,11 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
     app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")
         ->group(group)
-        ->check(parsed_by([](const std::string& t) { parse_pair(t, "--tilt"); }, "AX,AY"));
+        ->check(parsed_by([](const std::string& t) { parse_pair(t, "--tilt"); }, "--tilt", "AX,AY"));
     app.add_option("--focus-point", s.focus_points,
                    "X,Y,METRES (display-window pixels; repeat): a focal surface through these, instead of the plane at --focus")
         ->group(group)
-        ->check(parsed_by([](const std::string& t) { parse_focus_point(t); }, "X,Y,METRES"));
+        ->check(parsed_by([](const std::string& t) { parse_focus_point(t); }, "--focus-point", "X,Y,METRES"));
     app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
 }
 

@@ -103,21 +103,6 @@ void add_part_gain_options(CLI::App& app, double& ghost_gain, double& starburst_
         ->capture_default_str()->group(group)->check(finite_non_negative());
 }
 
-// --add-light as a usage error (exit 2) when its text does not parse.
-CLI::Validator added_light_check() {
-    return CLI::Validator(
-        [](std::string& text) {
-            try {
-                parse_added_light(text);
-            } catch (const std::exception& e) {
-                const std::string message = e.what();  // CLI11 names the option itself
-                return message.rfind("--add-light ", 0) == 0 ? message.substr(12) : message;
-            }
-            return std::string();
-        },
-        "X,Y,VALUE[,RADIUS]");
-}
-
 void add_flare_control_options(CLI::App& app, FlareControls& c, const std::string& group) {
     app.add_option("--extended-gain", c.extended_gain,
                    "Scale of the whole flare of extended sources (windows, backdrops, sky: sources wider than 16 px)")
@@ -127,7 +112,7 @@ void add_flare_control_options(CLI::App& app, FlareControls& c, const std::strin
     app.add_option("--add-light", c.add_lights,
                    "X,Y,VALUE[,RADIUS]: a disc of VALUE (radius 2 px) at display-window pixel X,Y lights the lens as if "
                    "the plate held it; the plate is unchanged (repeatable)")
-        ->group(group)->check(added_light_check());
+        ->group(group)->check(parsed_by([](const std::string& t) { parse_added_light(t); }, "--add-light", "X,Y,VALUE[,RADIUS]"));
 }
 
 std::vector<float> read_matte(const std::string& path, int& width, int& height) {
