@@ -165,6 +165,22 @@ int main(int argc, char** argv) {
                        sx / s, x0, x1, y0, y1, peak, s / std::max(1, (x1 - x0 + 1) * (y1 - y0 + 1)));
         }
         write_row(fmt::format("{}/ghosts-{}-{}.ppm", out, ax, ay), singles, gain);
+        // The error split: the brightest true ghost against the fitted ghosts (the rest true), and the rest
+        // against the fitted glows (the brightest true).
+        {
+            measured::MeasuredLens only_ghosts = fit.lens, only_glows = fit.lens;
+            const std::size_t glows = static_cast<std::size_t>(o.glows);
+            only_ghosts.ghosts.resize(fit.lens.ghosts.size() - glows);
+            only_glows.ghosts.erase(only_glows.ghosts.begin(), only_glows.ghosts.end() - static_cast<std::ptrdiff_t>(glows));
+            const auto& brightest = singles.front();
+            std::vector<float> ghost_case(t.size()), glow_case(t.size());
+            std::vector<float> fg(t.size(), 0.0f), fw(t.size(), 0.0f);
+            measured::render_add(only_ghosts, measured::MeasuredView{ax, ay, 72.0, 48.0, kW, kH}, {1, 1, 1}, fg.data());
+            measured::render_add(only_glows, measured::MeasuredView{ax, ay, 72.0, 48.0, kW, kH}, {1, 1, 1}, fw.data());
+            for (std::size_t i = 0; i < t.size(); ++i) ghost_case[i] = t[i] - brightest[i] + fg[i], glow_case[i] = brightest[i] + fw[i];
+            fmt::print("  error split: fitted ghosts for the brightest true one L1 {:.3f} power {:+.3f}; fitted glows for the rest L1 {:.3f} power {:+.3f}\n",
+                       block_l1(ghost_case, t), (sum(ghost_case) - sum(t)) / sum(t), block_l1(glow_case, t), (sum(glow_case) - sum(t)) / sum(t));
+        }
     }
     std::vector<double> predicted, physical;
     for (double a = 0.0; a <= 16.0; a += 1.0) {

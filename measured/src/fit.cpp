@@ -8,6 +8,7 @@
 #include <cmath>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -452,43 +453,100 @@ void settle_on_polynomials(Track& track, const std::vector<Prepared>& frames, co
     }
 }
 
-// The seed for frame f: the walk's, placed by the frame's own detection where the track has one
-// (so that a fit cannot drift along the track, onto the light or a neighbour); a glow's from its frame alone.
-GhostParams anchored_seed(GhostParams seed, const Track& track, int f) {
+const Detection* detection_in(const Track& track, int f) {
     const auto seen = std::find_if(track.seen.begin(), track.seen.end(), [&](const Detection& d) { return d.frame == f; });
-    if (seen == track.seen.end()) return seed;
-    if (track.glow) return seen->seed;
-    // The middle of the seed's extent along the axis moved onto the detection's.
-    const auto middle = [](const GhostParams& p) { return p[kPosition] + 0.5 * (p[kRight] - p[kLeft]); };
-    seed[kPosition] += middle(seen->seed) - middle(seed);
-    return seed;
+    return seen == track.seen.end() ? nullptr : &*seen;
+}
+
+// p placed so that the middle of its extent along the axis is the detection's (a fit cannot drift along
+// the track, onto the light or a neighbour).
+GhostParams placed_on(GhostParams p, const Detection& d) {
+    const auto middle = [](const GhostParams& q) { return q[kPosition] + 0.5 * (q[kRight] - q[kLeft]); };
+    p[kPosition] += middle(d.seed) - middle(p);
+    return p;
+}
+
+// A detection clear of the light's own image (which hides part of a ghost and whose edge the fit would
+// take for the ghost's).
+bool clear_of_light(const Detection& d, const std::vector<Prepared>& frames, const FitOptions& o) {
+    const Prepared& p = frames[static_cast<std::size_t>(d.frame)];
+    const double pw = pixel_mm(o, p.width);
+    const double light_mm = (p.light_x + 0.5 - 0.5 * p.width) * pw;
+    return std::abs(d.seed[kPosition] - light_mm) - std::max(d.seed[kLeft], d.seed[kRight]) > 2.0 * p.light_radius * pw;
+}
+
+// The key frame: the clearest detection (SNR x size), among those clear of the light where there are any.
+const Detection& key_detection(const Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
+    const Detection* best = nullptr;
+    for (bool need_clear : {true, false}) {
+        for (const Detection& d : track.seen)
+            if ((!need_clear || clear_of_light(d, frames, o)) && (!best || d.snr * d.seed[kLeft] > best->snr * best->seed[kLeft])) best = &d;
+        if (best) break;
+    }
+    return *best;
+}
+
+// A seed whose crop is the whole frame (a glow's: it is compared with others there).
+GhostParams whole_frame(const FitOptions& o) {
+    GhostParams p = disc_ghost(0.0, 0.5 * o.sensor_width_mm, {0.0, 0.0, 0.0});
+    p[kHeight] = 0.5 * o.sensor_height_mm;
+    return p;
+}
+
+// One frame of a track's walk from several starts, all fitted in one crop and the lowest cost kept: the
+// walk's extrapolation and the neighbour's fit, each placed on the frame's detection, and the detection
+// itself (a glow: the neighbour's fit and the frame's moments). The crop is the detection's where there
+// is one (a crop that follows the walk's seed can grow with a drifting fit and feed it), a glow's the
+// whole frame. Each start gets a third of the passes, the best the rest.
+std::optional<GhostParams> fit_frame(const Track& track, const std::vector<Prepared>& frames, int f, const std::vector<std::pair<double, GhostParams>>& walk,
+                                     const FitOptions& o, double pixel, std::size_t free) {
+    const Prepared& frame = frames[static_cast<std::size_t>(f)];
+    const Detection* seen = detection_in(track, f);
+    std::vector<GhostParams> starts{next_seed(walk, frame.angle_deg), walk.back().second};
+    if (seen && !track.glow)
+        for (GhostParams& s : starts) s = placed_on(s, *seen);
+    if (seen) starts.push_back(seen->seed);
+    GhostCost cost(frame, track.glow ? whole_frame(o) : seen ? seen->seed : starts.front(), o, track.glow);
+    if (cost.empty()) return std::nullopt;
+    const int first_passes = std::max(1, o.track_iterations / 3);
+    GhostParams best{};
+    double best_cost = 1e300;
+    for (const GhostParams& start : starts) {
+        GhostParams p = descend(cost, start, first_passes, 1.0, pixel, free);
+        const double c = cost(p);
+        if (c < best_cost) best_cost = c, best = p;
+    }
+    return descend(cost, best, o.track_iterations - first_passes, 0.5, pixel, free);
 }
 
 // Fits one track: its key frame from the detection, then frame by frame away from it in both directions.
 void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
-    const auto key = std::max_element(track.seen.begin(), track.seen.end(), [](const Detection& a, const Detection& b) {
-        return a.snr * a.seed[kLeft] < b.snr * b.seed[kLeft];
-    });
+    const Detection& key = key_detection(track, frames, o);
     const double pixel = (track.glow ? 4.0 : 1.0) * o.sensor_width_mm / frames[0].width;  // a glow's steps: 4 px
     const std::size_t free = track.glow ? kCurveLeft : kFallOutside + 2;  // a glow: place and size only
-    GhostCost key_cost(frames[static_cast<std::size_t>(key->frame)], key->seed, o, track.glow);
+    GhostCost key_cost(frames[static_cast<std::size_t>(key.frame)], track.glow ? whole_frame(o) : key.seed, o, track.glow);
     if (key_cost.empty()) return;
-    const GhostParams key_fit = descend(key_cost, key->seed, o.key_iterations, 4.0, pixel, free);
-    track.fitted.emplace_back(key->frame, key_fit);
+    const GhostParams key_fit = descend(key_cost, key.seed, o.key_iterations, 4.0, pixel, free);
+    track.fitted.emplace_back(key.frame, key_fit);
     const int first = track.seen.front().frame, last = track.seen.back().frame;
     for (int direction : {1, -1}) {
-        std::vector<std::pair<double, GhostParams>> walk{{frames[static_cast<std::size_t>(key->frame)].angle_deg, key_fit}};
-        for (int f = key->frame + direction; f >= first && f <= last; f += direction) {
-            const Prepared& frame = frames[static_cast<std::size_t>(f)];
-            const GhostParams seed = anchored_seed(next_seed(walk, frame.angle_deg), track, f);
-            GhostCost cost(frame, seed, o, track.glow);
-            if (cost.empty()) continue;
-            const GhostParams fit = descend(cost, seed, o.track_iterations, 1.0, pixel, free);
-            walk.emplace_back(frame.angle_deg, fit);
-            track.fitted.emplace_back(f, fit);
+        std::vector<std::pair<double, GhostParams>> walk{{frames[static_cast<std::size_t>(key.frame)].angle_deg, key_fit}};
+        for (int f = key.frame + direction; f >= first && f <= last; f += direction) {
+            const std::optional<GhostParams> fit = fit_frame(track, frames, f, walk, o, pixel, free);
+            if (!fit) continue;
+            walk.emplace_back(frames[static_cast<std::size_t>(f)].angle_deg, *fit);
+            track.fitted.emplace_back(f, *fit);
         }
     }
     std::sort(track.fitted.begin(), track.fitted.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (o.progress && std::getenv("LENSFX_FIT_DEBUG")) {
+        std::string lines = fmt::format("track (key frame {}, glow {}):", key.frame, track.glow);
+        for (const auto& [f, p] : track.fitted)
+            lines += fmt::format("\n   frame {:2}: M {:6.2f} L {:5.2f} R {:5.2f} h {:5.2f} Cl {:.2f} Cr {:.2f} Fi {:5.2f} Ei {:4.2f} Fo {:5.2f} Eo {:4.2f} IbG {:.2e} IiG {:.2e}", f,
+                                 p[kPosition], p[kLeft], p[kRight], p[kHeight], p[kCurveLeft], p[kCurveRight], p[kFallInside], p[kSlopeInside], p[kFallOutside],
+                                 p[kSlopeOutside], p[kBorderG], p[kInsideG]);
+        o.progress(lines);
+    }
     settle_on_polynomials(track, frames, o);
 }
 
