@@ -180,11 +180,11 @@ std::vector<Track> link(const std::vector<std::vector<Detection>>& per_frame, do
     return tracks;
 }
 
-// A glow is an elliptical dome: its level rises from 0 at the border to Ii at the middle (so that Ii is
-// its peak, not traded against the fall-off), only its place and size free.
+// A glow is an elliptical disc whose level goes from Ib at its border to Ii over Fi inside (a flat disc
+// with an edge, a dome from 0, or between) and stops at the border: only its place, size, curves and Fi
+// free, Fi at most its size.
 GhostParams glow_shape(GhostParams p) {
-    p[kCurveLeft] = p[kCurveRight] = 0.5523;
-    p[kFallInside] = std::min(p[kHeight], 0.5 * (p[kLeft] + p[kRight]));
+    p[kFallInside] = std::min(p[kFallInside], std::min(p[kHeight], 0.5 * (p[kLeft] + p[kRight])));
     p[kSlopeInside] = 1.5;
     p[kFallOutside] = 1e-3, p[kSlopeOutside] = 1.0;
     return p;
@@ -292,10 +292,10 @@ private:
                 for (std::size_t ch = 0; ch < 3; ++ch) rhs[ch][static_cast<std::size_t>(r)] += mask_[i] * basis[r] * target_[i * 3 + ch];
             }
         }
-        if (glow_) {  // the inside level alone (a dome from 0 at the border), no background
+        if (glow_) {  // the border and inside levels, no background
             for (int ch = 0; ch < 3; ++ch) {
-                p[kBorderR + ch] = 0.0, local_background_[static_cast<std::size_t>(ch)] = 0.0;
-                p[kInsideR + ch] = m[1][1] > 0.0 ? std::max(0.0, rhs[static_cast<std::size_t>(ch)][1] / m[1][1]) : 0.0;
+                const auto levels = two_levels(m, rhs[static_cast<std::size_t>(ch)]);
+                p[kBorderR + ch] = levels[0], p[kInsideR + ch] = levels[1], local_background_[static_cast<std::size_t>(ch)] = 0.0;
             }
             return;
         }
@@ -312,6 +312,19 @@ private:
             }
             p[kBorderR + ch] = x[0], p[kInsideR + ch] = x[1], local_background_[static_cast<std::size_t>(ch)] = x[2];
         }
+    }
+
+    // Ib and Ii >= 0 by least squares on the bases (a, b) alone.
+    static std::array<double, 2> two_levels(const double m[3][3], const std::array<double, 3>& r) {
+        const double det = m[0][0] * m[1][1] - m[0][1] * m[0][1];
+        if (det > 1e-12 * std::max(m[0][0] * m[1][1], 1e-300)) {
+            const double ib = (m[1][1] * r[0] - m[0][1] * r[1]) / det, ii = (m[0][0] * r[1] - m[0][1] * r[0]) / det;
+            if (ib >= 0.0 && ii >= 0.0) return {ib, ii};
+        }
+        const double ib = m[0][0] > 0.0 ? std::max(0.0, r[0] / m[0][0]) : 0.0, ii = m[1][1] > 0.0 ? std::max(0.0, r[1] / m[1][1]) : 0.0;
+        // The better of the border level alone and the inside level alone.
+        const double gain_b = ib * r[0], gain_i = ii * r[1];
+        return gain_b > gain_i ? std::array<double, 2>{ib, 0.0} : std::array<double, 2>{0.0, ii};
     }
 
     // The 3 x 3 system m x = r by Cramer's rule (a singular one: no levels, the mean as background).
@@ -379,15 +392,15 @@ GhostParams descend(GhostCost& cost, GhostParams p, int iterations, double learn
 }
 
 // Least-squares polynomial of degree <= 2 (fewer points: lower degree) through (x, y).
-std::array<double, 3> fit_polynomial(const std::vector<double>& x, const std::vector<double>& y) {
+std::array<double, 3> fit_polynomial(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& weight = {}) {
     const int degree = std::min<int>(2, static_cast<int>(x.size()) - 1);
     if (degree <= 0) return {y.empty() ? 0.0 : y[0], 0.0, 0.0};
     double m[3][4] = {};
     for (std::size_t i = 0; i < x.size(); ++i) {
-        const double pw[3] = {1.0, x[i], x[i] * x[i]};
+        const double pw[3] = {1.0, x[i], x[i] * x[i]}, w = weight.empty() ? 1.0 : weight[i];
         for (int r = 0; r <= degree; ++r) {
-            for (int c = 0; c <= degree; ++c) m[r][c] += pw[r] * pw[c];
-            m[r][3] += pw[r] * y[i];
+            for (int c = 0; c <= degree; ++c) m[r][c] += w * pw[r] * pw[c];
+            m[r][3] += w * pw[r] * y[i];
         }
     }
     const int n = degree + 1;
@@ -423,16 +436,28 @@ GhostParams next_seed(const std::vector<std::pair<double, GhostParams>>& walk, d
     return clamped(seed);
 }
 
-MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames) {
+// A fit clear of the light's own image: no part of the ghost within twice the light's radius of it.
+bool fit_clear_of_light(const GhostParams& p, const Prepared& frame, double pixel) {
+    const double light_mm = (frame.light_x + 0.5 - 0.5 * frame.width) * pixel;
+    return std::abs(p[kPosition] - light_mm) - std::max(p[kLeft], p[kRight]) > 2.0 * frame.light_radius * pixel;
+}
+
+// Each parameter's polynomial over the track's frames; frames where the light hides part of a ghost weigh
+// 1/20 where 3 or more are clear (a hidden side fits to the light's edge and a wrong level).
+MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames, double pixel) {
     MeasuredGhost g;
-    std::vector<double> x;
-    for (const auto& [f, p] : track.fitted) x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
+    std::vector<double> x, weight;
+    for (const auto& [f, p] : track.fitted) {
+        x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
+        weight.push_back(track.glow || fit_clear_of_light(p, frames[static_cast<std::size_t>(f)], pixel) ? 1.0 : 0.05);
+    }
     if (x.empty()) return g;
+    if (std::count(weight.begin(), weight.end(), 1.0) < 3) std::fill(weight.begin(), weight.end(), 1.0);
     g.angle_min_deg = *std::min_element(x.begin(), x.end()), g.angle_max_deg = *std::max_element(x.begin(), x.end());
     for (int k = 0; k < kParamCount; ++k) {
         std::vector<double> y;
         for (const auto& fp : track.fitted) y.push_back(fp.second[k]);
-        g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y);
+        g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y, weight);
     }
     return g;
 }
@@ -442,7 +467,7 @@ MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& fr
 // so levels fitted with one shape do not suit the smoothed one), then the levels' polynomials.
 void settle_on_polynomials(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
     for (int pass = 0; pass < 2; ++pass) {
-        const MeasuredGhost g = to_polynomials(track, frames);
+        const MeasuredGhost g = to_polynomials(track, frames, pixel_mm(o, frames[0].width));
         for (auto& [f, p] : track.fitted) {
             p = g.at(frames[static_cast<std::size_t>(f)].angle_deg);
             if (pass == 0) {
@@ -523,7 +548,7 @@ std::optional<GhostParams> fit_frame(const Track& track, const std::vector<Prepa
 void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
     const Detection& key = key_detection(track, frames, o);
     const double pixel = (track.glow ? 4.0 : 1.0) * o.sensor_width_mm / frames[0].width;  // a glow's steps: 4 px
-    const std::size_t free = track.glow ? kCurveLeft : kFallOutside + 2;  // a glow: place and size only
+    const std::size_t free = track.glow ? kFallInside + 1 : kFallOutside + 2;  // a glow: place, size, curves and Fi
     GhostCost key_cost(frames[static_cast<std::size_t>(key.frame)], track.glow ? whole_frame(o) : key.seed, o, track.glow);
     if (key_cost.empty()) return;
     const GhostParams key_fit = descend(key_cost, key.seed, o.key_iterations, 4.0, pixel, free);
@@ -669,6 +694,45 @@ Detection glow_seed(const Prepared& r, int frame, const FitOptions& o) {
     return d;
 }
 
+// Luminance summed outside the light's own image.
+double power_outside_light(const Prepared& p, const std::vector<double>& rgb) {
+    double sum = 0.0;
+    for (int y = 0; y < p.height; ++y)
+        for (int x = 0; x < p.width; ++x) {
+            if (std::hypot(x - p.light_x, y - p.light_y) <= p.light_radius) continue;
+            const std::size_t i = static_cast<std::size_t>(y * p.width + x) * 3;
+            sum += luminance(rgb[i], rgb[i + 1], rgb[i + 2]);
+        }
+    return sum;
+}
+
+// The glows' levels scaled in each frame so that together they hold what the ghosts leave there (its sum
+// over the frame has a high SNR where each glow's fitted level does not: most of the flare's power is in
+// them, and their polynomials carry it between the samples).
+void match_glow_power(std::vector<Track>& tracks, const std::vector<Prepared>& frames, const FitOptions& o) {
+    std::vector<Track> ghosts, glows;
+    for (const Track& t : tracks) (t.glow ? glows : ghosts).push_back(t);
+    if (glows.empty()) return;
+    const std::vector<Prepared> left = residual_frames(frames, ghosts, o);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        MeasuredView view;
+        view.sensor_width_mm = o.sensor_width_mm, view.sensor_height_mm = o.sensor_height_mm, view.width = frames[f].width, view.height = frames[f].height;
+        std::vector<double> model(frames[f].rgb.size(), 0.0);
+        for (const Track& t : glows)
+            for (const auto& [frame, params] : t.fitted)
+                if (const auto box = ghost_box(params, 0.0, view); frame == static_cast<int>(f) && box[2] > box[0] && box[3] > box[1])
+                    add_box(model, view.width, box, params, view);
+        const double have = power_outside_light(frames[f], model), want = power_outside_light(left[f], left[f].rgb);
+        if (!(have > 0.0) || !(want > 0.0)) continue;
+        const double k = std::clamp(want / have, 0.5, 2.0);
+        for (Track& t : tracks)
+            if (t.glow)
+                for (auto& [frame, params] : t.fitted)
+                    if (frame == static_cast<int>(f))
+                        for (int c = kBorderR; c < kParamCount; ++c) params[c] *= k;
+    }
+}
+
 // Wide soft glows, one after the other, each fitted to what the ghosts and the glows before it leave, in
 // every frame: the many faint ghosts wider than the frame that no detection on the axis separates.
 void fit_glows(std::vector<Track>& tracks, const std::vector<Prepared>& frames, const FitOptions& o) {
@@ -681,6 +745,7 @@ void fit_glows(std::vector<Track>& tracks, const std::vector<Prepared>& frames, 
         if (o.progress) o.progress(fmt::format("glow {}/{}: fitted over {} frames", g + 1, o.glows, glow.fitted.size()));
         tracks.push_back(std::move(glow));
     }
+    match_glow_power(tracks, frames, o);
 }
 
 }  // namespace
@@ -712,7 +777,7 @@ FitResult fit_sweep(const std::vector<SweepFrame>& input, const FitOptions& o) {
     lens.focal_length_mm = o.focal_length_mm;
     lens.sensor_mm = {o.sensor_width_mm, o.sensor_height_mm};
     lens.capture = o.capture;
-    for (const Track& t : tracks) lens.ghosts.push_back(to_polynomials(t, frames));
+    for (const Track& t : tracks) lens.ghosts.push_back(to_polynomials(t, frames, pixel_mm(o, input[0].width)));
 
     // The report, and the light's own energy: what each frame holds beyond the background and the ghosts.
     std::vector<double> light_energy;

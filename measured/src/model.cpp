@@ -181,21 +181,108 @@ void render_ghost_box(const GhostParams& p, double roll_rad, const MeasuredView&
         }
 }
 
-void render_add(const MeasuredLens& lens, const MeasuredView& view, std::array<double, 3> scale, float* rgb) {
-    const auto [field, roll] = field_and_roll(view.angle_x_deg, view.angle_y_deg);
+double smooth_scale_mm(const GhostParams& p) {
+    double border = 0.0, inside = 0.0;
+    for (int c = 0; c < 3; ++c) border = std::max(border, p[kBorderR + c]), inside = std::max(inside, p[kInsideR + c]);
+    if (!(inside > 0.0) || border > 0.02 * inside || p[kSlopeInside] < 1.0) return 0.0;
+    return std::min({p[kFallInside], p[kHeight], 0.5 * (p[kLeft] + p[kRight])});
+}
+
+int reduction_for(const GhostParams& p, const MeasuredView& view) {
+    const double pixel = std::max(view.sensor_width_mm / view.width, view.sensor_height_mm / view.height), scale = smooth_scale_mm(p);
+    int r = 1;
+    while (r < 8 && 2 * r <= view.max_reduction && scale >= 8.0 * 2.0 * r * pixel) r *= 2;
+    return r;
+}
+
+namespace {
+
+// Adds ghost p (already scaled) at full size into the image.
+void add_full(const GhostParams& p, double roll, const MeasuredView& view, float* rgb) {
+    const auto [x0, y0, x1, y1] = ghost_box(p, roll, view);
+    if (x1 <= x0 || y1 <= y0) return;
+    std::vector<float> box(static_cast<std::size_t>(x1 - x0) * static_cast<std::size_t>(y1 - y0) * 3, 0.0f);
+    render_ghost_box(p, roll, view, x0, y0, x1, y1, box.data());
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+            for (int ch = 0; ch < 3; ++ch)
+                rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(ch)] +=
+                    box[(static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(x1 - x0) + static_cast<std::size_t>(x - x0)) * 3 + static_cast<std::size_t>(ch)];
+}
+
+}  // namespace
+
+ReducedGrid reduced_grid(const MeasuredView& view, int reduction) {
+    ReducedGrid g;
+    g.reduction = reduction;
+    g.width = (view.width + reduction - 1) / reduction + 2, g.height = (view.height + reduction - 1) / reduction + 2;
+    return g;
+}
+
+double ReducedGrid::pixel_of(int sample) const { return (sample - 1) * reduction + 0.5 * (reduction - 1); }
+
+void render_reduced(const GhostParams& p, double roll, const MeasuredView& view, const ReducedGrid& grid, float* samples) {
+    const double c = std::cos(roll), s = std::sin(roll);
+    const auto [x0, y0, x1, y1] = ghost_box(p, roll, view);  // outside it the ghost is 0
+    const double r = grid.reduction;
+    for (int j = 0; j < grid.height; ++j)
+        for (int i = 0; i < grid.width; ++i) {
+            if (grid.pixel_of(i) < x0 - r || grid.pixel_of(i) >= x1 + r || grid.pixel_of(j) < y0 - r || grid.pixel_of(j) >= y1 + r) continue;
+            const double xs = pixel_x_mm(view, grid.pixel_of(i)), ys = pixel_y_mm(view, grid.pixel_of(j));
+            const auto [a, b] = level_weights(p, signed_distance(p, xs * c + ys * s - p[kPosition], -xs * s + ys * c));
+            float* out = samples + (static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) + static_cast<std::size_t>(i)) * 3;
+            for (int ch = 0; ch < 3; ++ch) out[ch] += static_cast<float>(p[kBorderR + ch] * a + p[kInsideR + ch] * b);
+        }
+}
+
+void add_upsampled(const ReducedGrid& grid, const float* samples, const MeasuredView& view, float* rgb) {
+    const double r = grid.reduction;
+    for (int y = 0; y < view.height; ++y) {
+        const double sy = (y - 0.5 * (r - 1)) / r + 1.0;
+        const int j = std::clamp(static_cast<int>(std::floor(sy)), 0, grid.height - 2);
+        const double ty = sy - j;
+        for (int x = 0; x < view.width; ++x) {
+            const double sx = (x - 0.5 * (r - 1)) / r + 1.0;
+            const int i = std::clamp(static_cast<int>(std::floor(sx)), 0, grid.width - 2);
+            const double tx = sx - i;
+            const auto at = [&](int ii, int jj, int ch) {
+                return static_cast<double>(samples[(static_cast<std::size_t>(jj) * static_cast<std::size_t>(grid.width) + static_cast<std::size_t>(ii)) * 3 + static_cast<std::size_t>(ch)]);
+            };
+            for (int ch = 0; ch < 3; ++ch) {
+                const double top = at(i, j, ch) * (1.0 - tx) + at(i + 1, j, ch) * tx, bottom = at(i, j + 1, ch) * (1.0 - tx) + at(i + 1, j + 1, ch) * tx;
+                rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(ch)] +=
+                    static_cast<float>(top * (1.0 - ty) + bottom * ty);
+            }
+        }
+    }
+}
+
+std::vector<GhostParams> ghosts_at(const MeasuredLens& lens, double field, std::array<double, 3> scale) {
+    std::vector<GhostParams> out;
     for (const MeasuredGhost& g : lens.ghosts) {
         if (!g.covers(field)) continue;
         GhostParams p = g.at(field);
         for (int ch = 0; ch < 3; ++ch) p[kBorderR + ch] *= scale[static_cast<std::size_t>(ch)], p[kInsideR + ch] *= scale[static_cast<std::size_t>(ch)];
-        const auto [x0, y0, x1, y1] = ghost_box(p, roll, view);
-        if (x1 <= x0 || y1 <= y0) continue;
-        std::vector<float> box(static_cast<std::size_t>(x1 - x0) * static_cast<std::size_t>(y1 - y0) * 3, 0.0f);
-        render_ghost_box(p, roll, view, x0, y0, x1, y1, box.data());
-        for (int y = y0; y < y1; ++y)
-            for (int x = x0; x < x1; ++x)
-                for (int ch = 0; ch < 3; ++ch)
-                    rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(ch)] +=
-                        box[(static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(x1 - x0) + static_cast<std::size_t>(x - x0)) * 3 + static_cast<std::size_t>(ch)];
+        out.push_back(p);
+    }
+    return out;
+}
+
+void render_add(const MeasuredLens& lens, const MeasuredView& view, std::array<double, 3> scale, float* rgb) {
+    const auto [field, roll] = field_and_roll(view.angle_x_deg, view.angle_y_deg);
+    for (int reduction : {1, 2, 4, 8}) {
+        const ReducedGrid grid = reduced_grid(view, reduction);
+        std::vector<float> samples;
+        for (const GhostParams& p : ghosts_at(lens, field, scale)) {
+            if (reduction_for(p, view) != reduction) continue;
+            if (reduction == 1) {
+                add_full(p, roll, view, rgb);
+                continue;
+            }
+            samples.resize(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height) * 3, 0.0f);
+            render_reduced(p, roll, view, grid, samples.data());
+        }
+        if (!samples.empty()) add_upsampled(grid, samples.data(), view, rgb);
     }
 }
 

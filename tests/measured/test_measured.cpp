@@ -138,6 +138,57 @@ TEST(MeasuredRender, GpuMatchesTheCpuReference) {
     }
 }
 
+// The two-ghost lens plus a glow: a dark-bordered dome wider than the frame (smooth, drawn reduced).
+MeasuredLens lens_with_a_glow() {
+    MeasuredLens lens = two_ghost_lens();
+    MeasuredGhost glow;
+    glow.angle_min_deg = 0.0, glow.angle_max_deg = 20.0;
+    GhostParams p = disc_ghost(0.0, 25.0, {0.0, 0.0, 0.0});
+    p[kHeight] = 20.0, p[kFallInside] = 20.0, p[kSlopeInside] = 1.5, p[kFallOutside] = 1e-3;
+    p[kInsideR] = 2e-4, p[kInsideG] = 3e-4, p[kInsideB] = 1e-4;
+    for (int k = 0; k < kParamCount; ++k) glow.poly[static_cast<std::size_t>(k)] = {p[k], 0.0, 0.0};
+    glow.poly[kPosition] = {0.0, 0.5, 0.0};
+    lens.ghosts.push_back(glow);
+    return lens;
+}
+
+double relative_l1(const std::vector<float>& a, const std::vector<float>& b, float base) {
+    double diff = 0.0, total = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) diff += std::abs(static_cast<double>(a[i] - b[i])), total += std::abs(static_cast<double>(b[i] - base));
+    return diff / total;
+}
+
+// Only a ghost with a dark border and a slow rise is smooth; the glow is drawn 8x reduced at 240x160.
+TEST(MeasuredRender, SmoothGhostsAreThoseWithoutAnEdge) {
+    const MeasuredLens lens = lens_with_a_glow();
+    const MeasuredView view{6.0, 0.0, 36.0, 24.0, 240, 160};
+    EXPECT_EQ(reduction_for(lens.ghosts[0].at(6.0), view), 1);
+    EXPECT_EQ(reduction_for(lens.ghosts[2].at(6.0), view), 8);
+    MeasuredView full = view;
+    full.max_reduction = 1;
+    EXPECT_EQ(reduction_for(lens.ghosts[2].at(6.0), full), 1);
+    GhostParams steep = lens.ghosts[2].at(6.0);
+    steep[kSlopeInside] = 0.5;
+    EXPECT_EQ(smooth_scale_mm(steep), 0.0);
+}
+
+// The reduced glow, upsampled, against the glow at full size (CPU), and the GPU against the CPU.
+TEST(MeasuredRender, ReducedGlowMatchesFullSizeAndTheGpu) {
+    const MeasuredLens lens = lens_with_a_glow();
+    const gpu::Context context(gpu::Platform::Surfaceless);
+    gpu::MeasuredRenderer renderer(context);
+    for (const auto& [ax, ay] : {std::pair{6.0, 0.0}, std::pair{5.0, -7.0}}) {
+        MeasuredView view{ax, ay, 36.0, 24.0, 240, 160};
+        std::vector<float> reduced(240 * 160 * 3, 0.5f), full(240 * 160 * 3, 0.5f), gpu(240 * 160 * 3, 0.5f);
+        render_add(lens, view, {2, 1, 0.5}, reduced.data());
+        renderer.render_add(lens, view, {2, 1, 0.5}, gpu.data());
+        view.max_reduction = 1;
+        render_add(lens, view, {2, 1, 0.5}, full.data());
+        EXPECT_LT(relative_l1(reduced, full, 0.5f), 2e-3) << ax << "," << ay;
+        EXPECT_LT(relative_l1(gpu, reduced, 0.5f), 1e-3) << ax << "," << ay;
+    }
+}
+
 TEST(MeasuredPredict, EstimatorsOfAKnownImage) {
     std::vector<float> flare(4 * 4 * 3, 0.0f);
     for (int c = 0; c < 3; ++c) flare[static_cast<std::size_t>(c)] = 1.0f;  // one pixel of luminance 1

@@ -85,15 +85,44 @@ struct MeasuredView {
     double sensor_height_mm = 24.0;
     int width = 0;
     int height = 0;
+    int max_reduction = 8;  // smooth ghosts drawn at most this much reduced (1: every ghost at full size)
 };
 
 // The field angle (degrees off the axis) and roll (radians, 0 = light to the right, counter-clockwise) of
 // a light at (ax, ay).
 std::array<double, 2> field_and_roll(double ax_deg, double ay_deg);
 
+
+// The length (mm) below which a ghost's image holds no detail, so that it can be drawn at a reduced size
+// and upsampled: a ghost with a dark border (its border levels under 2% of its inside levels) whose level
+// rises over Fi with Ei >= 1 is smooth at the smaller of Fi and its half width and height; one with an
+// edge (a lit border) is not (0).
+double smooth_scale_mm(const GhostParams& p);
+
+// The reduction (1, 2, 4 or 8, at most the view's max_reduction) at which ghost p is drawn in the view: at
+// least 8 samples of the reduced grid over its smooth scale.
+int reduction_for(const GhostParams& p, const MeasuredView& view);
+
 // Adds `scale[c]` x every ghost of `lens` at the view's light into `rgb` (width x height x 3, row 0 at the
-// top): the CPU reference of the GPU renderer.
+// top): the CPU reference of the GPU renderer. Smooth ghosts (smooth_scale_mm) are drawn at their
+// reduction on a grid of samples at the centres of reduction x reduction pixel blocks, one sample beyond
+// the image each side, and added bilinearly interpolated.
 void render_add(const MeasuredLens& lens, const MeasuredView& view, std::array<double, 3> scale, float* rgb);
+// The samples a smooth ghost is drawn on at a reduction r: sample (i, j) at the centre of pixel block
+// (i - 1, j - 1) of r x r pixels, one sample beyond the image each side.
+struct ReducedGrid {
+    int reduction = 1;
+    int width = 0, height = 0;
+    [[nodiscard]] double pixel_of(int sample) const;  // the full image's pixel coordinate of a sample (x or y)
+};
+ReducedGrid reduced_grid(const MeasuredView& view, int reduction);
+// Adds ghost p (scaled, at roll) into the grid's samples (width x height x 3).
+void render_reduced(const GhostParams& p, double roll_rad, const MeasuredView& view, const ReducedGrid& grid, float* samples);
+// Adds the samples, bilinearly interpolated, into the full image.
+void add_upsampled(const ReducedGrid& grid, const float* samples, const MeasuredView& view, float* rgb);
+// The ghosts of `lens` at a field angle, their levels times scale.
+std::vector<GhostParams> ghosts_at(const MeasuredLens& lens, double field_deg, std::array<double, 3> scale);
+
 // One ghost at parameters p, the light on the +x meridian, over the pixel box [x0, x1) x [y0, y1) into a
 // buffer of that box (rows of x1 - x0 pixels): what the fit draws.
 void render_ghost_box(const GhostParams& p, double roll_rad, const MeasuredView& view, int x0, int y0, int x1, int y1,
