@@ -392,15 +392,15 @@ GhostParams descend(GhostCost& cost, GhostParams p, int iterations, double learn
 }
 
 // Least-squares polynomial of degree <= 2 (fewer points: lower degree) through (x, y).
-std::array<double, 3> fit_polynomial(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& weight = {}) {
+std::array<double, 3> fit_polynomial(const std::vector<double>& x, const std::vector<double>& y) {
     const int degree = std::min<int>(2, static_cast<int>(x.size()) - 1);
     if (degree <= 0) return {y.empty() ? 0.0 : y[0], 0.0, 0.0};
     double m[3][4] = {};
     for (std::size_t i = 0; i < x.size(); ++i) {
-        const double pw[3] = {1.0, x[i], x[i] * x[i]}, w = weight.empty() ? 1.0 : weight[i];
+        const double pw[3] = {1.0, x[i], x[i] * x[i]};
         for (int r = 0; r <= degree; ++r) {
-            for (int c = 0; c <= degree; ++c) m[r][c] += w * pw[r] * pw[c];
-            m[r][3] += w * pw[r] * y[i];
+            for (int c = 0; c <= degree; ++c) m[r][c] += pw[r] * pw[c];
+            m[r][3] += pw[r] * y[i];
         }
     }
     const int n = degree + 1;
@@ -436,28 +436,16 @@ GhostParams next_seed(const std::vector<std::pair<double, GhostParams>>& walk, d
     return clamped(seed);
 }
 
-// A fit clear of the light's own image: no part of the ghost within twice the light's radius of it.
-bool fit_clear_of_light(const GhostParams& p, const Prepared& frame, double pixel) {
-    const double light_mm = (frame.light_x + 0.5 - 0.5 * frame.width) * pixel;
-    return std::abs(p[kPosition] - light_mm) - std::max(p[kLeft], p[kRight]) > 2.0 * frame.light_radius * pixel;
-}
-
-// Each parameter's polynomial over the track's frames; frames where the light hides part of a ghost weigh
-// 1/20 where 3 or more are clear (a hidden side fits to the light's edge and a wrong level).
-MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames, double pixel) {
+MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames) {
     MeasuredGhost g;
-    std::vector<double> x, weight;
-    for (const auto& [f, p] : track.fitted) {
-        x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
-        weight.push_back(track.glow || fit_clear_of_light(p, frames[static_cast<std::size_t>(f)], pixel) ? 1.0 : 0.05);
-    }
+    std::vector<double> x;
+    for (const auto& [f, p] : track.fitted) x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
     if (x.empty()) return g;
-    if (std::count(weight.begin(), weight.end(), 1.0) < 3) std::fill(weight.begin(), weight.end(), 1.0);
     g.angle_min_deg = *std::min_element(x.begin(), x.end()), g.angle_max_deg = *std::max_element(x.begin(), x.end());
     for (int k = 0; k < kParamCount; ++k) {
         std::vector<double> y;
         for (const auto& fp : track.fitted) y.push_back(fp.second[k]);
-        g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y, weight);
+        g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y);
     }
     return g;
 }
@@ -467,7 +455,7 @@ MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& fr
 // so levels fitted with one shape do not suit the smoothed one), then the levels' polynomials.
 void settle_on_polynomials(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
     for (int pass = 0; pass < 2; ++pass) {
-        const MeasuredGhost g = to_polynomials(track, frames, pixel_mm(o, frames[0].width));
+        const MeasuredGhost g = to_polynomials(track, frames);
         for (auto& [f, p] : track.fitted) {
             p = g.at(frames[static_cast<std::size_t>(f)].angle_deg);
             if (pass == 0) {
@@ -777,7 +765,7 @@ FitResult fit_sweep(const std::vector<SweepFrame>& input, const FitOptions& o) {
     lens.focal_length_mm = o.focal_length_mm;
     lens.sensor_mm = {o.sensor_width_mm, o.sensor_height_mm};
     lens.capture = o.capture;
-    for (const Track& t : tracks) lens.ghosts.push_back(to_polynomials(t, frames, pixel_mm(o, input[0].width)));
+    for (const Track& t : tracks) lens.ghosts.push_back(to_polynomials(t, frames));
 
     // The report, and the light's own energy: what each frame holds beyond the background and the ghosts.
     std::vector<double> light_energy;
