@@ -180,11 +180,13 @@ std::vector<Track> link(const std::vector<std::vector<Detection>>& per_frame, do
     return tracks;
 }
 
-// A glow is an elliptical disc whose level goes from Ib at its border to Ii over Fi inside (a flat disc
-// with an edge, a dome from 0, or between) and stops at the border: only its place, size, curves and Fi
-// free, Fi at most its size.
+// A glow is an elliptical dome: its level rises from 0 at the border to Ii at the middle (so that Ii is
+// its peak, not traded against the fall-off), only its place and size free. (A disc with a lit border and
+// a free fall inside fitted the test sweep's L1 better but its power worse, and an edge cannot be drawn
+// reduced.)
 GhostParams glow_shape(GhostParams p) {
-    p[kFallInside] = std::min(p[kFallInside], std::min(p[kHeight], 0.5 * (p[kLeft] + p[kRight])));
+    p[kCurveLeft] = p[kCurveRight] = 0.5523;
+    p[kFallInside] = std::min(p[kHeight], 0.5 * (p[kLeft] + p[kRight]));
     p[kSlopeInside] = 1.5;
     p[kFallOutside] = 1e-3, p[kSlopeOutside] = 1.0;
     return p;
@@ -292,10 +294,10 @@ private:
                 for (std::size_t ch = 0; ch < 3; ++ch) rhs[ch][static_cast<std::size_t>(r)] += mask_[i] * basis[r] * target_[i * 3 + ch];
             }
         }
-        if (glow_) {  // the border and inside levels, no background
+        if (glow_) {  // the inside level alone (a dome from 0 at the border), no background
             for (int ch = 0; ch < 3; ++ch) {
-                const auto levels = two_levels(m, rhs[static_cast<std::size_t>(ch)]);
-                p[kBorderR + ch] = levels[0], p[kInsideR + ch] = levels[1], local_background_[static_cast<std::size_t>(ch)] = 0.0;
+                p[kBorderR + ch] = 0.0, local_background_[static_cast<std::size_t>(ch)] = 0.0;
+                p[kInsideR + ch] = m[1][1] > 0.0 ? std::max(0.0, rhs[static_cast<std::size_t>(ch)][1] / m[1][1]) : 0.0;
             }
             return;
         }
@@ -312,19 +314,6 @@ private:
             }
             p[kBorderR + ch] = x[0], p[kInsideR + ch] = x[1], local_background_[static_cast<std::size_t>(ch)] = x[2];
         }
-    }
-
-    // Ib and Ii >= 0 by least squares on the bases (a, b) alone.
-    static std::array<double, 2> two_levels(const double m[3][3], const std::array<double, 3>& r) {
-        const double det = m[0][0] * m[1][1] - m[0][1] * m[0][1];
-        if (det > 1e-12 * std::max(m[0][0] * m[1][1], 1e-300)) {
-            const double ib = (m[1][1] * r[0] - m[0][1] * r[1]) / det, ii = (m[0][0] * r[1] - m[0][1] * r[0]) / det;
-            if (ib >= 0.0 && ii >= 0.0) return {ib, ii};
-        }
-        const double ib = m[0][0] > 0.0 ? std::max(0.0, r[0] / m[0][0]) : 0.0, ii = m[1][1] > 0.0 ? std::max(0.0, r[1] / m[1][1]) : 0.0;
-        // The better of the border level alone and the inside level alone.
-        const double gain_b = ib * r[0], gain_i = ii * r[1];
-        return gain_b > gain_i ? std::array<double, 2>{ib, 0.0} : std::array<double, 2>{0.0, ii};
     }
 
     // The 3 x 3 system m x = r by Cramer's rule (a singular one: no levels, the mean as background).
@@ -536,7 +525,7 @@ std::optional<GhostParams> fit_frame(const Track& track, const std::vector<Prepa
 void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
     const Detection& key = key_detection(track, frames, o);
     const double pixel = (track.glow ? 4.0 : 1.0) * o.sensor_width_mm / frames[0].width;  // a glow's steps: 4 px
-    const std::size_t free = track.glow ? kFallInside + 1 : kFallOutside + 2;  // a glow: place, size, curves and Fi
+    const std::size_t free = track.glow ? kCurveLeft : kFallOutside + 2;  // a glow: place and size only
     GhostCost key_cost(frames[static_cast<std::size_t>(key.frame)], track.glow ? whole_frame(o) : key.seed, o, track.glow);
     if (key_cost.empty()) return;
     const GhostParams key_fit = descend(key_cost, key.seed, o.key_iterations, 4.0, pixel, free);
