@@ -20,11 +20,11 @@
 
 namespace lensfx::measured::synthetic {
 
-constexpr int kWidth = 240, kHeight = 160;
+constexpr int kImageWidth = 240, kImageHeight = 160;
 constexpr double kSensorW = 72.0, kSensorH = 48.0;
 constexpr double kBackground = 1e-4, kNoise = 2e-5;
 
-inline gpu::FlareView view_at(double ax, double ay, int width = kWidth, int height = kHeight) {
+inline gpu::FlareView view_at(double ax, double ay, int width = kImageWidth, int height = kImageHeight) {
     gpu::FlareView v;
     v.angle_x_deg = ax, v.angle_y_deg = ay;
     v.sensor_width_mm = kSensorW, v.sensor_height_mm = kSensorH;
@@ -44,7 +44,7 @@ struct PhysicalLens {
 // The noise-free frames of a sweep from 0 to end_deg by step_deg (rendered once; each seed adds its noise).
 inline std::vector<SweepFrame> clean_sweep(PhysicalLens& lens, double end_deg, double step_deg) {
     std::vector<SweepFrame> frames;
-    for (int i = 0; i * step_deg <= end_deg + 1e-9; ++i) frames.push_back({kWidth, kHeight, lens.render(i * step_deg, 0.0), i * step_deg});
+    for (int i = 0; i * step_deg <= end_deg + 1e-9; ++i) frames.push_back({kImageWidth, kImageHeight, lens.render(i * step_deg, 0.0), i * step_deg});
     return frames;
 }
 
@@ -66,8 +66,8 @@ inline FitOptions fit_options() {
 }
 
 inline std::vector<float> render_fitted(const MeasuredLens& lens, double ax, double ay) {
-    std::vector<float> rgb(static_cast<std::size_t>(kWidth * kHeight * 3), 0.0f);
-    render_add(lens, MeasuredView{ax, ay, kSensorW, kSensorH, kWidth, kHeight}, {1, 1, 1}, rgb.data());
+    std::vector<float> rgb(static_cast<std::size_t>(kImageWidth * kImageHeight * 3), 0.0f);
+    render_add(lens, MeasuredView{ax, ay, kSensorW, kSensorH, kImageWidth, kImageHeight}, {1, 1, 1}, rgb.data());
     return rgb;
 }
 
@@ -83,16 +83,16 @@ struct Accuracy {
 
 inline Accuracy accuracy_at(PhysicalLens& lens, const MeasuredLens& fitted, double ax, double ay) {
     const std::vector<float> truth = lens.render(ax, ay), fit = render_fitted(fitted, ax, ay);
-    return {block_l1(fit, truth, kWidth, kHeight), power_error(fit, truth)};
+    return {block_l1(fit, truth, kImageWidth, kImageHeight), power_error(fit, truth)};
 }
 
 // Spearman of predict's total (a flat grey scene of 1e-3) against the physical ghost power, 0..end by 1.
 inline double predicted_rank_correlation(PhysicalLens& lens, const MeasuredLens& fitted, double end_deg) {
     std::vector<double> predicted, physical;
     for (double a = 0.0; a <= end_deg + 1e-9; a += 1.0) {
-        predicted.push_back(estimate(render_fitted(fitted, a, 0.0), kWidth, kHeight, {1e-3f}, 1.0).total);
+        predicted.push_back(estimate(render_fitted(fitted, a, 0.0), kImageWidth, kImageHeight, {1e-3f}, 1.0).total);
         const std::vector<float> truth = lens.render(a, 0.0);
-        physical.push_back(estimate(truth, kWidth, kHeight, {1e-3f}, 1.0).total);
+        physical.push_back(estimate(truth, kImageWidth, kImageHeight, {1e-3f}, 1.0).total);
     }
     return spearman(predicted, physical);
 }

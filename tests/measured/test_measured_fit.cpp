@@ -13,8 +13,8 @@
 namespace lensfx::measured {
 namespace {
 
-using synthetic::kHeight;
-using synthetic::kWidth;
+using synthetic::kImageHeight;
+using synthetic::kImageWidth;
 
 // The noise seed of the test's sweep: one the fit was never tuned on (bench/measured/seeds_measured gives
 // the figures over seeds 19..26, the ones the fit was developed against).
@@ -101,7 +101,7 @@ struct KnownSweep {
             known.ghosts.push_back(g);
         }
         std::vector<SweepFrame> frames;
-        for (int i = 0; i <= 16; i += 2) frames.push_back({kWidth, kHeight, render(known, i, 0.0), static_cast<double>(i)});
+        for (int i = 0; i <= 16; i += 2) frames.push_back({kImageWidth, kImageHeight, render(known, i, 0.0), static_cast<double>(i)});
         fit = fit_sweep(synthetic::captured(frames, 7), synthetic::fit_options());
     }
 };
@@ -130,7 +130,7 @@ void recovers_the_separate_ghost_between_samples(const KnownSweep& s) {
 void recovers_all_ghosts_within_issue_bounds(const KnownSweep& s) {
     for (const auto& [ax, ay] : {std::pair{7.0, 0.0}, std::pair{11.0, 0.0}, std::pair{5.0, 6.0}, std::pair{-6.0, 7.0}}) {
         const std::vector<float> truth = s.render(s.known, ax, ay), fitted = s.render(s.fit.lens, ax, ay);
-        const double l1 = block_l1(fitted, truth, kWidth, kHeight), power = power_error(fitted, truth);
+        const double l1 = block_l1(fitted, truth, kImageWidth, kImageHeight), power = power_error(fitted, truth);
         std::printf("known model, light (%g, %g): relative L1 (8x8 blocks) %.3f, total power error %.3f\n", ax, ay, l1, power);
         EXPECT_LT(l1, 0.35) << ax << "," << ay;
         EXPECT_LT(power, 0.15) << ax << "," << ay;
