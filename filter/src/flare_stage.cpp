@@ -701,7 +701,10 @@ struct FlareStage::State {
             add_extended_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy,
                                    *light.shape, image);
         } else {
-            optics::draw_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy, image);
+            // Spread over the light's own extent: a sun 8 px across has spikes 8 px wide.
+            const optics::SourceEllipse source{light.extent.major, light.extent.minor, light.extent.angle_deg};
+            optics::draw_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels, source},
+                                   energy, image);
         }
     }
 

@@ -294,6 +294,7 @@ struct TailEdge {
 struct IrisOutline {
     std::vector<TailEdge> edges;
     double coefficient = 0.0;  // P R / (pi^2 A)
+    double half_gap = 0.0;     // half the angle between neighbouring spikes (n of them for even n blades, 2 n for odd)
 };
 
 IrisOutline iris_outline(const Aperture& aperture) {
@@ -311,6 +312,7 @@ IrisOutline iris_outline(const Aperture& aperture) {
     const double length = c > 1e-9 ? 2.0 * alpha / c : 2.0 * half_chord;
     const double area = n * half_chord * apothem + (c > 1e-9 ? n * 0.5 / (c * c) * (2.0 * alpha - std::sin(2.0 * alpha)) : 0.0);
     out.coefficient = n * length / (pi * pi * area);
+    out.half_gap = pi / (n % 2 == 0 ? n : 2 * n);
     const double first = (aperture.rotation_deg - 90.0) * pi / 180.0;
     for (int k = 0; k < n; ++k) out.edges.push_back({first + 2.0 * pi * k / n, 2.0 * alpha, length, 1.0 / n});
     return out;
@@ -418,35 +420,119 @@ std::array<double, 3> tail_amplitude(const IrisOutline& iris, double f_number, d
     return a;
 }
 
-// Across a spike: the edge's sinc^2 (first zeros at +-2 lambda N R / length) as a Gaussian per channel,
-// each as wide as its own wavelength makes it (red widest), sampled at half-pixel offsets (mm) shared by
-// the channels; each channel's weights sum to 1.
+// The integral of sinc^2(t) = (sin(pi t) / (pi t))^2 from 0 to u (odd in u; 1/2 at infinity): a table by
+// Simpson's rule up to u = 8, interpolated, and the asymptotic series beyond.
+double sinc2_integral(double u) {
+    constexpr int kPerUnit = 256;
+    constexpr double kTableEnd = 8.0;
+    static const std::vector<double> table = [] {
+        const auto f = [](double t) {
+            if (t == 0.0) return 1.0;
+            const double s = std::sin(std::numbers::pi * t) / (std::numbers::pi * t);
+            return s * s;
+        };
+        const int n = static_cast<int>(kTableEnd) * kPerUnit;
+        std::vector<double> c(static_cast<std::size_t>(n) + 1, 0.0);
+        const double h = 1.0 / kPerUnit;
+        for (int i = 0; i < n; ++i) c[static_cast<std::size_t>(i) + 1] = c[static_cast<std::size_t>(i)] + h / 6.0 * (f(i * h) + 4.0 * f((i + 0.5) * h) + f((i + 1) * h));
+        return c;
+    }();
+    const double a = std::abs(u);
+    double c;
+    if (a >= kTableEnd) {
+        const double pi = std::numbers::pi;
+        c = 0.5 - 1.0 / (2.0 * pi * pi * a) - std::sin(2.0 * pi * a) / (4.0 * pi * pi * pi * a * a);
+    } else {
+        const double x = a * kPerUnit;
+        const auto i = static_cast<std::size_t>(x);
+        const double f = x - static_cast<double>(i);
+        c = (1.0 - f) * table[i] + f * table[std::min(i + 1, table.size() - 1)];
+    }
+    return std::copysign(c, u);
+}
+
+// The share of a uniform ellipse's light (projected onto a line: a semicircle of half-width w) in [lo, hi].
+double semicircle_share(double lo, double hi, double w) {
+    const auto cumulative = [w](double x) {
+        const double t = std::clamp(x / w, -1.0, 1.0);
+        return (t * std::sqrt(1.0 - t * t) + std::asin(t)) / std::numbers::pi;
+    };
+    return cumulative(hi) - cumulative(lo);
+}
+
+// Per channel, wavelengths (nm) and their (non-negative) weights in the channel, summing to 1: the
+// CIE functions into linear Rec.709 every 10 nm, as channel_wavelengths.
+std::array<std::vector<std::pair<double, double>>, 3> channel_spectra() {
+    std::array<std::vector<std::pair<double, double>>, 3> spectra;
+    std::array<double, 3> total{};
+    for (double l = 380.0; l <= 780.0; l += 10.0) {
+        const std::array<double, 3> xyz = cie1931_xyz(l);
+        for (std::size_t c = 0; c < 3; ++c) {
+            const auto& row = kXyzToRec709[c];
+            const double w = std::max(0.0, row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]);
+            if (w > 0.0) spectra[c].emplace_back(l, w);
+            total[c] += w;
+        }
+    }
+    for (std::size_t c = 0; c < 3; ++c)
+        for (auto& [l, w] : spectra[c]) w /= total[c];
+    return spectra;
+}
+
+// Across a spike (see starburst.h): taps every `spacing` mm, tap k (-K..K) at k x spacing, each channel's
+// weight the share of its wavelength-averaged sinc^2, spread over the source's width, in that tap's
+// interval; `core` (mm) is how far out every step draws (the main lobe and the source), the wings' reach
+// is set per step.
 struct SpikeProfile {
-    std::vector<double> offsets{0.0};
-    std::vector<std::array<double, 3>> weights{{1.0, 1.0, 1.0}};
+    double spacing = 0.0;
+    double core = 0.0;
+    int taps = 0;                                // K
+    std::vector<std::array<double, 3>> weights;  // 2 K + 1, tap k at k + K
+    const std::array<double, 3>& at(int k) const { return weights[static_cast<std::size_t>(k + taps)]; }
 };
 
-SpikeProfile spike_profile(const TailEdge& edge, double f_number, double pixel_mm) {
-    const std::array<double, 3> nm = channel_wavelengths();
-    std::array<double, 3> sigma_mm{};
-    for (std::size_t c = 0; c < 3; ++c) sigma_mm[c] = 0.376 * 2.0 * nm[c] * 1e-6 * f_number / edge.length;
-    const double widest = std::max({sigma_mm[0], sigma_mm[1], sigma_mm[2]});
-    SpikeProfile profile;
-    if (widest / pixel_mm <= 0.5) return profile;
-    profile.offsets.clear();
-    profile.weights.clear();
-    const int taps = static_cast<int>(std::ceil(3.0 * widest / pixel_mm / 0.5));
-    std::array<double, 3> total{};
-    for (int j = -taps; j <= taps; ++j) {
-        const double t = j * 0.5 * pixel_mm;
-        std::array<double, 3> w{};
-        for (std::size_t c = 0; c < 3; ++c) total[c] += w[c] = std::exp(-0.5 * t * t / (sigma_mm[c] * sigma_mm[c]));
-        profile.offsets.push_back(t);
-        profile.weights.push_back(w);
+SpikeProfile spike_profile(const TailEdge& edge, double f_number, double spacing, double source_half_width, double reach) {
+    static const std::array<std::vector<std::pair<double, double>>, 3> spectra = channel_spectra();
+    SpikeProfile p;
+    p.spacing = spacing;
+    const double widest_zero = 2.0 * 780e-6 * f_number / edge.length;
+    p.core = source_half_width + 4.0 * widest_zero + spacing;
+    p.taps = static_cast<int>(std::ceil(std::min(std::max(reach, p.core), 4096.0 * spacing) / spacing));
+    const auto n = static_cast<std::size_t>(2 * p.taps + 1);
+    std::vector<std::array<double, 3>> sharp(n);
+    for (std::size_t c = 0; c < 3; ++c) {
+        for (const auto& [nm, w] : spectra[c]) {
+            const double zero = 2.0 * nm * 1e-6 * f_number / edge.length;
+            for (int k = -p.taps; k <= p.taps; ++k)
+                sharp[static_cast<std::size_t>(k + p.taps)][c] +=
+                    w * (sinc2_integral((k + 0.5) * spacing / zero) - sinc2_integral((k - 0.5) * spacing / zero));
+        }
     }
-    for (auto& w : profile.weights)
-        for (std::size_t c = 0; c < 3; ++c) w[c] /= total[c];
-    return profile;
+    if (source_half_width < 0.25 * spacing) {
+        p.weights = std::move(sharp);
+        return p;
+    }
+    // Spread over the source: each tap's light shared among the taps its semicircle covers.
+    const int span = static_cast<int>(std::ceil(source_half_width / spacing)) + 1;
+    p.weights.assign(n, {});
+    for (int j = -span; j <= span; ++j) {
+        const double share = semicircle_share((j - 0.5) * spacing, (j + 0.5) * spacing, source_half_width);
+        if (share <= 0.0) continue;
+        for (int k = std::max(-p.taps, -p.taps - j); k <= std::min(p.taps, p.taps - j); ++k)
+            for (std::size_t c = 0; c < 3; ++c)
+                p.weights[static_cast<std::size_t>(k + j + p.taps)][c] += share * sharp[static_cast<std::size_t>(k + p.taps)][c];
+    }
+    return p;
+}
+
+// Half the width (mm) across a spike whose across direction is (nx, ny) (mm, +y up) of the source ellipse.
+double source_half_width(const SourceEllipse& s, double nx, double ny, double pixel_w_mm, double pixel_h_mm) {
+    const double a = std::min(s.major_px, kMaxSourceSpreadPx), b = std::min(s.minor_px, kMaxSourceSpreadPx);
+    if (!(a > 0.0) && !(b > 0.0)) return 0.0;
+    const double phi = s.angle_deg * std::numbers::pi / 180.0;
+    const double along_major = nx * std::cos(phi) * pixel_w_mm + ny * std::sin(phi) * pixel_h_mm;
+    const double along_minor = -nx * std::sin(phi) * pixel_w_mm + ny * std::cos(phi) * pixel_h_mm;
+    return std::hypot(std::max(0.0, a) * along_major, std::max(0.0, b) * along_minor);
 }
 
 }  // namespace
@@ -486,11 +572,18 @@ void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double l
         for (const double y : {0.0, static_cast<double>(height)})
             reach = std::max(reach, std::hypot((x - cx) * pixel_w_mm, (y - cy) * pixel_h_mm));
     const double step = 0.5 * std::min(pixel_w_mm, pixel_h_mm);
+    const double a_max = std::max({a[0], a[1], a[2]});
+    const double midline = std::tan(iris.half_gap);  // a spike's wings end where its neighbour's begin
     for (const TailEdge& edge : iris.edges) {
         if (edge.spread > 0.0) continue;
-        const SpikeProfile across = spike_profile(edge, f_number, std::min(pixel_w_mm, pixel_h_mm));
+        // A pixel x mm across at r mm holds about a share x0 pixel_area / (4 pi^2 r^2 x^2) of the light in
+        // the wings (x0 the first zero): under 1e-9 beyond x = wings / r.
+        const double widest_zero = 2.0 * 780e-6 * f_number / edge.length;
+        const double wings = std::sqrt(a_max * edge.share * widest_zero * pixel_area / (4.0 * std::numbers::pi * std::numbers::pi * 1e-9));
         for (const double angle : {edge.normal, edge.normal + std::numbers::pi}) {
             const double ux = std::cos(angle), uy = std::sin(angle);
+            const double half_width = source_half_width(at.source, -uy, ux, pixel_w_mm, pixel_h_mm);
+            const SpikeProfile across = spike_profile(edge, f_number, step, half_width, std::sqrt(wings * midline));
             // Pixels per mm along and across the spike (the image's y runs down).
             const double sx = ux / pixel_w_mm, sy = -uy / pixel_h_mm;
             const double tx = -uy / pixel_w_mm, ty = -ux / pixel_h_mm;
@@ -498,11 +591,13 @@ void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double l
                 const double mid = r + 0.5 * step;
                 const double x = cx + mid * sx, y = cy + mid * sy;
                 const double fraction = 0.5 * edge.share * ramp(mid) * (1.0 / r - 1.0 / (r + step));
-                for (std::size_t k = 0; k < across.offsets.size(); ++k) {
-                    const double t = across.offsets[k];
+                const double out_to = std::max(across.core, std::min(midline * mid, wings / mid));
+                const int taps = std::min(across.taps, static_cast<int>(out_to / step));
+                for (int k = -taps; k <= taps; ++k) {
+                    const std::array<double, 3>& w = across.at(k);
                     std::array<double, 3> e{};
-                    for (std::size_t c = 0; c < 3; ++c) e[c] = power[c] * a[c] * fraction * across.weights[k][c] / pixel_area;
-                    deposit(rgb, width, height, x + t * tx, y + t * ty, e);
+                    for (std::size_t c = 0; c < 3; ++c) e[c] = power[c] * a[c] * fraction * w[c] / pixel_area;
+                    deposit(rgb, width, height, x + k * step * tx, y + k * step * ty, e);
                 }
             }
         }
@@ -510,13 +605,83 @@ void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double l
     add_curved_tail(iris, a, ramp, cx, cy, power, pixel_w_mm, pixel_h_mm, rgb, width, height);
 }
 
+namespace {
+
+// The light's ellipse as a kernel of pixel offsets (-R..R a side, row 0 at the top): each pixel's share of
+// the ellipse (4 x 4 samples a pixel, semi-axes at least half a pixel so it is never empty), summing to 1.
+std::vector<double> ellipse_kernel(const SourceEllipse& s, int radius) {
+    const double a = std::clamp(s.major_px, 0.5, kMaxSourceSpreadPx), b = std::clamp(s.minor_px, 0.5, kMaxSourceSpreadPx);
+    const double phi = s.angle_deg * std::numbers::pi / 180.0, c = std::cos(phi), sn = std::sin(phi);
+    const int side = 2 * radius + 1;
+    std::vector<double> k(static_cast<std::size_t>(side) * static_cast<std::size_t>(side), 0.0);
+    double total = 0.0;
+    for (int y = -radius; y <= radius; ++y)
+        for (int x = -radius; x <= radius; ++x) {
+            double inside = 0.0;
+            for (int sy = 0; sy < 4; ++sy)
+                for (int sx = 0; sx < 4; ++sx) {
+                    const double px = x + (sx + 0.5) / 4.0 - 0.5, py = -(y + (sy + 0.5) / 4.0 - 0.5);  // +y up
+                    const double u = (px * c + py * sn) / a, v = (-px * sn + py * c) / b;
+                    inside += u * u + v * v <= 1.0 ? 1.0 : 0.0;
+                }
+            total += k[static_cast<std::size_t>(y + radius) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x + radius)] = inside;
+        }
+    for (double& v : k) v /= total;
+    return k;
+}
+
+// The texture of a light with an extent spread over its ellipse (every point of the light makes the
+// pattern): drawn into a buffer around the light, each pixel shared over the ellipse's offsets, added to
+// the image. A point (semi-axes under half a pixel) is splatted directly.
+void splat_over_source(const Starburst& sb, const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image) {
+    const double spread = std::min(std::max(at.source.major_px, at.source.minor_px), kMaxSourceSpreadPx);
+    if (!(spread >= 0.5)) {
+        splat_starburst(sb, at, power, image);
+        return;
+    }
+    const int radius = static_cast<int>(std::ceil(spread)) + 1;
+    const double texel_mm = sb.texel_per_fnumber_mm * at.f_number;
+    const double reach_x = 0.5 * sb.size * texel_mm / image.pixel_w_mm + 2.0 + radius;
+    const double reach_y = 0.5 * sb.size * texel_mm / image.pixel_h_mm + 2.0 + radius;
+    const auto clamp_to = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n))); };
+    const int x0 = clamp_to(std::floor(at.cx - reach_x), image.width), x1 = clamp_to(std::ceil(at.cx + reach_x), image.width);
+    const int y0 = clamp_to(std::floor(at.cy - reach_y), image.height), y1 = clamp_to(std::ceil(at.cy + reach_y), image.height);
+    if (x1 <= x0 || y1 <= y0) return;
+    // The buffer reaches the kernel's radius beyond the region, so what spreads into the region is whole.
+    const int bx = x0 - radius, by = y0 - radius, w = x1 - x0 + 2 * radius, h = y1 - y0 + 2 * radius;
+    std::vector<float> local(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+    StarburstPlacement shifted = at;
+    shifted.cx -= bx;
+    shifted.cy -= by;
+    splat_starburst(sb, shifted, power, {local.data(), w, h, image.pixel_w_mm, image.pixel_h_mm});
+    const std::vector<double> kernel = ellipse_kernel(at.source, radius);
+    const int side = 2 * radius + 1;
+    for (int y = y0; y < y1; ++y) {
+        float* to = image.rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(x0)) * 3;
+        for (int x = x0; x < x1; ++x, to += 3) {
+            std::array<double, 3> sum{};
+            for (int ky = 0; ky < side; ++ky) {
+                // The light at (x, y) - offset, offset = (kx - radius, ky - radius), in buffer coordinates.
+                const float* from = local.data() + (static_cast<std::size_t>(y - by + radius - ky) * static_cast<std::size_t>(w) +
+                                                    static_cast<std::size_t>(x - bx + radius)) * 3;
+                const double* k = kernel.data() + static_cast<std::size_t>(ky) * static_cast<std::size_t>(side);
+                for (int kx = 0; kx < side; ++kx, from -= 3)
+                    for (std::size_t c = 0; c < 3; ++c) sum[c] += k[kx] * static_cast<double>(from[c]);
+            }
+            for (std::size_t c = 0; c < 3; ++c) to[c] += static_cast<float>(sum[c]);
+        }
+    }
+}
+
+}  // namespace
+
 StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
                              const std::array<double, 3>& power, const SensorImage& image) {
     if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return {};
     const StarburstTail tail = starburst_tail_share(sb, aperture, at.f_number, length_scale);
     std::array<double, 3> texture_power{};
     for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
-    splat_starburst(sb, at, texture_power, image);
+    splat_over_source(sb, at, texture_power, image);
     draw_starburst_tail(sb, aperture, length_scale, at, power, image);
     return tail;
 }

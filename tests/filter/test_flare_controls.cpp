@@ -231,6 +231,70 @@ TEST(FlareControls, AddedLightFlaresABlackFrameAndLeavesThePlate) {
     EXPECT_NEAR(added.sum(1) / plate.sum(1), 1.0, 0.1);
 }
 
+namespace {
+
+// Green at (x, y) of a one-frame result, bilinear between pixel centres (0 outside).
+double green_at(const Image& im, double x, double y) {
+    const double px = x - 0.5, py = y - 0.5;
+    const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+    double v = 0.0;
+    for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+            const int xx = x0 + dx, yy = y0 + dy;
+            if (xx < 0 || yy < 0 || xx >= im.width || yy >= im.height) continue;
+            const double w = (dx ? px - x0 : 1.0 - (px - x0)) * (dy ? py - y0 : 1.0 - (py - y0));
+            v += w * static_cast<double>(im.px[(static_cast<std::size_t>(yy) * static_cast<std::size_t>(im.width) + static_cast<std::size_t>(xx)) *
+                                                   static_cast<std::size_t>(im.channels) + 1]);
+        }
+    return v;
+}
+
+// The cross-section of the brightest spike `r` px from (cx, cy): offsets -12..12 px across it, every 0.5 px.
+std::vector<double> across_brightest_spike(const Image& im, double cx, double cy, double r) {
+    double best = 0.0, angle = 0.0;
+    for (int k = 0; k < 1440; ++k) {
+        const double a = k * std::numbers::pi / 720.0, v = green_at(im, cx + r * std::cos(a), cy - r * std::sin(a));
+        if (v > best) best = v, angle = a;
+    }
+    std::vector<double> across;
+    for (int j = -24; j <= 24; ++j) {
+        const double t = 0.5 * j;
+        across.push_back(green_at(im, cx + r * std::cos(angle) - t * std::sin(angle), cy - r * std::sin(angle) - t * std::cos(angle)));
+    }
+    return across;
+}
+
+}  // namespace
+
+// Issue 16 (the gallery's Tree): a sun added with --add-light, 8 px across, had spikes one pixel wide with
+// nothing beside them, white lines to the frame edge. Its spikes are as wide as it, soft edged, with
+// wings; a light a pixel across keeps thin spikes, with wings too.
+TEST(FlareControls, AddedSunHasSpikesAsWideAsItWithSoftEdges) {
+    const fs::path dir = temp_dir("added_sun");
+    write_frame(dir / "black.exr", {}, 0.0f);
+    const std::string options = kLens + " --parts starburst --starburst-scale 4";
+    const Image sun = run_filter(dir, "black.exr", "sun.exr", options + " --add-light 160.5,100.5,20000,4");
+    const Image point = run_filter(dir, "black.exr", "point.exr", options + " --add-light 160.5,100.5,20000,0.6");
+    const auto width_above = [](const std::vector<double>& v, double level) {
+        return 0.5 * static_cast<double>(std::count_if(v.begin(), v.end(), [level](double x) { return x >= level; }));
+    };
+    const std::vector<double> sun_across = across_brightest_spike(sun, 160.5, 100.5, 50.0);
+    const std::vector<double> point_across = across_brightest_spike(point, 160.5, 100.5, 20.0);
+    const double sun_peak = *std::max_element(sun_across.begin(), sun_across.end());
+    const double point_peak = *std::max_element(point_across.begin(), point_across.end());
+    std::printf("width at half the peak: sun (50 px out) %.1f px, point (20 px out) %.1f px; at 1e-3: sun %.1f px; at 3e-4: point %.1f px\n",
+                width_above(sun_across, 0.5 * sun_peak), width_above(point_across, 0.5 * point_peak),
+                width_above(sun_across, 1e-3 * sun_peak), width_above(point_across, 3e-4 * point_peak));
+    // A disc of radius 4 seen edge on holds half its peak over about 7 px.
+    EXPECT_GE(width_above(sun_across, 0.5 * sun_peak), 5.0);
+    EXPECT_LE(width_above(sun_across, 0.5 * sun_peak), 10.0);
+    // Soft: no step from the spike to nothing at its edge, for either.
+    EXPECT_GE(width_above(sun_across, 1e-3 * sun_peak), width_above(sun_across, 0.5 * sun_peak) + 3.0);
+    EXPECT_LE(width_above(point_across, 0.5 * point_peak), 2.5);
+    // At f/4 the edge's first zero is 0.04 px here: the wings hold 3e-4 of the centre some 2.6 px out.
+    EXPECT_GE(width_above(point_across, 3e-4 * point_peak), 4.5);
+}
+
 TEST(FlareControls, TrackGainAndExcludeControlEachTrack) {
     const fs::path dir = temp_dir("tracks");
     write_frame(dir / "black.exr", {}, 0.0f);

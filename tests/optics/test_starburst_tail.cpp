@@ -214,3 +214,86 @@ TEST(StarburstTail, RedReachesFartherThanBlueByTheWavelengthRatio) {
         for (std::size_t c = 0; c < 3; ++c) sum[c] += static_cast<double>(rgb[(static_cast<std::size_t>(kHeight / 2 - 300) * kWidth + kWidth / 2 + dx) * 3 + c]);
     EXPECT_NEAR(sum[0] / sum[2], nm[0] / nm[2], 0.02 * nm[0] / nm[2]);
 }
+
+namespace {
+
+// The light (power 1 per channel) at the frame's centre with the given extent, scale 1.
+std::vector<float> render_source(const SourceEllipse& source) {
+    std::vector<float> rgb(static_cast<std::size_t>(kWidth) * kHeight * 3, 0.0f);
+    draw_starburst(hexagon_texture(), kHexagon, 1.0, {kWidth / 2.0, kHeight / 2.0, kFNumber, 0.0, source}, {1.0, 1.0, 1.0},
+                   {rgb.data(), kWidth, kHeight, kPixelMm, kPixelMm});
+    return rgb;
+}
+
+// Green across the vertical spike r px above the centre, at offsets -n..n px.
+std::vector<double> across_vertical_spike(const std::vector<float>& rgb, int r, int n) {
+    std::vector<double> v;
+    for (int dx = -n; dx <= n; ++dx) v.push_back(rgb[(static_cast<std::size_t>(kHeight / 2 - r) * kWidth + kWidth / 2 + dx) * 3 + 1]);
+    return v;
+}
+
+// Pixels of a cross-section at or above `level`.
+int pixels_above(const std::vector<double>& v, double level) {
+    return static_cast<int>(std::count_if(v.begin(), v.end(), [level](double x) { return x >= level; }));
+}
+
+}  // namespace
+
+// Issue 16 (the Tree's hard one-pixel lines): a spike is the edge's sinc^2 across, whose wings fall as
+// 1 / offset^2 and carry what shows of a bright light's spike; a Gaussian core alone left a line one pixel
+// wide with nothing beside it. Seen at a fixed level, the spike is wide near the light and narrows as it
+// fades: it tapers.
+TEST(StarburstTail, SpikeWingsFallAsTheInverseSquareAndTaper) {
+    const std::vector<float> rgb = render_source({});
+    const std::vector<double> near = across_vertical_spike(rgb, 30, 40), far = across_vertical_spike(rgb, 400, 40);
+    const double peak = near[40];
+    for (const int x : {2, 3, 5}) {
+        const double ratio = near[static_cast<std::size_t>(40 + x)] / near[static_cast<std::size_t>(40 + 2 * x)];
+        std::printf("at 30 px, %d px across: %.3g of the centre; %d/%d px: %.2f\n", x, near[static_cast<std::size_t>(40 + x)] / peak, x, 2 * x, ratio);
+        EXPECT_GT(ratio, 2.5) << x;  // 4 for 1 / x^2
+        EXPECT_LT(ratio, 6.0) << x;
+        EXPECT_GT(near[static_cast<std::size_t>(40 + x)], 1e-4 * peak) << x << " px: a hard line";
+    }
+    // Symmetric, and tapering: at a level a thousandth of the near spike's centre, it is several times wider
+    // near the light than 13x farther out.
+    EXPECT_NEAR(near[35] / near[44], 1.0, 1e-3);  // the spike runs between pixels 39 and 40
+    const int near_width = pixels_above(near, 1e-3 * peak), far_width = pixels_above(far, 1e-3 * peak);
+    std::printf("width above 1e-3 of the centre at 30 px: %d px, at 400 px: %d px\n", near_width, far_width);
+    EXPECT_GE(near_width, 9);
+    EXPECT_GE(near_width, 4 * std::max(1, far_width));
+}
+
+// Every point of a light makes the pattern: a light 8 px across (a small sun) has spikes 8 px wide, soft
+// edged, carrying the same light as a point's.
+TEST(StarburstTail, SpikesAreAsWideAsTheSource) {
+    const std::vector<float> point = render_source({}), sun = render_source({4.0, 4.0, 0.0});
+    const auto spread = [](const std::vector<double>& v) {
+        double s = 0.0, sx = 0.0, sxx = 0.0;
+        for (std::size_t i = 0; i < v.size(); ++i) {
+            const double x = static_cast<double>(i) - 0.5 * static_cast<double>(v.size() - 1);
+            s += v[i];
+            sx += v[i] * x;
+            sxx += v[i] * x * x;
+        }
+        return std::sqrt(sxx / s - (sx / s) * (sx / s));
+    };
+    const std::vector<double> across = across_vertical_spike(sun, 300, 8);
+    const double peak = *std::max_element(across.begin(), across.end());
+    std::printf("spread across at 300 px: point %.3f px, 4 px source %.3f px (a disc's: 2)\n", spread(across_vertical_spike(point, 300, 8)), spread(across));
+    EXPECT_NEAR(spread(across), 2.0, 0.3);
+    EXPECT_LT(spread(across_vertical_spike(point, 300, 8)), 1.0);
+    // Half its peak over about 1.7 radii either side (a disc seen edge on), not one pixel.
+    EXPECT_GE(pixels_above(across, 0.5 * peak), 6);
+    EXPECT_LE(pixels_above(across, 0.5 * peak), 9);
+    // The core too: the light's peak spreads over the disc; the energy stays the same.
+    for (int c = 0; c < 3; ++c) {
+        double a = 0.0, b = 0.0;
+        for (std::size_t i = static_cast<std::size_t>(c); i < point.size(); i += 3) {
+            a += static_cast<double>(point[i]);
+            b += static_cast<double>(sun[i]);
+        }
+        EXPECT_NEAR(b / a, 1.0, 2e-3) << c;
+    }
+    const auto centre = [](const std::vector<float>& rgb) { return rgb[(static_cast<std::size_t>(kHeight / 2) * kWidth + kWidth / 2) * 3 + 1]; };
+    EXPECT_LT(centre(sun), 0.2f * centre(point));
+}

@@ -63,12 +63,23 @@ struct SensorImage {
     double pixel_w_mm = 0.0, pixel_h_mm = 0.0;
 };
 
+// A light's own image as the uniform ellipse with its second moments (detect::Extent): semi-axes in pixels,
+// the major axis's angle in degrees counter-clockwise from +x with +y up. Every point of the light makes
+// the pattern, so the pattern is spread over it (a sun 8 px across has spikes 8 px wide); 0 x 0 is a point.
+// Semi-axes beyond kMaxSourceSpreadPx are taken as that (a point light is under 16 px; a track file may say more).
+struct SourceEllipse {
+    double major_px = 0.0, minor_px = 0.0;
+    double angle_deg = 0.0;
+};
+inline constexpr double kMaxSourceSpreadPx = 64.0;
+
 // Where a light's starburst goes: its centre (pixels, continuous, (0,0) the top-left corner), the lens's
-// f-number N (the pattern's scale) and the radius (texels) of the core left out.
+// f-number N (the pattern's scale), the radius (texels) of the core left out and the light's own extent.
 struct StarburstPlacement {
     double cx = 0.0, cy = 0.0;
     double f_number = 0.0;
     double core_radius_texels = 0.0;
+    SourceEllipse source{};
 };
 
 // Adds a starburst of the given total power per channel (image units x mm^2) placed as `at` says to `image`.
@@ -84,8 +95,13 @@ void splat_starburst(const Starburst& starburst, const StarburstPlacement& at, c
 // directions of its normals (a round iris: a faint halo all round). Whatever the shape, the light outside
 // radius r is P R / (pi^2 A) x wavelength x N / r (P, A: the iris's perimeter and area, R its radius;
 // 0.234 / rho for a hexagon, rho = r / (wavelength N)), so a spike's energy per unit length falls as 1 / r^2.
-// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length,
-// each channel at its own wavelength (the red widest), as its energy outside r is.
+// Across, a spike is the edge's own diffraction, sinc^2 with its first zeros at +-2 wavelength N / (edge
+// length / R), averaged over each channel's wavelengths (the red widest): a core under a pixel at most
+// f-numbers, and wings falling as 1 / offset^2 that hold a few per cent of its light; near a bright light
+// they are what shows (a spike's visible width narrows as it fades: it tapers), and between the spikes
+// they are the pattern's faint 1 / r^4 field. Wings are drawn out to where a pixel would hold 1e-9 of the
+// light, at most to the midline between two spikes. The spike is spread over the light's own extent (the
+// ellipse's width across it), as the texture is.
 // length_scale (--starburst-scale) lengthens the tail only: the energy outside r becomes that of r / scale.
 struct StarburstTail {
     std::array<double, 3> share{};   // of the light, per channel, in the tail (drawn or beyond the frame)
