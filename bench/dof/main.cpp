@@ -1,4 +1,4 @@
-// bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N]: the lens blur's time against its error. For each scene (a synthetic
+// bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N] [--maps DIR]: the lens blur's time against its error. For each scene (a synthetic
 // layered scene, a crop of the deep forest) and each quality setting (lens rays per pixel, chromatic or
 // not), the GPU trace's milliseconds and its relative L1 error against the dense CPU reference (512 lens
 // rays per pixel and channel, every layer of every crossed cell), side by side.
@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,24 @@ void print_worst(const std::vector<float>& a, const std::vector<float>& b, int w
     }
 }
 
+// An RGB raster (rows top first) as a PFM file, for previews of the GPU, the reference and their difference.
+void write_pfm(const std::string& path, const std::vector<float>& rgb, int w, int h) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) throw std::runtime_error("bench_dof: cannot write " + path);
+    fmt::print(f, "PF\n{} {}\n-1.0\n", w, h);
+    for (int y = h - 1; y >= 0; --y) std::fwrite(&rgb[3 * static_cast<std::size_t>(y) * static_cast<std::size_t>(w)], sizeof(float), 3 * static_cast<std::size_t>(w), f);
+    std::fclose(f);
+}
+
+// DIR/SCENE-gpu.pfm, -reference.pfm and -error.pfm (|gpu - reference| per channel).
+void write_maps(const std::string& dir, const std::string& scene, const std::vector<float>& gpu, const std::vector<float>& ref, int w, int h) {
+    std::vector<float> error(gpu.size());
+    for (std::size_t i = 0; i < gpu.size(); ++i) error[i] = std::abs(gpu[i] - ref[i]);
+    write_pfm(dir + "/" + scene + "-gpu.pfm", gpu, w, h);
+    write_pfm(dir + "/" + scene + "-reference.pfm", ref, w, h);
+    write_pfm(dir + "/" + scene + "-error.pfm", error, w, h);
+}
+
 double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
     double d = 0, s = 0;
     for (std::size_t i = 0; i < a.size(); ++i) d += std::abs(double{a[i]} - double{b[i]}), s += std::abs(double{b[i]});
@@ -88,7 +107,7 @@ double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
 int main(int argc, char** argv) {
     bool quick = false, skip = true;
     int worst = 0, only_rays = 0;
-    std::string csv_path;
+    std::string csv_path, maps_dir;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--quick") quick = true;
@@ -96,7 +115,8 @@ int main(int argc, char** argv) {
         else if (a == "--csv" && i + 1 < argc) csv_path = argv[++i];
         else if (a == "--rays" && i + 1 < argc) only_rays = std::stoi(argv[++i]);  // this setting only
         else if (a == "--worst" && i + 1 < argc) worst = std::stoi(argv[++i]);  // list the pixels that differ most
-        else { fmt::print(stderr, "usage: bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N]\n"); return 2; }
+        else if (a == "--maps" && i + 1 < argc) maps_dir = argv[++i];  // PFMs of the chromatic all-rays setting
+        else { fmt::print(stderr, "usage: bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N] [--maps DIR]\n"); return 2; }
     }
     const int w = quick ? 128 : 256, h = quick ? 72 : 144;
     std::vector<Scene> scenes{synthetic(w, h)};
@@ -132,6 +152,7 @@ int main(int argc, char** argv) {
                 const std::string setting = chromatic ? "rgb" : "green";
                 fmt::print("{:<10} {:<18} {:>8} {:>6} {:>9.1f} {:>10.4f} {:>9.0f}\n", scene.name, "mld-double-gauss", setting, rays, renderer.last_ms(), err, ref_ms);
                 if (rays == table.samples) print_worst(out, ref, w, worst);
+                if (rays == table.samples && chromatic && !maps_dir.empty()) write_maps(maps_dir, scene.name, out, ref, w, h);
                 if (csv) fmt::print(csv, "{},mld-double-gauss,2.8,{},{},{},{},{:.2f},{:.5f},{:.0f}\n", scene.name, scene.focus_m, setting, rays, chromatic ? 1 : 0, renderer.last_ms(), err, ref_ms);
             }
         }

@@ -6,7 +6,13 @@ namespace lensfx::dof {
 inline constexpr const char* kTraceShader = R"GLSL(
 #version 430
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) writeonly uniform image2D result;
+// The trace runs as one dispatch per band and chunk of rays (renderer.cpp, "Loop budget"): what a pixel has
+// gathered so far lives in these images between dispatches.
+layout(rgba32f, binding = 0) uniform image2D result;      // the bands folded so far: R, G, B, alpha
+layout(rgba32f, binding = 1) uniform image2D band_sum;    // this band's weighted sum of gathered colour
+layout(r32f, binding = 2) uniform image2D band_weight_sum;  // and its sum of ray weights
+layout(r32i, binding = 3) uniform iimage2D retry;         // 1: this pixel's last chunk ran out of loop budget
+layout(std430, binding = 0) buffer Retries { uint retries; };  // how many pixels did
 uniform sampler2D hiz;            // (lowest, highest) inverse depth per cell, one mip level per hierarchy level
 uniform sampler2DArray layer_w;   // (1/front, 1/back); front < 0: no surface here or in later layers
 uniform sampler2DArray layer_rgba;
@@ -20,9 +26,14 @@ uniform ivec2 origin;                      // the layers' pixel (0, 0) in the ta
 uniform ivec2 size;
 uniform int layer_count, top_level, start_level, max_iterations;
 uniform float w_near, w_far;
-uniform int samples, rays, chromatic, open_scene;
+uniform int samples, chromatic, open_scene;
 uniform int bands, achromatic;     // table channels (RGB's 3 or spectral bands), the one nearest 550 nm
 uniform vec3 band_weight[128];     // what each band's gathered colour adds to R, G, B
+uniform int band;                  // the band this dispatch traces
+uniform int ray_first, ray_count;  // its chunk of each pixel's rays
+uniform int fresh, fold;           // the band's first chunk (start from 0), its last (fold it into result)
+uniform int retry_pass;            // only pixels marked in `retry`
+uniform int budget_check;          // 2: the trip count of the loop that tells whether the budget ran out
 uniform ivec2 grid;
 uniform vec2 cell;
 
@@ -140,25 +151,39 @@ bool uniform_colour(vec2 centre, out vec4 colour) {
     return (open_scene == 0 || lo.a >= 1.0) && all(lessThanEqual(hi - lo, 1e-6 * (vec4(1.0) + abs(hi))));
 }
 
-// Each band's mean over its valid rays, into R, G, B by the band's weights; alpha with the achromatic
-// band's rays; without chromatic blur the achromatic band's rays for everything.
-vec4 band_pixel(vec2 p, int offset, int chromatic) {
-    vec4 colour = vec4(0.0);
-    for (int b = 0; b < bands; ++b) {
-        if (chromatic == 0 && b != achromatic) continue;
-        vec4 sum = vec4(0.0);
-        float weight = 0.0;
-        for (int k = 0; k < rays; ++k) {
-            vec4 line;
-            float w = fetch_ray(b, p, (offset + k) % samples, line);
-            if (w > 0.0) { sum += w * trace(line); weight += w; }
-        }
-        if (weight <= 0.0) continue;
-        vec4 mean = sum / weight;
-        colour.rgb += (chromatic != 0 ? band_weight[b] : vec3(1.0)) * mean.rgb;
-        if (b == achromatic) colour.a = mean.a;
+// Whether llvmpipe's loop limiter ran out in this invocation: it shares one count of 65535 loop iterations
+// among every loop of a shader invocation (per SIMD vector of pixels), and once it is spent every loop
+// leaves after one iteration, silently. A loop of budget_check (2, a uniform so it is not unrolled)
+// iterations then runs once. Never on a GPU without such a limiter.
+bool budget_spent() {
+    int n = 0;
+    for (int i = 0; i < budget_check; ++i) ++n;
+    return n < budget_check;
+}
+
+// This chunk of one band's rays at p, added to what the band gathered in earlier chunks (the weighted sum
+// of RGBA, the sum of weights); false when the loop budget ran out on the way (nothing added then).
+bool gather_chunk(vec2 p, int offset, inout vec4 sum, inout float weight) {
+    vec4 s = sum;
+    float w_sum = weight;
+    for (int k = ray_first; k < ray_first + ray_count; ++k) {
+        vec4 line;
+        float w = fetch_ray(band, p, (offset + k) % samples, line);
+        if (w > 0.0) { s += w * trace(line); w_sum += w; }
     }
-    return colour;
+    if (budget_spent()) return false;
+    sum = s, weight = w_sum;
+    return true;
+}
+
+// The band's mean over its valid rays, into R, G, B by the band's weight (one blur for all: all three);
+// alpha from the achromatic band.
+void fold_band(ivec2 pix, vec4 sum, float weight, bool one_blur) {
+    if (weight <= 0.0) return;
+    vec4 mean = sum / weight, colour = imageLoad(result, pix);
+    colour.rgb += (one_blur ? vec3(1.0) : band_weight[band]) * mean.rgb;
+    if (band == achromatic) colour.a = mean.a;
+    imageStore(result, pix, colour);
 }
 
 uint hash(uvec2 v) {
@@ -170,6 +195,7 @@ uint hash(uvec2 v) {
 void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (pix.x >= size.x || pix.y >= size.y) return;
+    if (retry_pass != 0 && imageLoad(retry, pix).x == 0) return;
     vec2 p = vec2(pix) + 0.5;
     int offset = int(hash(uvec2(pix + origin)) % uint(samples));  // as for the uncropped raster
     for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
@@ -185,9 +211,19 @@ void main() {
     }
     // where every band's rays stay within chroma_tolerance of the achromatic band's, its rays serve all
     vec2 f = clamp((p + vec2(origin)) / cell, vec2(0.0), vec2(grid - 1));
-    bool one_blur = texelFetch(achromatic_cell, min(ivec2(f), grid - 2), 0).r > 0.5;
-    vec4 colour = band_pixel(p, offset, chromatic != 0 && !one_blur ? 1 : 0);
-    imageStore(result, pix, colour);
+    bool one_blur = chromatic == 0 || texelFetch(achromatic_cell, min(ivec2(f), grid - 2), 0).r > 0.5;
+    if (one_blur && band != achromatic) return;
+    vec4 sum = fresh != 0 ? vec4(0.0) : imageLoad(band_sum, pix);
+    float weight = fresh != 0 ? 0.0 : imageLoad(band_weight_sum, pix).x;
+    if (!gather_chunk(p, offset, sum, weight)) {  // kept as it was before this chunk; the renderer retries
+        imageStore(retry, pix, ivec4(1));
+        atomicAdd(retries, 1u);
+    } else if (fold != 0) {
+        fold_band(pix, sum, weight, one_blur);
+        return;
+    }
+    imageStore(band_sum, pix, sum);
+    imageStore(band_weight_sum, pix, vec4(weight));
 }
 )GLSL";
 

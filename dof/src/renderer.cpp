@@ -148,6 +148,69 @@ double uniform_reach_px(const LayerStack& layers, const RayTable& table) {
     return table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w)) + 2.0 * table.focus_spread;
 }
 
+// An image the trace reads and writes between dispatches, cleared to 0.
+gpu::GlObject work_image(GLenum format, int w, int h) {
+    gpu::GlObject t = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.get(), 1, format, w, h);
+    glClearTexImage(t.get(), 0, format == GL_R32I ? GL_RED_INTEGER : GL_RED, format == GL_R32I ? GL_INT : GL_FLOAT, nullptr);
+    return t;
+}
+
+// Loop budget. llvmpipe gives each shader invocation (a SIMD vector of pixels) one count of 65535 loop
+// iterations shared by every loop, and once it is spent every loop leaves after one iteration without a
+// word: a pixel tracing every band's rays in one invocation lost its later bands (one band 0, or a few
+// rays standing for the whole band). So each dispatch traces one band's chunk of rays; an invocation that
+// still runs out keeps what it had, marks its pixels, and those are traced again one ray per dispatch.
+class ChunkedTrace {
+public:
+    ChunkedTrace(const gpu::Program& program, int width, int height)
+        : program_(program), width_(width), height_(height), band_sum_(work_image(GL_RGBA32F, width, height)),
+          band_weight_(work_image(GL_R32F, width, height)), retry_(work_image(GL_R32I, width, height)), counter_(gpu::GlObject::buffer()) {
+        const GLuint zero = 0;
+        glNamedBufferData(counter_.get(), sizeof(zero), &zero, GL_DYNAMIC_READ);
+        glBindImageTexture(1, band_sum_.get(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+        glBindImageTexture(2, band_weight_.get(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+        glBindImageTexture(3, retry_.get(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32I);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, counter_.get());
+        glUniform1i(program_.uniform("budget_check"), 2);
+    }
+
+    // Rays [first, first + count) of `band` at every pixel; fold: the band's last chunk. Returns how many
+    // pixels ran out of loop budget (traced again ray by ray).
+    std::size_t trace(int band, int first, int count, bool fold) {
+        glUniform1i(program_.uniform("band"), band);
+        std::size_t retried = dispatch(first, count, first == 0, fold, false);
+        if (retried == 0) return 0;
+        for (int k = first; k < first + count; ++k)
+            if (dispatch(k, 1, false, fold && k == first + count - 1, true) != 0)
+                throw std::runtime_error("lens blur: one lens ray ran past the GL driver's loop limit");
+        glClearTexImage(retry_.get(), 0, GL_RED_INTEGER, GL_INT, nullptr);
+        return retried;
+    }
+
+private:
+    std::size_t dispatch(int first, int count, bool fresh, bool fold, bool retry_pass) {
+        glUniform1i(program_.uniform("ray_first"), first);
+        glUniform1i(program_.uniform("ray_count"), count);
+        glUniform1i(program_.uniform("fresh"), fresh ? 1 : 0);
+        glUniform1i(program_.uniform("fold"), fold ? 1 : 0);
+        glUniform1i(program_.uniform("retry_pass"), retry_pass ? 1 : 0);
+        glDispatchCompute(static_cast<GLuint>((width_ + 7) / 8), static_cast<GLuint>((height_ + 7) / 8), 1);
+        glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+        GLuint retried = 0;
+        glGetNamedBufferSubData(counter_.get(), 0, sizeof(retried), &retried);
+        if (retried != 0) {
+            const GLuint zero = 0;
+            glNamedBufferSubData(counter_.get(), 0, sizeof(zero), &zero);
+        }
+        return retried;
+    }
+
+    const gpu::Program& program_;
+    int width_, height_;
+    gpu::GlObject band_sum_, band_weight_, retry_, counter_;
+};
+
 }  // namespace
 
 std::vector<float> achromatic_cells(const RayTable& t, double w_near, double w_far, double tolerance_px) {
@@ -205,8 +268,7 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     gpu::GlObject cells = make_texture(GL_TEXTURE_2D);
     glTextureStorage2D(cells.get(), 1, GL_R32F, table.grid_x - 1, table.grid_y - 1);
     glTextureSubImage2D(cells.get(), 0, 0, 0, table.grid_x - 1, table.grid_y - 1, GL_RED, GL_FLOAT, one_blur.data());
-    gpu::GlObject out = make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(out.get(), 1, GL_RGBA32F, layers.width, layers.height);
+    gpu::GlObject out = work_image(GL_RGBA32F, layers.width, layers.height);
 
     glUseProgram(prog);
     const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), cells.get(), cmin.get(), cmax.get()};
@@ -215,7 +277,7 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
         glBindTextureUnit(u, units[u]);
         glUniform1i(state_->program.uniform(names[u]), static_cast<GLint>(u));
     }
-    glBindImageTexture(0, out.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+    glBindImageTexture(0, out.get(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
     const auto& p = state_->program;
     glUniform2i(p.uniform("size"), layers.width, layers.height);
     glUniform1i(p.uniform("layer_count"), layers.count);
@@ -229,7 +291,6 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform2i(p.uniform("origin"), settings.origin_x, settings.origin_y);
     glUniform1f(p.uniform("focus_w"), static_cast<float>(table.focus_w));
     glUniform1i(p.uniform("samples"), table.samples);
-    glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));
     glUniform1i(p.uniform("chromatic"), settings.chromatic ? 1 : 0);
     glUniform1i(p.uniform("bands"), table.channels);
     glUniform1i(p.uniform("achromatic"), table.achromatic);
@@ -237,7 +298,14 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform1i(p.uniform("open_scene"), layers.open ? 1 : 0);
     glUniform2i(p.uniform("grid"), table.grid_x, table.grid_y);
     glUniform2f(p.uniform("cell"), static_cast<float>(table.cell_w), static_cast<float>(table.cell_h));
-    glDispatchCompute(static_cast<GLuint>((layers.width + 7) / 8), static_cast<GLuint>((layers.height + 7) / 8), 1);
+    ChunkedTrace chunks(state_->program, layers.width, layers.height);
+    const int rays = std::clamp(settings.rays, 1, table.samples), chunk = std::max(1, settings.rays_per_dispatch);
+    last_retried_ = 0;
+    for (int b = 0; b < table.channels; ++b) {
+        if (!settings.chromatic && b != table.achromatic) continue;
+        for (int first = 0; first < rays; first += chunk)
+            last_retried_ += chunks.trace(b, first, std::min(chunk, rays - first), first + chunk >= rays);
+    }
     glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
     std::vector<float> rgba(4 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height));
     glGetTextureImage(out.get(), 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(rgba.size() * sizeof(float)), rgba.data());

@@ -24,6 +24,9 @@ struct TraceSettings {
     // within this many pixels of the achromatic band's ray of the same sample, over the scene's depth
     // range, the achromatic band's rays serve every band (0: only where they are equal).
     double chroma_tolerance_px = 0.1;
+    // Rays of one band traced per dispatch (renderer.cpp, "Loop budget": llvmpipe's shared loop limit);
+    // a chunk that still runs out at some pixels is traced again there one ray per dispatch.
+    int rays_per_dispatch = 32;
     // Where the layers' pixel (0, 0) lies in the table's raster (the layers may be a crop of it).
     int origin_x = 0, origin_y = 0;
 };
@@ -42,11 +45,14 @@ public:
     std::vector<float> render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings,
                               std::vector<float>* alpha = nullptr);
     double last_ms() const { return last_ms_; }  // upload + trace + read back of the last render
+    // Pixel chunks of the last render that ran out of the driver's loop budget and were traced again.
+    std::size_t last_retried() const { return last_retried_; }
 
 private:
     struct State;
     std::unique_ptr<State> state_;
     double last_ms_ = 0.0;
+    std::size_t last_retried_ = 0;
 };
 
 // The min-max pyramid the trace skips with: level L holds, per cell of 2^L x 2^L pixels (the raster padded
