@@ -12,7 +12,7 @@
 #include <vector>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <measured/fit.h>
 #include <measured/model_file.h>
@@ -27,8 +27,8 @@ namespace {
 constexpr int kImageWidth = 240, kImageHeight = 160;
 constexpr double kSensorW = 72.0, kSensorH = 48.0;
 
-gpu::FlareView view_at(double ax, double ay) {
-    gpu::FlareView v;
+flare::FlareView view_at(double ax, double ay) {
+    flare::FlareView v;
     v.angle_x_deg = ax, v.angle_y_deg = ay;
     v.sensor_width_mm = kSensorW, v.sensor_height_mm = kSensorH;
     v.width = kImageWidth, v.height = kImageHeight;

@@ -11,7 +11,7 @@
 #include <optics/ghosts.h>
 #include <optics/starburst.h>
 
-namespace lensfx::filter {
+namespace lensfx::flare {
 
 // A group of an extended light's ghosts drawn together.
 struct FootprintGroup {
@@ -47,4 +47,4 @@ void add_extended_starburst(const optics::Starburst& sb, double f_number, double
                             const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
                             double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height);
 
-}  // namespace lensfx::filter
+}  // namespace lensfx::flare
