@@ -22,6 +22,7 @@
 #include <optics/ringing.h>
 
 #include <gpu/acceleration.h>
+#include <gpu/draw_plan.h>
 #include <gpu/gl.h>
 
 #include "flare_shaders.h"
@@ -32,12 +33,6 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
-// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
-// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
-// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
-// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
-// rest of the render.
-constexpr int kRimReduce = 4;
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
@@ -382,31 +377,6 @@ private:
     int first_ = 0, rows_ = 0;
 };
 
-// The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
-// as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
-// with kMargin rows more on either side, which the 3 x 3 splats of points just outside it reach into.
-struct FullBands {
-    static constexpr int kMargin = 2;
-    int count = 1, image_rows = 0, rows_per_band = 0;
-    int first(int b) const { return b * rows_per_band; }
-    int end(int b) const { return std::min(image_rows, first(b) + rows_per_band); }
-    int drawn_first(int b) const { return count == 1 ? 0 : std::max(0, first(b) - kMargin); }
-    int drawn_end(int b) const { return count == 1 ? image_rows : std::min(image_rows, end(b) + kMargin); }
-    int rows_drawn(int b) const { return drawn_end(b) - drawn_first(b); }
-    int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin); }
-};
-
-FullBands full_target_bands(int width, int height, double max_bytes, bool whole) {
-    FullBands b;
-    b.image_rows = height;
-    const double bytes = 16.0 * width * height;
-    if (!whole && max_bytes > 0.0 && bytes > max_bytes)
-        b.count = static_cast<int>(std::min<double>(height, std::ceil(bytes / max_bytes)));
-    b.rows_per_band = (height + b.count - 1) / b.count;
-    b.count = (height + b.rows_per_band - 1) / b.rows_per_band;  // no empty band
-    return b;
-}
-
 // Adds band b of the full-size target into the top-down RGB image w pixels wide, read back a band of rows
 // at a time: no copy of the whole target is made.
 void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, const FullBands& bands, int b) {
@@ -479,545 +449,573 @@ void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int 
     }
 }
 
-// One ghost of one light and pass for scene culling: its sensor box turned to the light's azimuth and moved by
-// its style's offset, as pixels of the upright image (ghost_vertex's clip_position, rows from the top), grown by
-// the splats' and the reduced levels' spread and the caller's; its peak times the largest factor any channel
-// adds it with.
-CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
-                   const std::array<double, 3>& pass_weight, const GhostStyle* style, const FlareView& view,
-                   double spread_px) {
-    if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !(e.peak > 0.0)) return {};
-    const double c = std::cos(rotation), sn = std::sin(rotation);
-    const std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
-    const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
-    CullItem item{1e300, 1e300, -1e300, -1e300, 0.0};
-    for (const double sx : {e.sensor.x0, e.sensor.x1})
-        for (const double sy : {e.sensor.y0, e.sensor.y1}) {
-            const double up_x = offset[0] - (c * sx - sn * sy);
-            const double up_y = offset[1] - (sn * sx + c * sy);
-            const double px = (up_x + 0.5 * view.sensor_width_mm) / pixel_w;
-            const double py = (0.5 * view.sensor_height_mm - up_y) / pixel_h;
-            item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), 0.0};
-        }
-    constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
-    const double spread = kSpreadPx + spread_px;
-    item.x0 -= spread;
-    item.y0 -= spread;
-    item.x1 += spread;
-    item.y1 += spread;
-    double factor = 0.0;
-    for (std::size_t k = 0; k < 3; ++k)
-        factor = std::max(factor, std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0)));
-    item.peak = e.peak * factor;
-    return item;
-}
+// One light's pass being drawn: what the trace and raster steps of its batches read.
+struct PassDraw {
+    const ScaledLight& light;
+    const SpectralPass& pass;
+    const GhostSequences& seq;
+    const std::vector<GhostEstimate>& estimates;
+    const std::vector<GhostPlan>& plans;
+    double rotation;            // of the ghosts' entrance rectangles (the light's azimuth with a bounds table)
+    optics::Vec3 direction;     // of the light
+    double cos_angle;
+};
 
 }  // namespace
 
-void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
-                         const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
-    if (options.grid < 2 || options.grid > 2048) {
-        throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
-    }
-    if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
-    check_ghost_tables(system, view.passes().size(), options.memory);
-    State& s = *state_;
-    const Acceleration& accel = options.accel;
-    s.stats = {};
-    std::vector<Ghost> ghosts = fitted_ghosts(system, view, options.memory);
-    if (accel.aperture_culling)
-        std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
-    std::vector<char> drawn_ghost(ghosts.size(), 1);  // options.draw_only as a mask over `ghosts`
-    if (!options.draw_only.empty())
-        for (std::size_t g = 0; g < ghosts.size(); ++g)
-            drawn_ghost[g] = std::find(options.draw_only.begin(), options.draw_only.end(),
-                                       std::pair<int, int>{ghosts[g].first, ghosts[g].second}) != options.draw_only.end() ||
-                             std::find(options.draw_only.begin(), options.draw_only.end(),
-                                       std::pair<int, int>{ghosts[g].second, ghosts[g].first}) != options.draw_only.end();
+// One FlareRenderer::draw as named steps over what they share (the fitted ghosts and their selection, the
+// passes and their traced systems, the full-size bands): set up, estimate the lights, cull against the
+// scene, then per band, light and pass plan the ghosts and trace and raster them batch by batch; read back.
+class FlareRenderer::Drawing {
+public:
+    Drawing(State& state, const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+            const GpuFlareOptions& options, std::vector<Ghost> ghosts);
+    // Every light's ghost estimates (bounds table or coarse pass), then the level of detail's totals.
+    void estimate_lights();
+    // Scene culling's verdicts for every light's ghosts at once (options.visibility).
+    void cull_scene();
+    // Band `band` of the full-size target (and in band 0 every reduced target): every light's passes.
+    void draw_band(int band, std::vector<float>& rgb);
+    // The reduced targets upsampled into rgb, or the per-ghost sums and powers.
+    void read_back(std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
+    int bands() const { return bands_.count; }
+    // The trace step alone on ghost g at the first pass (for tests): the batch's vertices read back.
+    std::vector<float> trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect);
+
+private:
+    State& s_;
+    const System& system_;
+    const FlareView& view_;
+    std::span<const ScaledLight> lights_;
+    const GpuFlareOptions& options_;
+    std::vector<Ghost> ghosts_;
+    GhostSelection selection_;
+    std::vector<SpectralPass> passes_;
+    std::vector<TraceSystem> traced_;  // per pass
+    std::uint64_t key_;                // of the system and ghosts (sequences, bounds table)
+    double sensor_radius_;             // rays landing farther from the centre miss the image (5% margin)
+    double f_number_;                  // for the iris ringing's order (0 without ringing)
+    FullBands bands_;
+    int band_ = 0;
+    bool drawn_into_[5] = {};  // targets drawn into (and cleared) by this render
+    std::vector<GhostPower> powers_;
+    std::vector<double> accumulated_;  // per-ghost mode: the image summed on the CPU
+    std::vector<LightEstimates> estimates_;  // per light
+    std::vector<double> pass_total_;
+    LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
+
+    void set_up_gl();
+    FloatTarget& full_target() { return s_.full(view_.width, bands_.target_rows()); }
+    void bind_full();
+    void bind_level(int reduce);
+    double level_pixel_area(int reduce) const;
+    State::Sequences& sequences(std::size_t p);
+    void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
+                        int step_count, std::size_t vertex_offset);
+    void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings);
+    std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
+    BoundsTable& bounds_table(const FlareView& lit, const FieldDirection& field);
+    LightEstimates estimate_light(const ScaledLight& light);
+    void draw_pass(std::size_t l, std::size_t p);
+    void trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
+    void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
+    void ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
+    void add_ghost_power(std::size_t g);
+};
+
+FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                                const GpuFlareOptions& options, std::vector<Ghost> ghosts)
+    : s_(state), system_(system), view_(view), lights_(lights), options_(options), ghosts_(std::move(ghosts)),
+      selection_(GhostSelection::of(ghosts_, options.draw_only, options.styles)), passes_(view.passes()),
+      key_(ghosts_key(system, ghosts_)), sensor_radius_(0.525 * std::hypot(view.sensor_width_mm, view.sensor_height_mm)),
+      f_number_(options.ringing ? optics::paraxial(system).f_number : 0.0),
+      bands_(full_target_bands(view.width, view.height, options.full_target_bytes, options.per_ghost_power)) {
     // The full-size target is made when a ghost is drawn at full size (always per ghost): at 8K it would be
     // 1 GB, so a large frame's is drawn in bands (each band's viewport the rows it draws), and a frame whose
     // ghosts are all drawn reduced never needs it.
-    const FullBands full_bands = full_target_bands(view.width, view.height, options.full_target_bytes, options.per_ghost_power);
-    int band = 0;
-    auto full_target = [&]() -> FloatTarget& { return s.full(view.width, full_bands.target_rows()); };
-    auto bind_full = [&] {
-        full_target().bind();
-        glViewport(0, 0, view.width, full_bands.rows_drawn(band));
-    };
     if (options.per_ghost_power) {
         bind_full();
         full_target().clear();
+        drawn_into_[0] = true;
     }
-    bool drawn_into[5] = {options.per_ghost_power, false, false, false, false};  // targets drawn into (and cleared) by this render
-    s.upload_iris(system.aperture);
-
-    const auto passes = view.passes();
-    std::vector<TraceSystem> traced;
-    for (const auto& pass : passes) {
-        traced.emplace_back(system, pass.wavelength_nm);
-        for (std::size_t k = 0; k < traced.back().interfaces().size(); ++k) {
-            if (traced.back().interfaces()[k].has_aspheric) {
+    s_.upload_iris(system.aperture);
+    for (const auto& pass : passes_) {
+        traced_.emplace_back(system, pass.wavelength_nm);
+        for (std::size_t k = 0; k < traced_.back().interfaces().size(); ++k) {
+            if (traced_.back().interfaces()[k].has_aspheric) {
                 throw std::runtime_error(fmt::format(
                     "{}: surface {} is aspheric; the GPU ghost renderer traces spheres and conics only",
                     system.name, k + 1));
             }
         }
     }
+    set_up_gl();
+    powers_.resize(ghosts_.size());
+    for (std::size_t g = 0; g < ghosts_.size(); ++g) powers_[g] = {ghosts_[g].first, ghosts_[g].second, {}};
+    if (options.per_ghost_power) accumulated_.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0);
+}
 
-    // The vertex buffer holds a batch of ghosts, and at least the largest grid any plan can ask for.
-    const int max_grid = accel.adaptive ? std::max(options.grid, 512) : options.grid;
+// The vertex buffer (a batch of ghosts, and at least the largest grid any plan can ask for) and the blend state.
+void FlareRenderer::Drawing::set_up_gl() {
+    const int max_grid = options_.accel.adaptive ? std::max(options_.grid, 512) : options_.grid;
     const std::size_t dense_bytes =
         std::max(kBatchBytes, static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * kVertexBytes);
-    if (dense_bytes > s.vertices_bytes) {
-        s.vertices = GlObject::buffer();
-        glNamedBufferStorage(s.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
-        s.vertices_bytes = dense_bytes;
+    if (dense_bytes > s_.vertices_bytes) {
+        s_.vertices = GlObject::buffer();
+        glNamedBufferStorage(s_.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
+        s_.vertices_bytes = dense_bytes;
     }
-
-    glBindVertexArray(s.vao.get());
+    glBindVertexArray(s_.vao.get());
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
-    glBindTextureUnit(0, s.iris.get());
+    glBindTextureUnit(0, s_.iris.get());
     glEnable(GL_PROGRAM_POINT_SIZE);
+}
 
-    const double pixel_area = view.pixel_area_mm2();
-    const std::size_t pixels = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
-    std::vector<GhostPower> powers(ghosts.size());
-    for (std::size_t g = 0; g < ghosts.size(); ++g) powers[g] = {ghosts[g].first, ghosts[g].second, {}};
-    std::vector<double> accumulated;  // per-ghost mode: the image summed on the CPU
-    if (options.per_ghost_power) accumulated.assign(pixels * 3, 0.0);
+void FlareRenderer::Drawing::bind_full() {
+    full_target().bind();
+    glViewport(0, 0, view_.width, bands_.rows_drawn(band_));
+}
 
-    auto dispatch_trace = [&](int res, const PupilRect& rect, double rotation, const optics::Vec3& direction,
-                              int first_step, int step_count, GLuint vertex_offset) {
-        glUseProgram(s.trace.get());
-        glUniform1i(s.trace.uniform("step_offset"), first_step);
-        glUniform1i(s.trace.uniform("step_count"), step_count);
-        glUniform1ui(s.trace.uniform("vertex_offset"), vertex_offset);
-        glUniform1i(s.trace.uniform("grid"), res);
-        glUniform4f(s.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
-                    static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-        glUniform2f(s.trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)),
-                    static_cast<float>(std::sin(rotation)));
-        glUniform3f(s.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
-                    static_cast<float>(direction.z));
-        glUniform1i(s.trace.uniform("table_size"), kTableSize);
-        const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-        glDispatchCompute(groups, groups, 1);
-    };
+// Draws go into the target at 1/reduce of the image from here on, cleared if this render has not drawn into it yet.
+void FlareRenderer::Drawing::bind_level(int reduce) {
+    const std::size_t slot = State::slot(reduce);
+    FloatTarget& t = reduce == 1 ? full_target() : s_.target(reduce, view_.width, view_.height);
+    if (reduce == 1) bind_full();  // the full-size target holds the band being drawn
+    else t.bind();
+    if (!drawn_into_[slot]) t.clear();
+    drawn_into_[slot] = true;
+}
 
-    // A pixel's sensor area (mm^2) at 1/reduce of the image: the ghost's triangles under kSplatArea of them are
-    // splatted, the others rasterised.
-    auto level_pixel_area = [&](int reduce) {
-        const int level_w = (view.width + reduce - 1) / reduce;
-        const int level_h = (view.height + reduce - 1) / reduce;
-        return (view.sensor_width_mm / level_w) * (view.sensor_height_mm / level_h);
-    };
+// A pixel's sensor area (mm^2) at 1/reduce of the image: the ghost's triangles under kSplatArea of them are
+// splatted, the others rasterised.
+double FlareRenderer::Drawing::level_pixel_area(int reduce) const {
+    const int level_w = (view_.width + reduce - 1) / reduce;
+    const int level_h = (view_.height + reduce - 1) / reduce;
+    return (view_.sensor_width_mm / level_w) * (view_.sensor_height_mm / level_h);
+}
 
-    // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
-    // triangles that are rasterised at 1/reduce of the image.
-    // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
-    auto dispatch_shade = [&](int res, GLuint vertex_offset, int reduce, int stop_crossings) {
-        glUniform1i(s.shade.uniform("grid"), res);
-        glUniform1ui(s.shade.uniform("vertex_offset"), vertex_offset);
-        glUniform1f(s.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
-        const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
-        const double per_mm_x = rim_target > 0 ? ((view.width + rim_target - 1) / rim_target) / view.sensor_width_mm : 0.0;
-        const double per_mm_y = rim_target > 0 ? ((view.height + rim_target - 1) / rim_target) / view.sensor_height_mm : 0.0;
-        glUniform2f(s.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
-        glUniform1f(s.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
-        glUniform1i(s.shade.uniform("stop_crossings"), stop_crossings);
-        glUniform1i(s.shade.uniform("ringing"), options.ringing ? 1 : 0);
-        glUniform1i(s.shade.uniform("iris_sdf"), 0);
-        glUniform1f(s.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-        const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-        glDispatchCompute(groups, groups, 1);
-    };
+// Ghost sequences and coating tables of pass p, built once per system, ghost selection and wavelength, bound
+// for the trace shader.
+FlareRenderer::State::Sequences& FlareRenderer::Drawing::sequences(std::size_t p) {
+    const std::pair<std::uint64_t, double> id{key_, passes_[p].wavelength_nm};
+    auto it = s_.sequences.find(id);
+    if (it == s_.sequences.end()) {
+        if (s_.sequences.size() >= 96) s_.sequences.clear();  // room for an extended light's ghost groups
+        State::Sequences built{build_sequences(traced_[p], ghosts_), GlObject::buffer(), GlObject::buffer()};
+        glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
+                             built.seq.steps.data(), 0);
+        glNamedBufferStorage(built.tables.get(), static_cast<GLsizeiptr>(built.seq.tables.size() * sizeof(float)),
+                             built.seq.tables.data(), 0);
+        it = s_.sequences.emplace(id, std::move(built)).first;
+    }
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, it->second.steps.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, it->second.tables.get());
+    glUseProgram(s_.trace.get());
+    glUniform1f(s_.trace.uniform("sensor_z"), static_cast<float>(traced_[p].sensor_z()));
+    return it->second;
+}
 
-    // Ghost sequences and coating tables per wavelength, built once per system and ghost selection.
-    std::uint64_t key = system_hash(system);
-    auto mix = [&key](std::uint64_t v) { key = (key ^ v) * 0x100000001b3ull; };
-    for (const Ghost& ghost : ghosts) mix(static_cast<std::uint64_t>(ghost.first) * 4096u + static_cast<std::uint64_t>(ghost.second));
-    auto sequences = [&](std::size_t p) -> State::Sequences& {
-        const std::pair<std::uint64_t, double> id{key, passes[p].wavelength_nm};
-        auto it = s.sequences.find(id);
-        if (it == s.sequences.end()) {
-            if (s.sequences.size() >= 96) s.sequences.clear();  // room for an extended light's ghost groups
-            State::Sequences built{build_sequences(traced[p], ghosts), GlObject::buffer(), GlObject::buffer()};
-            glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
-                                 built.seq.steps.data(), 0);
-            glNamedBufferStorage(built.tables.get(), static_cast<GLsizeiptr>(built.seq.tables.size() * sizeof(float)),
-                                 built.seq.tables.data(), 0);
-            it = s.sequences.emplace(id, std::move(built)).first;
-        }
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, it->second.steps.get());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, it->second.tables.get());
-        glUseProgram(s.trace.get());
-        glUniform1f(s.trace.uniform("sensor_z"), static_cast<float>(traced[p].sensor_z()));
-        return it->second;
-    };
+// One ghost's (res+1)^2 ray grid over `rect` (turned by `rotation`) traced into the bound vertex buffer.
+void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction,
+                                            int first_step, int step_count, std::size_t vertex_offset) {
+    glUseProgram(s_.trace.get());
+    glUniform1i(s_.trace.uniform("step_offset"), first_step);
+    glUniform1i(s_.trace.uniform("step_count"), step_count);
+    glUniform1ui(s_.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
+    glUniform1i(s_.trace.uniform("grid"), res);
+    glUniform4f(s_.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
+                static_cast<float>(rect.x1), static_cast<float>(rect.y1));
+    glUniform2f(s_.trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)),
+                static_cast<float>(std::sin(rotation)));
+    glUniform3f(s_.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
+                static_cast<float>(direction.z));
+    glUniform1i(s_.trace.uniform("table_size"), kTableSize);
+    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
+    glDispatchCompute(groups, groups, 1);
+}
 
-    // Rays landing farther from the centre than this miss the image (with a margin of 5%).
-    const double sensor_radius = 0.525 * std::hypot(view.sensor_width_mm, view.sensor_height_mm);
-    // Coarse pass over the whole entrance square of a light direction, all ghosts in batches: which part
-    // of the pupil each ghost's light gets through, and roughly how much. At least 8 coarse rays span the
-    // entrance pupil.
-    auto coarse_pass = [&](std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture) {
-        const optics::Ray ray = optics::collimated_ray(at.angle_x_deg, at.angle_y_deg, 0.0, 0.0, 0.0);
-        const PupilRect square = entrance_square(traced[p], at);
-        const double side = std::max(square.x1 - square.x0, square.y1 - square.y0);
-        const double epd = optics::paraxial(system, passes[p].wavelength_nm).entrance_pupil_diameter_mm;
-        const double spacing = std::min(side / 48.0, std::max(epd, 1e-3) / 8.0);
-        const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
-        const std::size_t coarse_vertices = static_cast<std::size_t>(res + 1) * static_cast<std::size_t>(res + 1);
-        const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (coarse_vertices * 48));
-        std::vector<GhostEstimate> coarse(ghosts.size());
-        std::vector<float> readback;
-        for (std::size_t first = 0; first < ghosts.size(); first += batch) {
-            const std::size_t n = std::min(batch, ghosts.size() - first);
-            GlObject coarse_buffer = GlObject::buffer();
-            glNamedBufferStorage(coarse_buffer.get(), static_cast<GLsizeiptr>(n * coarse_vertices * 48), nullptr,
-                                 GL_MAP_READ_BIT);
-            glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, coarse_buffer.get());
-            for (std::size_t g = first; g < first + n; ++g) {
-                dispatch_trace(res, square, 0.0, ray.direction, seq.offset[g], seq.count[g],
-                               static_cast<GLuint>((g - first) * coarse_vertices));
-            }
-            glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-            readback.resize(n * coarse_vertices * 12);
-            glGetNamedBufferSubData(coarse_buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)),
-                                    readback.data());
-            check_gl("the coarse ghost pass");
-            for (std::size_t g = first; g < first + n; ++g) {
-                coarse[g] = coarse_estimate(readback.data() + (g - first) * coarse_vertices * 12, res, square,
-                                            seq.stop_crossings[g], aperture, std::abs(ray.direction.z), sensor_radius);
-            }
-        }
-        return coarse;
-    };
+// Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
+// triangles that are rasterised at 1/reduce of the image.
+// For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
+void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings) {
+    glUniform1i(s_.shade.uniform("grid"), res);
+    glUniform1ui(s_.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
+    glUniform1f(s_.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
+    const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
+    const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
+    glUniform2f(s_.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
+    glUniform1f(s_.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
+    glUniform1i(s_.shade.uniform("stop_crossings"), stop_crossings);
+    glUniform1i(s_.shade.uniform("ringing"), options_.ringing ? 1 : 0);
+    glUniform1i(s_.shade.uniform("iris_sdf"), 0);
+    glUniform1f(s_.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
+    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
+    glDispatchCompute(groups, groups, 1);
+}
 
-    std::vector<const GhostStyle*> style(ghosts.size(), nullptr);
-    for (const GhostStyle& st : options.styles)
-        for (std::size_t g = 0; g < ghosts.size(); ++g)
-            if (ghosts[g].first == std::max(st.first, st.second) && ghosts[g].second == std::min(st.first, st.second))
-                style[g] = &st;
-    const double f_number = options.ringing ? optics::paraxial(system).f_number : 0.0;
+// Coarse pass over the whole entrance square of a light direction, all ghosts in batches: which part of the
+// pupil each ghost's light gets through, and roughly how much. At least 8 coarse rays span the entrance pupil.
+std::vector<GhostEstimate> FlareRenderer::Drawing::coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at,
+                                                               const Aperture& aperture) {
+    const optics::Ray ray = optics::collimated_ray(at.angle_x_deg, at.angle_y_deg, 0.0, 0.0, 0.0);
+    const PupilRect square = entrance_square(traced_[p], at);
+    const double side = std::max(square.x1 - square.x0, square.y1 - square.y0);
+    const double epd = optics::paraxial(system_, passes_[p].wavelength_nm).entrance_pupil_diameter_mm;
+    const double spacing = std::min(side / 48.0, std::max(epd, 1e-3) / 8.0);
+    const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
+    const std::size_t coarse_vertices = static_cast<std::size_t>(res + 1) * static_cast<std::size_t>(res + 1);
+    const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (coarse_vertices * 48));
+    std::vector<GhostEstimate> coarse(ghosts_.size());
+    std::vector<float> readback;
+    for (std::size_t first = 0; first < ghosts_.size(); first += batch) {
+        const std::size_t n = std::min(batch, ghosts_.size() - first);
+        GlObject coarse_buffer = GlObject::buffer();
+        glNamedBufferStorage(coarse_buffer.get(), static_cast<GLsizeiptr>(n * coarse_vertices * 48), nullptr, GL_MAP_READ_BIT);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, coarse_buffer.get());
+        for (std::size_t g = first; g < first + n; ++g)
+            dispatch_trace(res, square, 0.0, ray.direction, seq.offset[g], seq.count[g], (g - first) * coarse_vertices);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        readback.resize(n * coarse_vertices * 12);
+        glGetNamedBufferSubData(coarse_buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)), readback.data());
+        check_gl("the coarse ghost pass");
+        for (std::size_t g = first; g < first + n; ++g)
+            coarse[g] = coarse_estimate(readback.data() + (g - first) * coarse_vertices * 12, res, square, seq.stop_crossings[g],
+                                        aperture, std::abs(ray.direction.z), sensor_radius_);
+    }
+    return coarse;
+}
 
-    const double pixel_mm = view.sensor_width_mm / view.width;
-
-    // Every light's ghost estimates first: the level of detail weighs each ghost against all the lights'
-    // ghosts of its pass, so the ghosts of a dim light get fewer rays, or none.
-    struct LightEstimates {
-        std::vector<std::vector<GhostEstimate>> pass;  // per pass, per ghost; power scaled by the light
-        double rotation = 0.0;                         // bounds-table rectangles turned to the light's azimuth
-    };
-    std::vector<LightEstimates> light_estimates(lights.size());
-    std::vector<double> pass_total(passes.size(), 0.0);
-    for (std::size_t l = 0; l < lights.size() && !ghosts.empty(); ++l) {
-        const ScaledLight& light = lights[l];
-        FlareView lit = view;
-        lit.angle_x_deg = light.angle_x_deg;
-        lit.angle_y_deg = light.angle_y_deg;
-        // Bounds table: the entries on either side of this light's field angle, computed (and saved) if missing.
-        const FieldDirection field = field_direction(lit);
-        BoundsTable* table = nullptr;
-        if (accel.bounding == Bounding::Table && !ghosts.empty()) {
-            // The table's key adds the wavelengths to the system and ghost selection.
-            std::uint64_t table_key = key;
-            for (const auto& pass : passes) table_key = (table_key ^ std::bit_cast<std::uint64_t>(pass.wavelength_nm)) * 0x100000001b3ull;
-            table_key = (table_key ^ std::bit_cast<std::uint64_t>(sensor_radius)) * 0x100000001b3ull;
-            auto it = s.bounds_tables.find(table_key);
-            if (it == s.bounds_tables.end()) {
-                const std::string dir = accel.cache_dir.empty() ? default_cache_dir() : accel.cache_dir;
-                it = s.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes.size()),
-                                                             static_cast<int>(ghosts.size()), dir)).first;
-                s.stats.table_loaded = it->second.load();
-            }
-            table = &it->second;
-            const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
-            bool computed = false;
-            for (int index : {i0, i0 + 1}) {
-                if (table->entry(index)) continue;
-                FlareView at = lit;
-                at.angle_x_deg = index * BoundsTable::step_deg;
-                at.angle_y_deg = 0.0;
-                Aperture round = system.aperture;
-                round.blades = 0;  // the stop's circle holds any bladed iris: bounds for every iris rotation
-                std::vector<std::vector<GhostEstimate>> entry;
-                for (std::size_t p = 0; p < passes.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
-                table->store(index, std::move(entry));
-                ++s.stats.table_computed;
-                computed = true;
-            }
-            if (computed) {
-                try {
-                    table->save();
-                } catch (const std::exception& e) {  // a cache that cannot be written only costs time: said once
-                    static std::atomic<bool> warned{false};
-                    if (!warned.exchange(true)) fmt::print(stderr, "lensfx: warning: {} (the cache is not kept this run)\n", e.what());
-                }
-            }
-        }
-
-        if (table) light_estimates[l].rotation = field.phi;
-        for (std::size_t p = 0; p < passes.size(); ++p) {
-            const GhostSequences& seq = sequences(p).seq;
-            std::vector<GhostEstimate> estimates;
-            if (table) {
-                estimates = table->interpolate(static_cast<int>(p), field.theta_deg);
-            } else if (accel.bounding == Bounding::Coarse || accel.lod || accel.adaptive || accel.reduced) {
-                estimates = coarse_pass(p, seq, lit, system.aperture);
-            } else {
-                estimates.assign(ghosts.size(), GhostEstimate{entrance_square(traced[p], lit), 1.0, 0.0, 0.0});
-            }
-            if (accel.bounding == Bounding::None) {
-                // Ghosts the coarse pass found no light of stay culled; the others cover the whole square.
-                const PupilRect square = entrance_square(traced[p], lit);
-                for (GhostEstimate& e : estimates) {
-                    if (!e.rect.empty()) e.rect = square;
-                }
-            }
-            double weight = 0.0;
-            for (std::size_t c = 0; c < 3; ++c) weight += std::abs(passes[p].weight[c] * light.scale[c]);
-            for (std::size_t g = 0; g < estimates.size(); ++g) {
-                estimates[g].power *= weight;
-                if (drawn_ghost[g]) pass_total[p] += estimates[g].power;
-            }
-            light_estimates[l].pass.push_back(std::move(estimates));
+// The bounds table of this lens, ghosts and wavelengths with the entries on either side of the light's field
+// angle, computed (and saved) if missing.
+BoundsTable& FlareRenderer::Drawing::bounds_table(const FlareView& lit, const FieldDirection& field) {
+    const std::uint64_t table_key = bounds_table_key(key_, passes_, sensor_radius_);
+    auto it = s_.bounds_tables.find(table_key);
+    if (it == s_.bounds_tables.end()) {
+        const std::string dir = flare::cache_dir_of(options_.accel.cache_dir);
+        it = s_.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes_.size()),
+                                                            static_cast<int>(ghosts_.size()), dir)).first;
+        s_.stats.table_loaded = it->second.load();
+    }
+    BoundsTable& table = it->second;
+    const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
+    bool computed = false;
+    for (int index : {i0, i0 + 1}) {
+        if (table.entry(index)) continue;
+        FlareView at = lit;
+        at.angle_x_deg = index * BoundsTable::step_deg;
+        at.angle_y_deg = 0.0;
+        Aperture round = system_.aperture;
+        round.blades = 0;  // the stop's circle holds any bladed iris: bounds for every iris rotation
+        std::vector<std::vector<GhostEstimate>> entry;
+        for (std::size_t p = 0; p < passes_.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
+        table.store(index, std::move(entry));
+        ++s_.stats.table_computed;
+        computed = true;
+    }
+    if (computed) {
+        try {
+            table.save();
+        } catch (const std::exception& e) {  // a cache that cannot be written only costs time: said once
+            static std::atomic<bool> warned{false};
+            if (!warned.exchange(true)) fmt::print(stderr, "lensfx: warning: {} (the cache is not kept this run)\n", e.what());
         }
     }
+    return table;
+}
 
-    // Scene culling: every light's ghosts against what the frame shows where they land, all at once (the
-    // culled ghosts of all lights and passes share one budget per cell of the image).
-    std::vector<std::vector<std::vector<SceneVerdict>>> verdicts(lights.size());  // per light, pass, ghost
-    if (options.visibility && !options.per_ghost_power && !ghosts.empty()) {
-        std::vector<CullItem> items;
-        for (std::size_t l = 0; l < lights.size(); ++l)
-            for (std::size_t p = 0; p < passes.size(); ++p)
-                for (std::size_t g = 0; g < ghosts.size(); ++g)
-                    items.push_back(drawn_ghost[g] ? cull_item(light_estimates[l].pass[p][g], light_estimates[l].rotation,
-                                                               lights[l].scale, passes[p].weight, style[g], view,
-                                                               options.spread_px)
-                                                   : CullItem{});
-        const std::vector<SceneVerdict> all = scene_cull(items, *options.visibility);
-        auto next = all.begin();
-        for (std::size_t l = 0; l < lights.size(); ++l)
-            for (std::size_t p = 0; p < passes.size(); ++p) {
-                verdicts[l].emplace_back(next, next + static_cast<std::ptrdiff_t>(ghosts.size()));
-                next += static_cast<std::ptrdiff_t>(ghosts.size());
-            }
+// One light's estimates per pass: from the bounds table, a coarse pass, or the whole entrance square; power
+// scaled by what the light adds to the pass's channels.
+LightEstimates FlareRenderer::Drawing::estimate_light(const ScaledLight& light) {
+    const Acceleration& accel = options_.accel;
+    FlareView lit = view_;
+    lit.angle_x_deg = light.angle_x_deg;
+    lit.angle_y_deg = light.angle_y_deg;
+    const FieldDirection field = field_direction(lit);
+    BoundsTable* table = accel.bounding == Bounding::Table ? &bounds_table(lit, field) : nullptr;
+    LightEstimates out;
+    if (table) out.rotation = field.phi;
+    for (std::size_t p = 0; p < passes_.size(); ++p) {
+        const GhostSequences& seq = sequences(p).seq;
+        std::vector<GhostEstimate> estimates;
+        if (table) {
+            estimates = table->interpolate(static_cast<int>(p), field.theta_deg);
+        } else if (accel.bounding == Bounding::Coarse || accel.lod || accel.adaptive || accel.reduced) {
+            estimates = coarse_pass(p, seq, lit, system_.aperture);
+        } else {
+            estimates.assign(ghosts_.size(), GhostEstimate{entrance_square(traced_[p], lit), 1.0, 0.0, 0.0});
+        }
+        if (accel.bounding == Bounding::None) {
+            // Ghosts the coarse pass found no light of stay culled; the others cover the whole square.
+            const PupilRect square = entrance_square(traced_[p], lit);
+            for (GhostEstimate& e : estimates)
+                if (!e.rect.empty()) e.rect = square;
+        }
+        double weight = 0.0;
+        for (std::size_t c = 0; c < 3; ++c) weight += std::abs(passes_[p].weight[c] * light.scale[c]);
+        for (GhostEstimate& e : estimates) e.power *= weight;
+        out.pass.push_back(std::move(estimates));
     }
+    return out;
+}
 
-    for (band = 0; band < full_bands.count; ++band) {  // later bands draw only what is drawn at full size
-    for (std::size_t l = 0; l < lights.size(); ++l) {
-        const ScaledLight& light = lights[l];
-        FlareView lit = view;
-        lit.angle_x_deg = light.angle_x_deg;
-        lit.angle_y_deg = light.angle_y_deg;
-        const optics::Ray axis = optics::collimated_ray(lit.angle_x_deg, lit.angle_y_deg, 0.0, 0.0, 0.0);
-        const double cos_angle = std::abs(axis.direction.z);
-        for (std::size_t p = 0; p < passes.size(); ++p) {
-            const SpectralPass& pass = passes[p];
-            if (ghosts.empty()) break;
-            for (const Program* program : {&s.raster, &s.splat}) {
-                glUseProgram(program->get());
-                glUniform1i(program->uniform("ringing"), options.ringing ? 1 : 0);
-                glUniform1i(program->uniform("iris_ringing"), 1);
-            }
-            if (options.ringing)
-                glBindTextureUnit(1, s.ringing_texture(system.aperture, optics::ringing_order(pass.wavelength_nm, f_number)));
-            const GhostSequences& seq = sequences(p).seq;
+// Every light's estimates first: the level of detail weighs each ghost against all the lights' ghosts of its
+// pass, so the ghosts of a dim light get fewer rays, or none.
+void FlareRenderer::Drawing::estimate_lights() {
+    estimates_.resize(lights_.size());
+    if (!ghosts_.empty())
+        for (std::size_t l = 0; l < lights_.size(); ++l) estimates_[l] = estimate_light(lights_[l]);
+    pass_total_ = pass_totals(estimates_, passes_.size(), selection_.drawn);
+}
 
-            const std::vector<GhostEstimate>& estimates = light_estimates[l].pass[p];
-            const double rotation = light_estimates[l].rotation;
-            const std::vector<GhostPlan> plans =
-                plan_ghosts(estimates, accel, options.grid, pixel_mm, options.per_ghost_power, pass_total[p],
-                            verdicts[l].empty() ? std::vector<SceneVerdict>{} : verdicts[l][p]);
+void FlareRenderer::Drawing::cull_scene() {
+    verdicts_.assign(lights_.size(), {});
+    if (options_.visibility && !options_.per_ghost_power && !ghosts_.empty())
+        verdicts_ = cull_lights(estimates_, lights_, passes_, selection_, view_, options_.spread_px, *options_.visibility);
+}
 
-            // The ghosts to draw, traced in batches into one vertex buffer and then drawn grouped by target:
-            // a barrier or a change of target makes a software rasteriser finish everything it has queued,
-            // so there is one of each per batch rather than per ghost. Per-ghost power reads the target after
-            // every ghost, so there each ghost is a batch.
-            // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a
-            // software rasteriser blends and stores less.
-            glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
-            std::vector<std::size_t> todo;
-            for (std::size_t g = 0; g < ghosts.size(); ++g) {
-                if (!drawn_ghost[g]) continue;
-                if (style[g] && !(style[g]->gain[0] > 0.0 || style[g]->gain[1] > 0.0 || style[g]->gain[2] > 0.0)) continue;
-                const SceneVerdict verdict = verdicts[l].empty() ? SceneVerdict::Draw : verdicts[l][p][g];
-                if (!plans[g].draw) {
-                    if (band == 0) {
-                        ++s.stats.ghosts_skipped;
-                        s.stats.ghosts_culled += verdict == SceneVerdict::Cull && !estimates[g].rect.empty();
-                    }
-                    continue;
-                }
-                // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
-                if (band > 0 && plans[g].reduce != 1 && plans[g].reduce != kRimReduce) continue;
-                s.stats.ghosts_faint += band == 0 && verdict == SceneVerdict::Faint;
-                todo.push_back(g);
-            }
-            struct Job {
-                std::size_t ghost;
-                GLuint first_vertex;
-            };
-            // One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the
-            // pixels of its level (1/reduce of the image); rim_mode 2 draws into the full-size target, the same
-            // triangles.
-            auto ghost_uniforms = [&](const Job& job, int reduce, int rim_mode) {
-                const std::size_t g = job.ghost;
-                const int ghost_grid = plans[g].grid;
-                const PupilRect& rect = estimates[g].rect;
-                const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
-                // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
-                const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
-                const bool full = target_reduce == 1;
-                const int target_w = (view.width + target_reduce - 1) / target_reduce;
-                const int target_h = full ? full_bands.rows_drawn(band) : (view.height + target_reduce - 1) / target_reduce;
-                const std::array<double, 3> gain = style[g] ? style[g]->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-                std::array<double, 2> offset = style[g] ? style[g]->offset_mm : std::array<double, 2>{};
-                // A band of the full-size image: its rows' span of clip space stretched over the viewport.
-                double half_height = view.sensor_height_mm / 2;
-                if (full) {
-                    const double top = full_bands.drawn_first(band), bottom = full_bands.drawn_end(band);
-                    offset[1] -= (1.0 - (top + bottom) / view.height) * half_height;
-                    half_height *= (bottom - top) / view.height;
-                }
-                for (const Program* program : {&s.raster, &s.splat}) {
-                    glUseProgram(program->get());
-                    glUniform1i(program->uniform("grid"), ghost_grid);
-                    glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
-                    glUniform2f(program->uniform("half_sensor"), static_cast<float>(view.sensor_width_mm / 2),
-                                static_cast<float>(half_height));
-                    glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * cos_angle));
-                    glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
-                    glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-                    glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
-                    glUniform1i(program->uniform("iris_sdf"), 0);
-                    glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
-                    glUniform1i(program->uniform("stop_crossings"), seq.stop_crossings[g]);
-                    glUniform4f(program->uniform("channels"), static_cast<float>(pass.weight[0] * gain[0] * light.scale[0]),
-                                static_cast<float>(pass.weight[1] * gain[1] * light.scale[1]),
-                                static_cast<float>(pass.weight[2] * gain[2] * light.scale[2]), 0.0f);
-                    glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
-                }
-                glUseProgram(s.raster.get());
-                glUniform1i(s.raster.uniform("rim_mode"), rim_mode);
-                glUniform1f(s.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
-            };
-            // Draws go into the target at 1/reduce of the image from here on, cleared if this render has not
-            // drawn into it yet. Returns true (bound).
-            auto bind_level = [&](int reduce) {
-                const std::size_t slot = State::slot(reduce);
-                FloatTarget& t = reduce == 1 ? full_target() : s.target(reduce, view.width, view.height);
-                if (reduce == 1) bind_full();  // the full-size target holds the band being drawn
-                else t.bind();
-                if (!drawn_into[slot]) t.clear();
-                drawn_into[slot] = true;
-                return true;
-            };
-            for (std::size_t next = 0; next < todo.size();) {
-                std::vector<Job> batch;
-                std::size_t used = 0;
-                while (next < todo.size()) {
-                    const std::size_t g = todo[next];
-                    const std::size_t n = static_cast<std::size_t>(plans[g].grid + 1) * static_cast<std::size_t>(plans[g].grid + 1);
-                    if (!batch.empty() && (options.per_ghost_power || (used + n) * kVertexBytes > s.vertices_bytes)) break;
-                    batch.push_back({g, static_cast<GLuint>(used)});
-                    used += n;
-                    ++next;
-                }
-                glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s.vertices.get());
-                for (const Job& job : batch) {
-                    const std::size_t g = job.ghost;
-                    const int ghost_grid = plans[g].grid;
-                    s.stats.ghosts_drawn += band == 0;
-                    s.stats.rays += band == 0 ? static_cast<long long>(ghost_grid + 1) * (ghost_grid + 1) : 0;
-                    dispatch_trace(ghost_grid, estimates[g].rect, rotation, axis.direction, seq.offset[g], seq.count[g],
-                                   job.first_vertex);
-                }
-                glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-                glUseProgram(s.shade.get());
-                for (const Job& job : batch) dispatch_shade(plans[job.ghost].grid, job.first_vertex, plans[job.ghost].reduce, seq.stop_crossings[job.ghost]);
-                glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-                check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pass.wavelength_nm));
+void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
+    band_ = band;
+    if (!ghosts_.empty())
+        for (std::size_t l = 0; l < lights_.size(); ++l)
+            for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(l, p);
+    if (options_.per_ghost_power || !drawn_into_[0]) return;
+    add_full_band(full_target(), rgb, view_.width, bands_, band);
+    drawn_into_[0] = false;  // the next band clears it
+}
 
-                for (const int reduce : {16, 8, 4, 2, 1}) {
-                    if (band > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
-                    bool bound = false;
-                    for (const Job& job : batch) {
-                        const std::size_t g = job.ghost;
-                        const GhostPlan& plan = plans[g];
-                        if (plan.reduce != reduce) continue;
-                        if (!bound) bound = bind_level(reduce);
-                        if (reduce > 1) ++s.stats.ghosts_reduced;
-                        ghost_uniforms(job, reduce, reduce >= kRimReduce ? 1 : 0);
-                        glUseProgram(s.raster.get());
-                        glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-                        glUseProgram(s.splat.get());
-                        glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
-                        check_gl(fmt::format("rasterising ghost {},{}", ghosts[g].second, ghosts[g].first));
+// Light l's ghosts at pass p: planned, then traced in batches into one vertex buffer and drawn grouped by
+// target: a barrier or a change of target makes a software rasteriser finish everything it has queued, so
+// there is one of each per batch rather than per ghost. Per-ghost power reads the target after every ghost,
+// so there each ghost is a batch.
+void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
+    const ScaledLight& light = lights_[l];
+    const SpectralPass& pass = passes_[p];
+    const optics::Ray axis = optics::collimated_ray(light.angle_x_deg, light.angle_y_deg, 0.0, 0.0, 0.0);
+    for (const Program* program : {&s_.raster, &s_.splat}) {
+        glUseProgram(program->get());
+        glUniform1i(program->uniform("ringing"), options_.ringing ? 1 : 0);
+        glUniform1i(program->uniform("iris_ringing"), 1);
+    }
+    if (options_.ringing)
+        glBindTextureUnit(1, s_.ringing_texture(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
+    const GhostSequences& seq = sequences(p).seq;
+    const std::vector<GhostEstimate>& estimates = estimates_[l].pass[p];
+    const DetailSettings detail{options_.accel, options_.grid, view_.sensor_width_mm / view_.width, options_.per_ghost_power};
+    const PassPlan plan = plan_pass(estimates, pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
+                                    selection_, detail, band_);
+    s_.stats.ghosts_skipped += plan.skipped;
+    s_.stats.ghosts_culled += plan.culled;
+    s_.stats.ghosts_faint += plan.faint;
+    // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a software
+    // rasteriser blends and stores less.
+    glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
+    const PassDraw pd{light, pass, seq, estimates, plan.plans, estimates_[l].rotation, axis.direction, std::abs(axis.direction.z)};
+    for (const std::vector<BatchJob>& batch :
+         batch_ghosts(plan.todo, plan.plans, s_.vertices_bytes / kVertexBytes, options_.per_ghost_power)) {
+        trace_batch(batch, pd);
+        raster_batch(batch, pd);
+    }
+}
 
-                        if (options.per_ghost_power) {
-                            const std::vector<float> rgba = full_target().read_rgba();
-                            for (std::size_t i = 0; i < pixels; ++i) {
-                                for (std::size_t c = 0; c < 3; ++c) {
-                                    const auto value = static_cast<double>(rgba[i * 4 + c]);
-                                    accumulated[i * 3 + c] += value;
-                                    powers[g].power[c] += value * pixel_area;
-                                }
-                            }
-                            full_target().clear();
-                        }
-                    }
-                }
-                // The reduced ghosts' rims, at kRimReduce times their level's resolution (ghost_raster_frag's
-                // rim_mode 2), grouped by target.
-                for (const int level : {1, 2, 4}) {
-                    if (band > 0 && level > 1) continue;  // only the full-size rims have rows in later bands
-                    bool rims_bound = false;
-                    for (const Job& job : batch) {
-                        const GhostPlan& plan = plans[job.ghost];
-                        if (plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
-                        if (!rims_bound) rims_bound = bind_level(level);
-                        ghost_uniforms(job, plan.reduce, 2);
-                        glUseProgram(s.raster.get());
-                        glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-                        check_gl(fmt::format("the rim of ghost {},{}", ghosts[job.ghost].second, ghosts[job.ghost].first));
-                    }
-                }
-            }
+// The batch's ray grids traced and shaded into the vertex buffer.
+void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.vertices.get());
+    for (const BatchJob& job : batch) {
+        const std::size_t g = job.ghost;
+        const int grid = pd.plans[g].grid;
+        s_.stats.ghosts_drawn += band_ == 0;
+        s_.stats.rays += band_ == 0 ? static_cast<long long>(grid + 1) * (grid + 1) : 0;
+        dispatch_trace(grid, pd.estimates[g].rect, pd.rotation, pd.direction, pd.seq.offset[g], pd.seq.count[g], job.first_vertex);
+    }
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glUseProgram(s_.shade.get());
+    for (const BatchJob& job : batch)
+        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, pd.plans[job.ghost].reduce, pd.seq.stop_crossings[job.ghost]);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
+}
+
+// The batch's traced grids rasterised (and splatted) level by level, then the reduced ghosts' rims at
+// kRimReduce times their level's resolution (ghost_raster_frag's rim_mode 2), grouped by target. Later bands
+// draw only into the full-size target.
+void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
+    for (const int reduce : {16, 8, 4, 2, 1}) {
+        if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
+        bool bound = false;
+        for (const BatchJob& job : batch) {
+            const std::size_t g = job.ghost;
+            const GhostPlan& plan = pd.plans[g];
+            if (plan.reduce != reduce) continue;
+            if (!bound) bind_level(reduce);
+            bound = true;
+            if (reduce > 1) ++s_.stats.ghosts_reduced;
+            ghost_uniforms(job, pd, reduce, reduce >= kRimReduce ? 1 : 0);
+            glUseProgram(s_.raster.get());
+            glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+            glUseProgram(s_.splat.get());
+            glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
+            check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
+            if (options_.per_ghost_power) add_ghost_power(g);
         }
     }
-    if (options.per_ghost_power || !drawn_into[0]) continue;
-    add_full_band(full_target(), rgb, view.width, full_bands, band);
-    drawn_into[0] = false;  // the next band clears it
+    for (const int level : {1, 2, 4}) {
+        if (band_ > 0 && level > 1) continue;  // only the full-size rims have rows in later bands
+        bool bound = false;
+        for (const BatchJob& job : batch) {
+            const GhostPlan& plan = pd.plans[job.ghost];
+            if (plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
+            if (!bound) bind_level(level);
+            bound = true;
+            ghost_uniforms(job, pd, plan.reduce, 2);
+            glUseProgram(s_.raster.get());
+            glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+            check_gl(fmt::format("the rim of ghost {},{}", ghosts_[job.ghost].second, ghosts_[job.ghost].first));
+        }
     }
-    band = 0;
+}
 
+// One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the pixels
+// of its level (1/reduce of the image); rim_mode 2 draws the same triangles at kRimReduce times that resolution.
+void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
+    const std::size_t g = job.ghost;
+    const int ghost_grid = pd.plans[g].grid;
+    const PupilRect& rect = pd.estimates[g].rect;
+    const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+    // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
+    const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
+    const bool full = target_reduce == 1;
+    const int target_w = (view_.width + target_reduce - 1) / target_reduce;
+    const int target_h = full ? bands_.rows_drawn(band_) : (view_.height + target_reduce - 1) / target_reduce;
+    const optics::GhostStyle* style = selection_.style[g];
+    const std::array<double, 3> gain = style ? style->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+    std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
+    // A band of the full-size image: its rows' span of clip space stretched over the viewport.
+    double half_height = view_.sensor_height_mm / 2;
+    if (full) {
+        const double top = bands_.drawn_first(band_), bottom = bands_.drawn_end(band_);
+        offset[1] -= (1.0 - (top + bottom) / view_.height) * half_height;
+        half_height *= (bottom - top) / view_.height;
+    }
+    for (const Program* program : {&s_.raster, &s_.splat}) {
+        glUseProgram(program->get());
+        glUniform1i(program->uniform("grid"), ghost_grid);
+        glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+        glUniform2f(program->uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(half_height));
+        glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * pd.cos_angle));
+        glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
+        glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
+        glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+        glUniform1i(program->uniform("iris_sdf"), 0);
+        glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+        glUniform1i(program->uniform("stop_crossings"), pd.seq.stop_crossings[g]);
+        glUniform4f(program->uniform("channels"), static_cast<float>(pd.pass.weight[0] * gain[0] * pd.light.scale[0]),
+                    static_cast<float>(pd.pass.weight[1] * gain[1] * pd.light.scale[1]),
+                    static_cast<float>(pd.pass.weight[2] * gain[2] * pd.light.scale[2]), 0.0f);
+        glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+    }
+    glUseProgram(s_.raster.get());
+    glUniform1i(s_.raster.uniform("rim_mode"), rim_mode);
+    glUniform1f(s_.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+}
+
+// Per-ghost power: the full-size target (drawn whole) read back into the CPU sum and ghost g's power, then cleared.
+void FlareRenderer::Drawing::add_ghost_power(std::size_t g) {
+    const std::vector<float> rgba = full_target().read_rgba();
+    const double pixel_area = view_.pixel_area_mm2();
+    for (std::size_t i = 0; i < accumulated_.size() / 3; ++i) {
+        for (std::size_t c = 0; c < 3; ++c) {
+            const auto value = static_cast<double>(rgba[i * 4 + c]);
+            accumulated_[i * 3 + c] += value;
+            powers_[g].power[c] += value * pixel_area;
+        }
+    }
+    full_target().clear();
+}
+
+void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
     glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-    if (options.per_ghost_power) {
-        for (int y = 0; y < view.height; ++y) {
-            const std::size_t src = static_cast<std::size_t>(view.height - 1 - y) * static_cast<std::size_t>(view.width) * 3;
-            const std::size_t dst = static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) * 3;
-            for (std::size_t i = 0; i < static_cast<std::size_t>(view.width) * 3; ++i)
-                rgb[dst + i] += static_cast<float>(accumulated[src + i]);
+    if (options_.per_ghost_power) {
+        const auto width = static_cast<std::size_t>(view_.width);
+        for (int y = 0; y < view_.height; ++y) {
+            const std::size_t src = static_cast<std::size_t>(view_.height - 1 - y) * width * 3;
+            const std::size_t dst = static_cast<std::size_t>(y) * width * 3;
+            for (std::size_t i = 0; i < width * 3; ++i) rgb[dst + i] += static_cast<float>(accumulated_[src + i]);
         }
-        if (ghost_powers) *ghost_powers = std::move(powers);
+        if (ghost_powers) *ghost_powers = std::move(powers_);
     } else {
         std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
         for (int slot : {1, 2, 3, 4}) {
-            if (!drawn_into[slot]) continue;
-            const FloatTarget& t = s.target(1 << slot, view.width, view.height);
+            if (!drawn_into_[slot]) continue;
+            const FloatTarget& t = s_.target(1 << slot, view_.width, view_.height);
             readbacks.emplace_back(t);
         }
-        add_targets(readbacks, rgb, view.width, view.height);
+        add_targets(readbacks, rgb, view_.width, view_.height);
     }
     glUseProgram(0);
     glBindVertexArray(0);
+}
+
+std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect) {
+    const auto found = std::find_if(ghosts_.begin(), ghosts_.end(), [&](const Ghost& gh) {
+        return gh.first == std::max(ghost.first, ghost.second) && gh.second == std::min(ghost.first, ghost.second);
+    });
+    if (found == ghosts_.end())
+        throw std::invalid_argument(fmt::format("{}: no ghost {},{}", system_.name, ghost.first, ghost.second));
+    const auto g = static_cast<std::size_t>(found - ghosts_.begin());
+    const GhostSequences& seq = sequences(0).seq;
+    std::vector<GhostEstimate> estimates(ghosts_.size());
+    estimates[g].rect = rect;
+    std::vector<GhostPlan> plans(ghosts_.size());
+    plans[g] = {true, grid, 1};
+    const optics::Ray axis = optics::collimated_ray(view_.angle_x_deg, view_.angle_y_deg, 0.0, 0.0, 0.0);
+    const ScaledLight light{view_.angle_x_deg, view_.angle_y_deg, {1.0, 1.0, 1.0}};
+    const PassDraw pd{light, passes_[0], seq, estimates, plans, 0.0, axis.direction, std::abs(axis.direction.z)};
+    trace_batch({{g, 0}}, pd);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<float> vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12);
+    glGetNamedBufferSubData(s_.vertices.get(), 0, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data());
+    check_gl("reading the traced vertices back");
+    glUseProgram(0);
+    glBindVertexArray(0);
+    return vertices;
+}
+
+void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                         const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
+    Drawing drawing = start_drawing(system, view, lights, options);
+    drawing.estimate_lights();
+    drawing.cull_scene();
+    for (int band = 0; band < drawing.bands(); ++band) drawing.draw_band(band, rgb);
+    drawing.read_back(rgb, ghost_powers);
+}
+
+// Checks the inputs, fits the ghosts to the memory budget (aperture culling leaves out those crossing the stop
+// three times) and sets up the drawing.
+FlareRenderer::Drawing FlareRenderer::start_drawing(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                                                    const GpuFlareOptions& options) {
+    if (options.grid < 2 || options.grid > 2048) {
+        throw std::invalid_argument(fmt::format("ghost grid {} outside 2..2048", options.grid));
+    }
+    if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
+    check_ghost_tables(system, view.passes().size(), options.memory);
+    state_->stats = {};
+    std::vector<Ghost> ghosts = fitted_ghosts(system, view, options.memory);
+    if (options.accel.aperture_culling)
+        std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
+    return Drawing(*state_, system, view, lights, options, std::move(ghosts));
+}
+
+std::vector<float> FlareRenderer::trace_ghost(const System& system, const FlareView& view, std::pair<int, int> ghost, int grid,
+                                              const PupilRect& rect) {
+    const ScaledLight light{view.angle_x_deg, view.angle_y_deg, {1.0, 1.0, 1.0}};
+    const GpuFlareOptions options;
+    Drawing drawing = start_drawing(system, view, std::span(&light, 1), options);
+    return drawing.trace_alone(ghost, grid, rect);
 }
 
 FlareImage FlareRenderer::render(const System& system, const FlareView& view, const GpuFlareOptions& options) {

@@ -19,7 +19,6 @@ using flare::GhostPower;
 using flare::PupilRect;
 using flare::SpectralPass;
 using flare::aperture_sdf;
-using flare::default_cache_dir;
 using flare::entrance_square;
 using flare::ghost_pupil_bounds;
 using flare::kRgbWavelengths_nm;

@@ -8,6 +8,7 @@
 #include <array>
 #include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <gpu/acceleration.h>
@@ -92,10 +93,21 @@ public:
     // Frees the render targets (made again by the next render): a large frame's (at 8K over 1 GB) are
     // then not held while the frame is stored and written.
     void release_targets();
+    // The trace step alone (for tests): ghost (first, second)'s (grid + 1)^2 ray grid over `rect` on the
+    // entrance plane, at the view's light and first pass, read back as ghost_trace_comp writes it (12 floats a
+    // vertex: sensor x, y (mm), r_rel, factor, three stop crossings' uv, valid (> 0.5), the shade step's
+    // irradiance; row by row from rect's (x0, y0) corner).
+    std::vector<float> trace_ghost(const System& system, const FlareView& view, std::pair<int, int> ghost, int grid,
+                                   const PupilRect& rect);
 
 private:
     // The ghosts of `view` that fit the budget (ghosts_within_budget), warning once when some are left out.
     std::vector<Ghost> fitted_ghosts(const System& system, const FlareView& view, const MemoryBudget& budget);
+    // The steps of a render (flare_renderer.cpp): estimate the lights, cull, plan, trace and raster each batch,
+    // read back.
+    class Drawing;
+    Drawing start_drawing(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
+                          const GpuFlareOptions& options);
     void draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
               const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
     struct State;

@@ -1,0 +1,118 @@
+// The CPU steps of FlareRenderer::draw (no GL): which ghosts a render draws and how they look, every light's
+// estimates, scene culling's verdicts, each pass's plan (which ghosts at which grid and level), the batches
+// they are traced in and the bands of the full-size target. The GL steps (estimate, trace a batch, raster a
+// batch, read back) are in flare_renderer.cpp; each step here can be run alone (tests/gpu/draw_plan_test.cpp).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include <gpu/acceleration.h>
+#include <gpu/flare_model.h>
+#include <optics/flare_look.h>
+
+namespace lensfx::gpu {
+
+struct ScaledLight;  // gpu/flare_renderer.h
+
+// What a render draws of a lens's ghosts, indexed like its ghost list: GpuFlareOptions::draw_only as a mask
+// (looked up in a sorted index, not searched per ghost) and each ghost's style (null: its physical look).
+struct GhostSelection {
+    std::vector<char> drawn;
+    std::vector<const optics::GhostStyle*> style;
+
+    // draw_only pairs in either order (empty: every ghost); styles by their two interfaces in either order.
+    static GhostSelection of(const std::vector<Ghost>& ghosts, const std::vector<std::pair<int, int>>& draw_only,
+                             const std::vector<optics::GhostStyle>& styles);
+    // A ghost whose style adds nothing to any channel.
+    bool dark(std::size_t ghost) const;
+};
+
+// One light's ghost estimates: per pass, per ghost, power scaled by the light's weight in that pass.
+struct LightEstimates {
+    std::vector<std::vector<GhostEstimate>> pass;
+    double rotation = 0.0;  // bounds-table rectangles turned to the light's azimuth
+};
+
+// The level of detail's total per pass: the drawn ghosts' estimated power summed over every light.
+std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::size_t passes, const std::vector<char>& drawn);
+
+// Scene culling's verdicts per light, pass and ghost: every light's drawn ghosts against what the frame shows
+// where they land, all at once (one budget per cell of the image). Spends map's budget.
+using LightVerdicts = std::vector<std::vector<std::vector<SceneVerdict>>>;
+LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::span<const ScaledLight> lights,
+                          const std::vector<SpectralPass>& passes, const GhostSelection& selection,
+                          const FlareView& view, double spread_px, VisibilityMap& map);
+
+// One ghost of one light and pass as scene culling sees it (its sensor box turned to the light's azimuth,
+// moved by its style, grown by the splats' and reduced levels' spread and spread_px; its peak times the
+// largest factor a channel adds it with).
+CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
+                   const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
+                   double spread_px);
+
+// What the level of detail needs besides the estimates (plan_ghosts' arguments).
+struct DetailSettings {
+    Acceleration accel;
+    int base_grid = 16;          // --grid
+    double pixel_mm = 0.1;       // the sensor width of one pixel
+    bool per_ghost_power = false;
+};
+
+// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
+// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
+// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
+// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
+// rest of the render.
+inline constexpr int kRimReduce = 4;
+
+// One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,
+// in ghost order (later bands only those with a full-size part: the ghost or its rim), with what band 0
+// counts for RenderStats.
+struct PassPlan {
+    std::vector<GhostPlan> plans;    // per ghost
+    std::vector<std::size_t> todo;   // ghost indices to trace and raster
+    int skipped = 0, culled = 0, faint = 0;
+};
+// verdicts: this light and pass's (empty: all Draw); total_power: pass_totals' entry for the pass.
+PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
+                   const GhostSelection& selection, const DetailSettings& detail, int band);
+
+// A ghost of a batch and where its grid vertices start in the vertex buffer.
+struct BatchJob {
+    std::size_t ghost;
+    std::size_t first_vertex;
+};
+// The todo ghosts in batches traced into one vertex buffer of `capacity` vertices, in order; a ghost larger
+// than the buffer alone (the buffer is made for the largest grid). Per-ghost power: a ghost a batch.
+std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& todo, const std::vector<GhostPlan>& plans,
+                                                std::size_t capacity, bool per_ghost_power);
+
+// The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
+// as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
+// with kMargin rows more on either side, which the 3 x 3 splats of points just outside it reach into.
+struct FullBands {
+    static constexpr int kMargin = 2;
+    int count = 1, image_rows = 0, rows_per_band = 0;
+    int first(int b) const { return b * rows_per_band; }
+    int end(int b) const { return std::min(image_rows, first(b) + rows_per_band); }
+    int drawn_first(int b) const { return count == 1 ? 0 : std::max(0, first(b) - kMargin); }
+    int drawn_end(int b) const { return count == 1 ? image_rows : std::min(image_rows, end(b) + kMargin); }
+    int rows_drawn(int b) const { return drawn_end(b) - drawn_first(b); }
+    int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin); }
+};
+// whole: one band whatever the size (per-ghost power reads the whole target back).
+FullBands full_target_bands(int width, int height, double max_bytes, bool whole);
+
+// The key of a lens's ghost selection (its sequences are built once per key and wavelength): system_hash
+// mixed with every ghost's two interfaces (flare::KeyHash, the disk cache's one key hash).
+std::uint64_t ghosts_key(const System& system, const std::vector<Ghost>& ghosts);
+// The bounds table's key: the ghosts' key, the wavelengths and the radius round the sensor.
+std::uint64_t bounds_table_key(std::uint64_t ghosts_key, const std::vector<SpectralPass>& passes, double sensor_radius_mm);
+
+}  // namespace lensfx::gpu

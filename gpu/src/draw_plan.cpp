@@ -1,0 +1,166 @@
+// The CPU steps of FlareRenderer::draw: selection, totals, scene culling, pass plans, batches, bands, keys.
+#include <gpu/draw_plan.h>
+
+#include <cmath>
+
+#include <gpu/flare_renderer.h>
+
+namespace lensfx::gpu {
+
+GhostSelection GhostSelection::of(const std::vector<Ghost>& ghosts, const std::vector<std::pair<int, int>>& draw_only,
+                                  const std::vector<optics::GhostStyle>& styles) {
+    GhostSelection out;
+    out.drawn.assign(ghosts.size(), 1);
+    if (!draw_only.empty()) {
+        std::vector<std::pair<int, int>> index;  // each pair in both orders, sorted
+        for (const auto& [a, b] : draw_only) {
+            index.emplace_back(a, b);
+            index.emplace_back(b, a);
+        }
+        std::sort(index.begin(), index.end());
+        for (std::size_t g = 0; g < ghosts.size(); ++g)
+            out.drawn[g] = std::binary_search(index.begin(), index.end(), std::pair<int, int>{ghosts[g].first, ghosts[g].second});
+    }
+    out.style.assign(ghosts.size(), nullptr);
+    for (const optics::GhostStyle& st : styles)
+        for (std::size_t g = 0; g < ghosts.size(); ++g)
+            if (ghosts[g].first == std::max(st.first, st.second) && ghosts[g].second == std::min(st.first, st.second))
+                out.style[g] = &st;
+    return out;
+}
+
+bool GhostSelection::dark(std::size_t ghost) const {
+    const optics::GhostStyle* st = style[ghost];
+    return st && !(st->gain[0] > 0.0 || st->gain[1] > 0.0 || st->gain[2] > 0.0);
+}
+
+std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::size_t passes, const std::vector<char>& drawn) {
+    std::vector<double> total(passes, 0.0);
+    for (const LightEstimates& light : lights)
+        for (std::size_t p = 0; p < light.pass.size(); ++p)
+            for (std::size_t g = 0; g < light.pass[p].size(); ++g)
+                if (drawn[g]) total[p] += light.pass[p][g].power;
+    return total;
+}
+
+CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
+                   const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
+                   double spread_px) {
+    if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !(e.peak > 0.0)) return {};
+    const double c = std::cos(rotation), sn = std::sin(rotation);
+    const std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
+    const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
+    CullItem item{1e300, 1e300, -1e300, -1e300, 0.0};
+    for (const double sx : {e.sensor.x0, e.sensor.x1})
+        for (const double sy : {e.sensor.y0, e.sensor.y1}) {
+            const double up_x = offset[0] - (c * sx - sn * sy);
+            const double up_y = offset[1] - (sn * sx + c * sy);
+            const double px = (up_x + 0.5 * view.sensor_width_mm) / pixel_w;
+            const double py = (0.5 * view.sensor_height_mm - up_y) / pixel_h;
+            item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), 0.0};
+        }
+    constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
+    const double spread = kSpreadPx + spread_px;
+    item.x0 -= spread;
+    item.y0 -= spread;
+    item.x1 += spread;
+    item.y1 += spread;
+    double factor = 0.0;
+    for (std::size_t k = 0; k < 3; ++k)
+        factor = std::max(factor, std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0)));
+    item.peak = e.peak * factor;
+    return item;
+}
+
+LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::span<const ScaledLight> lights,
+                          const std::vector<SpectralPass>& passes, const GhostSelection& selection,
+                          const FlareView& view, double spread_px, VisibilityMap& map) {
+    const std::size_t ghosts = selection.drawn.size();
+    std::vector<CullItem> items;
+    for (std::size_t l = 0; l < lights.size(); ++l)
+        for (std::size_t p = 0; p < passes.size(); ++p)
+            for (std::size_t g = 0; g < ghosts; ++g)
+                items.push_back(selection.drawn[g] ? cull_item(estimates[l].pass[p][g], estimates[l].rotation, lights[l].scale,
+                                                               passes[p].weight, selection.style[g], view, spread_px)
+                                                   : CullItem{});
+    const std::vector<SceneVerdict> all = scene_cull(items, map);
+    LightVerdicts verdicts(lights.size());
+    auto next = all.begin();
+    for (std::size_t l = 0; l < lights.size(); ++l)
+        for (std::size_t p = 0; p < passes.size(); ++p) {
+            verdicts[l].emplace_back(next, next + static_cast<std::ptrdiff_t>(ghosts));
+            next += static_cast<std::ptrdiff_t>(ghosts);
+        }
+    return verdicts;
+}
+
+PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
+                   const GhostSelection& selection, const DetailSettings& detail, int band) {
+    PassPlan out;
+    out.plans = plan_ghosts(estimates, detail.accel, detail.base_grid, detail.pixel_mm, detail.per_ghost_power, total_power, verdicts);
+    for (std::size_t g = 0; g < estimates.size(); ++g) {
+        if (!selection.drawn[g] || selection.dark(g)) continue;
+        const SceneVerdict verdict = verdicts.empty() ? SceneVerdict::Draw : verdicts[g];
+        const GhostPlan& plan = out.plans[g];
+        if (!plan.draw) {
+            if (band == 0) {
+                ++out.skipped;
+                out.culled += verdict == SceneVerdict::Cull && !estimates[g].rect.empty();
+            }
+            continue;
+        }
+        // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
+        if (band > 0 && plan.reduce != 1 && plan.reduce != kRimReduce) continue;
+        out.faint += band == 0 && verdict == SceneVerdict::Faint;
+        out.todo.push_back(g);
+    }
+    return out;
+}
+
+std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& todo, const std::vector<GhostPlan>& plans,
+                                                std::size_t capacity, bool per_ghost_power) {
+    std::vector<std::vector<BatchJob>> batches;
+    for (std::size_t next = 0; next < todo.size();) {
+        std::vector<BatchJob> batch;
+        std::size_t used = 0;
+        while (next < todo.size()) {
+            const std::size_t g = todo[next];
+            const auto side = static_cast<std::size_t>(plans[g].grid + 1);
+            if (!batch.empty() && (per_ghost_power || used + side * side > capacity)) break;
+            batch.push_back({g, used});
+            used += side * side;
+            ++next;
+        }
+        batches.push_back(std::move(batch));
+    }
+    return batches;
+}
+
+FullBands full_target_bands(int width, int height, double max_bytes, bool whole) {
+    FullBands b;
+    b.image_rows = height;
+    const double bytes = 16.0 * width * height;
+    if (!whole && max_bytes > 0.0 && bytes > max_bytes)
+        b.count = static_cast<int>(std::min<double>(height, std::ceil(bytes / max_bytes)));
+    b.rows_per_band = (height + b.count - 1) / b.count;
+    b.count = (height + b.rows_per_band - 1) / b.rows_per_band;  // no empty band
+    return b;
+}
+
+std::uint64_t ghosts_key(const System& system, const std::vector<Ghost>& ghosts) {
+    flare::KeyHash key{system_hash(system)};
+    for (const Ghost& ghost : ghosts) {
+        key.num(static_cast<std::int64_t>(ghost.first));
+        key.num(static_cast<std::int64_t>(ghost.second));
+    }
+    return key.h;
+}
+
+std::uint64_t bounds_table_key(std::uint64_t ghosts_key, const std::vector<SpectralPass>& passes, double sensor_radius_mm) {
+    flare::KeyHash key{ghosts_key};
+    for (const SpectralPass& pass : passes) key.num(pass.wavelength_nm);
+    key.num(sensor_radius_mm);
+    return key.h;
+}
+
+}  // namespace lensfx::gpu

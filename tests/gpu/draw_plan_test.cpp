@@ -1,0 +1,202 @@
+// The renderer's steps run alone (issue 15): the CPU plan of a pass (which ghosts at which grid and level for
+// given estimates), the batches and bands, the draw_only mask; and the GL trace step of one ghost against
+// the CPU tracer.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <gpu/context.h>
+#include <gpu/draw_plan.h>
+#include <gpu/flare_renderer.h>
+#include <optics/ghosts.h>
+#include <optics/lens_file.h>
+#include <optics/system.h>
+
+namespace lensfx::gpu {
+namespace {
+
+std::vector<Ghost> ghost_list(std::vector<std::pair<int, int>> pairs) {
+    std::vector<Ghost> ghosts;
+    for (const auto& [first, second] : pairs) {
+        Ghost g;
+        g.first = first;
+        g.second = second;
+        ghosts.push_back(g);
+    }
+    return ghosts;
+}
+
+TEST(GhostSelection, DrawOnlyMaskTakesEitherOrderAndStylesFindTheirGhost) {
+    const std::vector<Ghost> ghosts = ghost_list({{3, 1}, {5, 2}, {6, 0}, {4, 3}});
+    const std::vector<optics::GhostStyle> styles = {{2, 5, {0.0, 0.0, 0.0}, {}}, {0, 6, {2.0, 1.0, 1.0}, {}}};
+    const GhostSelection all = GhostSelection::of(ghosts, {}, styles);
+    EXPECT_EQ(all.drawn, (std::vector<char>{1, 1, 1, 1}));
+    EXPECT_EQ(all.style[0], nullptr);
+    EXPECT_EQ(all.style[1], &styles[0]);
+    EXPECT_EQ(all.style[2], &styles[1]);
+    EXPECT_TRUE(all.dark(1));    // all gains 0
+    EXPECT_FALSE(all.dark(2));
+    EXPECT_FALSE(all.dark(0));   // no style: its physical look
+    const GhostSelection some = GhostSelection::of(ghosts, {{1, 3}, {6, 0}, {9, 9}}, {});
+    EXPECT_EQ(some.drawn, (std::vector<char>{1, 0, 1, 0}));
+}
+
+// Four ghosts of one pass: a bright frame-filling smooth one (drawn at 1/16, its rim at 1/4), a bright small
+// sharp one (full size), one under the level of detail's threshold, one the coarse pass saw no light of; the
+// last of five is not in the mask.
+std::vector<GhostEstimate> five_estimates(double pixel_mm) {
+    std::vector<GhostEstimate> e(5);
+    for (GhostEstimate& g : e) g.rect = {-1, -1, 1, 1};
+    e[0].power = 1.0;
+    e[0].area_cv = 0.01;
+    e[0].extent_mm = 2100 * pixel_mm;
+    e[1].power = 0.5;
+    e[1].area_cv = 2.0;
+    e[1].extent_mm = 40 * pixel_mm;
+    e[2].power = 1e-7;
+    e[3].rect = {};
+    e[3].power = 0.3;
+    e[4].power = 0.4;
+    e[4].extent_mm = 300 * pixel_mm;
+    return e;
+}
+
+TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
+    const double pixel_mm = 0.01;
+    const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}),
+                                                        {{1, 0}, {2, 0}, {3, 0}, {4, 0}}, {});
+    DetailSettings detail;
+    detail.base_grid = 32;
+    detail.pixel_mm = pixel_mm;
+    const PassPlan plan = plan_pass(e, 0.0, {}, selection, detail, 0);
+    EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(plan.plans[0].reduce, 16);
+    EXPECT_EQ(plan.plans[0].grid, 16);  // smooth: half the base grid
+    EXPECT_EQ(plan.plans[1].reduce, 1);
+    EXPECT_EQ(plan.plans[1].grid, 64);  // sharp: refined
+    EXPECT_EQ(plan.skipped, 2);         // below the threshold, and no light; ghost 4 is not in the mask
+    EXPECT_EQ(plan.culled, 0);
+    // A later band of the full-size target: only the ghosts with a full-size part (the 1/16 ghost's rim is at 1/4).
+    EXPECT_EQ(plan_pass(e, 0.0, {}, selection, detail, 1).todo, (std::vector<std::size_t>{1}));
+    EXPECT_EQ(plan_pass(e, 0.0, {}, selection, detail, 1).skipped, 0);  // counted in band 0 only
+    // Per-ghost power: everything at full size, so every band has every drawn ghost.
+    detail.per_ghost_power = true;
+    const PassPlan whole = plan_pass(e, 0.0, {}, selection, detail, 1);
+    EXPECT_EQ(whole.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(whole.plans[0].reduce, 1);
+}
+
+TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
+    const double pixel_mm = 0.01;
+    const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
+    DetailSettings detail;
+    detail.base_grid = 32;
+    detail.pixel_mm = pixel_mm;
+    const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Faint, SceneVerdict::Draw,
+                                                SceneVerdict::Cull, SceneVerdict::Cull};
+    const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
+    EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(plan.culled, 1);  // ghost 4; ghost 3 had no light to cull
+    EXPECT_EQ(plan.faint, 1);
+    EXPECT_EQ(plan.skipped, 3);
+    EXPECT_LE(plan.plans[1].grid, 16);  // faint: at most half the base grid
+    // A total over every light's ghosts larger than this light's: its ghost 1 now falls under the threshold.
+    EXPECT_EQ(plan_pass(e, 8e3, verdicts, selection, detail, 0).todo, (std::vector<std::size_t>{0}));
+}
+
+TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
+    std::vector<GhostPlan> plans(4);
+    plans[0] = {true, 9, 1};   // 100 vertices
+    plans[1] = {true, 9, 1};
+    plans[2] = {true, 19, 1};  // 400: over the buffer alone
+    plans[3] = {true, 4, 1};   // 25
+    const auto batches = batch_ghosts({0, 1, 2, 3}, plans, 250, false);
+    ASSERT_EQ(batches.size(), 3u);
+    ASSERT_EQ(batches[0].size(), 2u);
+    EXPECT_EQ(batches[0][1].ghost, 1u);
+    EXPECT_EQ(batches[0][1].first_vertex, 100u);
+    ASSERT_EQ(batches[1].size(), 1u);
+    EXPECT_EQ(batches[1][0].ghost, 2u);
+    EXPECT_EQ(batches[2][0].ghost, 3u);
+    EXPECT_EQ(batches[2][0].first_vertex, 0u);
+    EXPECT_EQ(batch_ghosts({0, 1, 3}, plans, 250, true).size(), 3u);
+    EXPECT_TRUE(batch_ghosts({}, plans, 250, false).empty());
+}
+
+TEST(FullTargetBands, CoverEveryRowOnceWithinTheLimit) {
+    const FullBands one = full_target_bands(7680, 4320, 400e6, false);
+    EXPECT_EQ(one.count, 2);
+    int covered = 0;
+    for (int b = 0; b < one.count; ++b) {
+        EXPECT_EQ(one.first(b), covered);
+        covered = one.end(b);
+        EXPECT_LE(16.0 * 7680 * one.rows_drawn(b), 400e6 + 16.0 * 7680 * 2 * FullBands::kMargin);
+        EXPECT_LE(one.rows_drawn(b), one.target_rows());
+    }
+    EXPECT_EQ(covered, 4320);
+    EXPECT_EQ(full_target_bands(7680, 4320, 400e6, true).count, 1);
+    EXPECT_EQ(full_target_bands(640, 480, 400e6, false).count, 1);
+}
+
+TEST(PassTotals, SumEveryLightsDrawnGhosts) {
+    std::vector<LightEstimates> lights(2);
+    for (LightEstimates& l : lights) l.pass.assign(2, std::vector<GhostEstimate>(3));
+    lights[0].pass[0][0].power = 1.0;
+    lights[1].pass[0][0].power = 2.0;
+    lights[1].pass[0][2].power = 4.0;  // not drawn
+    lights[0].pass[1][1].power = 8.0;
+    const std::vector<double> totals = pass_totals(lights, 2, {1, 1, 0});
+    EXPECT_EQ(totals, (std::vector<double>{3.0, 8.0}));
+}
+
+// The trace step alone: the Cooke triplet's 1,7 ghost over its entrance square, traced on the GPU (float),
+// lands where the CPU tracer (double) puts the same rays, with the same transmission and the same rays failing.
+TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.angle_x_deg = 3.0;
+    view.angle_y_deg = 2.0;
+    view.wavelength_nm = 550.0;
+    const optics::TraceSystem traced(system, 550.0);
+    const PupilRect square = entrance_square(traced, view);
+    const std::vector<Ghost> ghosts = optics::enumerate_ghosts(system);
+    const auto ghost = std::find_if(ghosts.begin(), ghosts.end(), [](const Ghost& g) { return g.first == 6 && g.second == 0; });
+    ASSERT_NE(ghost, ghosts.end());
+
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    constexpr int kGrid = 32;
+    const std::vector<float> vertices = renderer.trace_ghost(system, view, {0, 6}, kGrid, square);
+    ASSERT_EQ(vertices.size(), static_cast<std::size_t>((kGrid + 1) * (kGrid + 1) * 12));
+    int both = 0, disagree = 0;
+    for (int iy = 0; iy <= kGrid; ++iy)
+        for (int ix = 0; ix <= kGrid; ++ix) {
+            const double x = square.x0 + (square.x1 - square.x0) * ix / kGrid;
+            const double y = square.y0 + (square.y1 - square.y0) * iy / kGrid;
+            const optics::Ray ray = optics::collimated_ray(view.angle_x_deg, view.angle_y_deg, x, y, 0.0);
+            const TraceResult cpu = optics::trace(traced, ray, ghost->path);
+            const float* v = vertices.data() + static_cast<std::size_t>(iy * (kGrid + 1) + ix) * 12;
+            const bool gpu_ok = v[10] > 0.5f;
+            if (gpu_ok != cpu.ok()) {
+                ++disagree;
+                continue;
+            }
+            if (!gpu_ok) continue;
+            ++both;
+            EXPECT_NEAR(v[0], cpu.position.x, 1e-3) << ix << "," << iy;
+            EXPECT_NEAR(v[1], cpu.position.y, 1e-3) << ix << "," << iy;
+            EXPECT_NEAR(v[2], cpu.r_rel, 1e-3) << ix << "," << iy;
+            EXPECT_NEAR(v[3], cpu.transmission, 0.01 * cpu.transmission + 1e-7) << ix << "," << iy;
+        }
+    EXPECT_GT(both, 100);  // of 33 x 33 over the entrance square: about a fifth get through
+    EXPECT_LE(disagree, kGrid);  // rays at a surface's edge may go either way in float
+    EXPECT_THROW(renderer.trace_ghost(system, view, {0, 99}, kGrid, square), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lensfx::gpu
