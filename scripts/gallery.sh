@@ -63,17 +63,17 @@ item Tree "$data/ScanLines/Tree.exr" "" \
 item GoldenGate "$data/Tiles/GoldenGate.exr" "" \
   --lens brendel-tessar --fstop 11 --grid 32 --max-lights 40 --min-light 1e-4 --ghost-gain 10 --starburst-gain 6 --starburst-scale 10
 item StageEnvLatLong "$data/MultiResolution/StageEnvLatLong.exr" "" \
-  --lens pbrt-wide-22 --fstop 5.6 --grid 32 --ghost-gain 60 --starburst-gain 2 --starburst-scale 10 --extended-gain 0.2
+  --lens pbrt-wide-22 --fstop 5.6 --grid 32 --ghost-gain 10 --starburst-gain 2 --starburst-scale 10 --extended-gain 0.2
 item BrightRings "$data/TestImages/BrightRings.exr" "" \
   --lens cooke-triplet --fstop 8 --grid 32 --ghost-gain 5 --extended-gain 0.5
 item BrightRingsNanInf "$data/TestImages/BrightRingsNanInf.exr" "" \
   --lens cooke-triplet --fstop 8 --grid 32 --ghost-gain 5 --extended-gain 0.5
 
-# The sample shot: the stage pan, and its backdrop at one big --gain against --extended-gain 0.2.
-item pan-01 samples/pan/pan.0001.exr "" \
-  --lens brendel-tessar --fstop 5.6 --grid 32 --ghost-gain 30 --starburst-gain 4 --starburst-scale 10 --extended-gain 0.2
-item pan-12 samples/pan/pan.0012.exr "" \
-  --lens brendel-tessar --fstop 5.6 --grid 32 --ghost-gain 30 --starburst-gain 4 --starburst-scale 10 --extended-gain 0.2
+# The sample shot: the stage pan with scripts/demo.sh's settings (these previews are also the README's),
+# and its backdrop at one big --gain against the controls (--extended-gain 0.2).
+demo=(--lens brendel-tessar --fstop 5.6 --grid 64 --ghost-gain 20 --starburst-gain 4 --starburst-scale 10 --extended-gain 0.2)
+item pan-01 samples/pan/pan.0001.exr "" "${demo[@]}"
+item pan-12 samples/pan/pan.0012.exr "" "${demo[@]}"
 item pan-12-gain100 samples/pan/pan.0012.exr "" \
-  --lens brendel-tessar --fstop 5.6 --grid 32 --gain 100 --starburst-scale 20
+  --lens brendel-tessar --fstop 5.6 --grid 64 --gain 100 --starburst-scale 20
 echo "gallery: $(ls "$out"/*.png | wc -l) previews in $out, $(du -ch "$out"/*.png | tail -1 | cut -f1)" >&2

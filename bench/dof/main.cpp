@@ -1,7 +1,8 @@
-// bench_dof [--quick] [--no-uniform-skip] [--csv FILE]: the lens blur's time against its error. For each scene (a synthetic
+// bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N]: the lens blur's time against its error. For each scene (a synthetic
 // layered scene, a crop of the deep forest) and each quality setting (lens rays per pixel, chromatic or
 // not), the GPU trace's milliseconds and its relative L1 error against the dense CPU reference (512 lens
 // rays per pixel and channel, every layer of every crossed cell), side by side.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -58,6 +59,24 @@ std::optional<Scene> forest_crop(int w, int h) {
     return Scene{"forest", dof::layers_from_deep(crop, 0.01), 0.0};  // depth read as centimetres
 }
 
+// The n pixels where a and b (RGB, w wide) differ most, with both values: where an error comes from.
+void print_worst(const std::vector<float>& a, const std::vector<float>& b, int w, int n) {
+    std::vector<std::pair<double, std::size_t>> d;
+    for (std::size_t i = 0; i < a.size() / 3; ++i) {
+        double e = 0;
+        for (std::size_t c = 0; c < 3; ++c) e += std::abs(double{a[3 * i + c]} - double{b[3 * i + c]});
+        d.emplace_back(e, i);
+    }
+    std::sort(d.begin(), d.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+    double total = 0;
+    for (const auto& e : d) total += e.first;
+    for (int k = 0; k < n && k < static_cast<int>(d.size()); ++k) {
+        const std::size_t i = d[static_cast<std::size_t>(k)].second;
+        fmt::print("  ({}, {}): {:.3f} of {:.3f} total; gpu {:.3f} {:.3f} {:.3f}, reference {:.3f} {:.3f} {:.3f}\n", static_cast<int>(i) % w,
+                   static_cast<int>(i) / w, d[static_cast<std::size_t>(k)].first, total, a[3 * i], a[3 * i + 1], a[3 * i + 2], b[3 * i], b[3 * i + 1], b[3 * i + 2]);
+    }
+}
+
 double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
     double d = 0, s = 0;
     for (std::size_t i = 0; i < a.size(); ++i) d += std::abs(double{a[i]} - double{b[i]}), s += std::abs(double{b[i]});
@@ -68,13 +87,16 @@ double relative_l1(const std::vector<float>& a, const std::vector<float>& b) {
 
 int main(int argc, char** argv) {
     bool quick = false, skip = true;
+    int worst = 0, only_rays = 0;
     std::string csv_path;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--quick") quick = true;
         else if (a == "--no-uniform-skip") skip = false;  // trace every pixel (TraceSettings::uniform_skip)
         else if (a == "--csv" && i + 1 < argc) csv_path = argv[++i];
-        else { fmt::print(stderr, "usage: bench_dof [--quick] [--no-uniform-skip] [--csv FILE]\n"); return 2; }
+        else if (a == "--rays" && i + 1 < argc) only_rays = std::stoi(argv[++i]);  // this setting only
+        else if (a == "--worst" && i + 1 < argc) worst = std::stoi(argv[++i]);  // list the pixels that differ most
+        else { fmt::print(stderr, "usage: bench_dof [--quick] [--no-uniform-skip] [--csv FILE] [--rays N] [--worst N]\n"); return 2; }
     }
     const int w = quick ? 128 : 256, h = quick ? 72 : 144;
     std::vector<Scene> scenes{synthetic(w, h)};
@@ -101,6 +123,7 @@ int main(int argc, char** argv) {
         const double ref_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         for (bool chromatic : {false, true}) {
             for (int rays : {4, 8, 16, 32, 64, table.samples}) {
+                if (only_rays != 0 && rays != only_rays) continue;
                 dof::TraceSettings s;
                 s.rays = rays, s.chromatic = chromatic, s.uniform_skip = skip;
                 renderer.render(scene.layers, table, s);  // warm
@@ -108,6 +131,7 @@ int main(int argc, char** argv) {
                 const double err = relative_l1(out, ref);
                 const std::string setting = chromatic ? "rgb" : "green";
                 fmt::print("{:<10} {:<18} {:>8} {:>6} {:>9.1f} {:>10.4f} {:>9.0f}\n", scene.name, "mld-double-gauss", setting, rays, renderer.last_ms(), err, ref_ms);
+                if (rays == table.samples) print_worst(out, ref, w, worst);
                 if (csv) fmt::print(csv, "{},mld-double-gauss,2.8,{},{},{},{},{:.2f},{:.5f},{:.0f}\n", scene.name, scene.focus_m, setting, rays, chromatic ? 1 : 0, renderer.last_ms(), err, ref_ms);
             }
         }

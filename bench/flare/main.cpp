@@ -5,6 +5,9 @@
 // one at grid --structure-grid (512) with every acceleration off (0: not computed).
 //   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
 //               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1] [--structure-grid N]
+//               [--full-target-bytes B]
+// --full-target-bytes: the full-size GL target's band limit (GpuFlareOptions::full_target_bytes; 0: one
+// whole target), to time the banded target of big frames against one whole target.
 // --ref-bounds 1: the reference's rays cover each ghost's pupil bounds (ReferenceOptions::ghost_bounds),
 // so small ghosts of big zooms get enough rays. --rays 0: times only, no reference (nor error figures),
 // and the fewest ms of CPU (all threads) an RGB render took.
@@ -64,6 +67,7 @@ int main(int argc, char** argv) try {
     int width = 240;
     int height = 160;
     int grid = lensfx::gpu::GpuFlareOptions{}.grid;
+    double full_target_bytes = lensfx::gpu::GpuFlareOptions{}.full_target_bytes;
     int rays = 400;
     int repeat = 3;
     std::string platform = "auto";
@@ -78,6 +82,7 @@ int main(int argc, char** argv) try {
         else if (key == "--size") { const auto v = split(value, 'x'); width = std::stoi(v.at(0)); height = std::stoi(v.at(1)); }
         else if (key == "--grid") grid = std::stoi(value);
         else if (key == "--rays") rays = std::stoi(value);
+        else if (key == "--full-target-bytes") full_target_bytes = std::stod(value);
         else if (key == "--repeat") repeat = std::max(1, std::stoi(value));
         else if (key == "--gpu") platform = value;
         else if (key == "--ref-bounds") ref_bounds = value == "1";
@@ -106,6 +111,7 @@ int main(int argc, char** argv) try {
             const std::size_t ghosts = lensfx::optics::ghost_count(system);
             lensfx::gpu::GpuFlareOptions options;
             options.grid = grid;
+            options.full_target_bytes = full_target_bytes;
             const lensfx::flare::FlareImage rgb_image = renderer.render(system, view, options);  // also the warm-up
             double structure = -1.0;
             if (structure_grid > 0) {

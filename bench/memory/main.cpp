@@ -3,7 +3,9 @@
 // and as PNG, an 8K sequence with --queue-depth 1 (and under --memory-limit 2500M), and `lensfx flare` on
 // lenses of many surfaces (a Cooke triplet behind flat plates). Each case is one run of the program.
 //   bench_memory [--binary PATH] [--size N (8192)] [--frames N (3)] [--lens NAME (angenieux-double-gauss)]
-//                [--surfaces 100,300,1000 (empty: none)] [--no-limit-cases] [--dir DIR]
+//                [--surfaces 100,300,1000 (empty: none)] [--no-limit-cases] [--no-frame-cases] [--dir DIR]
+// It also runs the hostile sizes: tiny EXRs declaring 30000^2 and 10^6^2 display windows (passed through
+// and flared) and a raw stream of --size 99999x99999; --no-frame-cases leaves out the 8K frame cases.
 // --binary runs another build (e.g. an older one for before/after figures; cases with --memory-limit
 // are skipped for a binary that does not know the option).
 #include <sys/resource.h>
@@ -35,6 +37,7 @@ struct Options {
     std::string lens = "angenieux-double-gauss";
     std::vector<int> surfaces{100, 300, 1000};
     bool limit_cases = true;
+    bool frame_cases = true;
     fs::path dir;
 };
 
@@ -89,6 +92,20 @@ void make_frame(const fs::path& path, int n) {
         throw std::runtime_error(fmt::format("cannot write {}", path.string()));
 }
 
+// A half RGB EXR of 8 x 8 pixels (one light of 1000 on 0.1) at (4, 4) in a display window of `display`
+// squared: a file of a few KB that declares a huge frame.
+void make_windowed_frame(const fs::path& path, int display) {
+    constexpr int n = 8;
+    OIIO::ImageSpec spec(n, n, 3, OIIO::TypeHalf);
+    spec.x = spec.y = 4;
+    spec.full_width = spec.full_height = display;
+    std::vector<float> px(n * n * 3, 0.1f);
+    for (int c = 0; c < 3; ++c) px[static_cast<std::size_t>((n / 2 * n + n / 2) * 3 + c)] = 1000.0f;
+    auto out = OIIO::ImageOutput::create(path.string());
+    if (!out || !out->open(path.string(), spec) || !out->write_image(OIIO::TypeFloat, px.data()) || !out->close())
+        throw std::runtime_error(fmt::format("cannot write {}", path.string()));
+}
+
 // A lens of `surfaces` surfaces (tests/memory/plate_lens.h) written to `dir`.
 fs::path make_lens(const fs::path& dir, int surfaces) {
     const fs::path path = dir / fmt::format("plates-{}.toml", surfaces);
@@ -118,6 +135,7 @@ Options parse(int argc, char** argv) {
         else if (a == "--lens") o.lens = next();
         else if (a == "--surfaces") o.surfaces = parse_list(next());
         else if (a == "--no-limit-cases") o.limit_cases = false;
+        else if (a == "--no-frame-cases") o.frame_cases = false;
         else if (a == "--dir") o.dir = next();
         else throw std::invalid_argument("unknown argument " + a);
     }
@@ -137,8 +155,8 @@ int main(int argc, char** argv) {
         ::setenv("LENSFX_CACHE_DIR", cache.c_str(), 1);
 
         const fs::path frame = dir / "in.0001.exr";
-        if (!fs::exists(frame)) make_frame(frame, o.size);
-        for (int i = 2; i <= o.frames; ++i) {
+        if (o.frame_cases && !fs::exists(frame)) make_frame(frame, o.size);
+        for (int i = 2; o.frame_cases && i <= o.frames; ++i) {
             const fs::path copy = dir / fmt::format("in.{:04d}.exr", i);
             if (!fs::exists(copy)) fs::copy_file(frame, copy);
         }
@@ -150,14 +168,27 @@ int main(int argc, char** argv) {
         struct Case {
             std::string name, command;
         };
-        std::vector<Case> cases = {
-            {fmt::format("{0}x{0} pass-through", o.size), fmt::format("{} -i {} -o {}", bin, in, out("pass.exr"))},
-            {fmt::format("{0}x{0} flare, EXR out", o.size), fmt::format("{} -i {} -o {}{}", bin, in, out("flare.exr"), lens)},
-            {fmt::format("{0}x{0} flare, PNG out", o.size), fmt::format("{} -i {} -o {}{}", bin, in, out("flare.png"), lens)},
-            {fmt::format("{0}x{0} x {1} frames, flare, --queue-depth 1", o.size, o.frames),
-             fmt::format("{} -i {} -o {} --queue-depth 1{}", bin, seq, out("seq.####.exr"), lens)},
-        };
-        if (o.limit_cases) {
+        std::vector<Case> cases;
+        if (o.frame_cases) {
+            cases = {
+                {fmt::format("{0}x{0} pass-through", o.size), fmt::format("{} -i {} -o {}", bin, in, out("pass.exr"))},
+                {fmt::format("{0}x{0} flare, EXR out", o.size), fmt::format("{} -i {} -o {}{}", bin, in, out("flare.exr"), lens)},
+                {fmt::format("{0}x{0} flare, PNG out", o.size), fmt::format("{} -i {} -o {}{}", bin, in, out("flare.png"), lens)},
+                {fmt::format("{0}x{0} x {1} frames, flare, --queue-depth 1", o.size, o.frames),
+                 fmt::format("{} -i {} -o {} --queue-depth 1{}", bin, seq, out("seq.####.exr"), lens)},
+            };
+        }
+        for (int display : {30000, 1000000}) {
+            const fs::path tiny = dir / fmt::format("window-{}.exr", display);
+            make_windowed_frame(tiny, display);
+            const std::string t = fmt::format("\"{}\"", tiny.string());
+            cases.push_back({fmt::format("8x8 data in a {0}x{0} display window, pass-through", display),
+                             fmt::format("{} -i {} -o {}", bin, t, out("window-pass.exr"))});
+            cases.push_back({fmt::format("8x8 data in a {0}x{0} display window, flare", display),
+                             fmt::format("{} -i {} -o {}{}", bin, t, out("window-flare.exr"), lens)});
+        }
+        cases.push_back({"raw stream, --size 99999x99999", fmt::format("{} -i - -o - --pix-fmt gbrpf32le --size 99999x99999 < /dev/null", bin)});
+        if (o.frame_cases && o.limit_cases) {
             cases.push_back({fmt::format("{0}x{0} x {1} frames, flare, --memory-limit 2500M", o.size, o.frames),
                              fmt::format("{} -i {} -o {} --memory-limit 2500M{}", bin, seq, out("lim.####.exr"), lens)});
         }

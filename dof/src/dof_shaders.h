@@ -10,10 +10,13 @@ layout(rgba32f, binding = 0) writeonly uniform image2D result;
 uniform sampler2D hiz;            // (lowest, highest) inverse depth per cell, one mip level per hierarchy level
 uniform sampler2DArray layer_w;   // (1/front, 1/back); front < 0: no surface here or in later layers
 uniform sampler2DArray layer_rgba;
-uniform sampler2DArray ray_line;  // (cx, ax, cy, ay): pixel(w) = c + a w; x sample, y grid point, layer band
-uniform sampler2DArray ray_weight;
-uniform sampler2D colour_min, colour_max;  // per hierarchy cell, the range of every layer's RGBA
+uniform sampler2DArray ray_line;  // (cx, ax, cy, ay): pixel(w) = c + a w; x sample, y grid point, layer band;
+                                  // cx = -1e30: the ray is stopped
+uniform sampler2D colour_min, colour_max;  // per cell of colour_level, the range of every layer's RGBA
+uniform int colour_level;
 uniform float reach_px, focus_w;           // the widest blur radius of the frame, the focused depth
+uniform sampler2D achromatic_cell;         // per cell of the table's grid: 1 where the bands' rays are one
+uniform ivec2 origin;                      // the layers' pixel (0, 0) in the table's raster
 uniform ivec2 size;
 uniform int layer_count, top_level, start_level, max_iterations;
 uniform float w_near, w_far;
@@ -29,8 +32,9 @@ ivec2 clamp_cell(ivec2 c, int level) {
 }
 
 // Each corner's ray relative to its grid point, moved to p (lens_rays.cpp ray_at): a sample that passes at
-// some corners only still converges on this pixel.
+// some corners only still converges on this pixel. p in the layers' pixels, the line too.
 float fetch_ray(int ch, vec2 p, int s, out vec4 line) {
+    p += vec2(origin);
     vec2 f = clamp(p / cell, vec2(0.0), vec2(grid - 1));
     ivec2 g0 = min(ivec2(f), grid - 2);
     vec2 t = f - vec2(g0);
@@ -39,13 +43,15 @@ float fetch_ray(int ch, vec2 p, int s, out vec4 line) {
     for (int j = 0; j < 2; ++j) {
         for (int i = 0; i < 2; ++i) {
             ivec3 at = ivec3(s, (g0.y + j) * grid.x + g0.x + i, ch);
-            float w = (i == 1 ? t.x : 1.0 - t.x) * (j == 1 ? t.y : 1.0 - t.y) * texelFetch(ray_weight, at, 0).r;
+            vec4 l = texelFetch(ray_line, at, 0);
+            if (l.x < -1e29) continue;
+            float w = (i == 1 ? t.x : 1.0 - t.x) * (j == 1 ? t.y : 1.0 - t.y);
             vec2 g = vec2(g0 + ivec2(i, j)) * cell;
-            line += w * (texelFetch(ray_line, at, 0) - vec4(g.x, 0.0, g.y, 0.0));
+            line += w * (l - vec4(g.x, 0.0, g.y, 0.0));
             weight += w;
         }
     }
-    if (weight > 0.0) line = line / weight + vec4(f.x * cell.x, 0.0, f.y * cell.y, 0.0);
+    if (weight > 0.0) line = line / weight + vec4(f.x * cell.x - float(origin.x), 0.0, f.y * cell.y - float(origin.y), 0.0);
     return weight;
 }
 
@@ -70,6 +76,7 @@ vec4 trace(vec4 l) {
     vec2 nudge = vec2(0.0);
     vec4 acc = vec4(0.0);
     float trans = 1.0;
+    bool opaque = false;  // no early return inside the loops: llvmpipe's SIMD lanes (see docs/dof.md)
     for (int it = 0; it < max_iterations; ++it) {
         float cs = float(1 << level);
         vec2 p = c + a * w + nudge;
@@ -101,14 +108,17 @@ vec4 trace(vec4 l) {
             vec4 colour = texelFetch(layer_rgba, ivec3(px, k), 0);
             acc += trans * colour;
             trans *= open_scene != 0 ? 1.0 - colour.a : 0.0;
-            if (trans < 1e-3) return acc;
+            if (trans < 1e-3) {
+                opaque = true;
+                break;
+            }
         }
-        if (w_exit <= w_far) break;
+        if (opaque || w_exit <= w_far) break;
         w = w_exit;
         nudge = cross_offset;
         level = min(1, top_level);  // floating cells: a miss climbs one level only
     }
-    if (open_scene != 0) return acc;
+    if (opaque || open_scene != 0) return acc;
     return acc + trans * farthest(ivec2(floor(c + a * max(w, w_far))));
 }
 
@@ -116,44 +126,23 @@ vec4 trace(vec4 l) {
 // rays converge on `centre` at the focused depth and spread at most reach_px from it.
 bool uniform_colour(vec2 centre, out vec4 colour) {
     float r = reach_px + 4.0;
-    int level = min(top_level, int(ceil(log2(2.0 * r + 2.0))));
+    int level = colour_level;  // renderer.cpp: cells of at least 2 r + 2, so at most 2 x 2 of them
     float cs = float(1 << level);
     ivec2 a = clamp_cell(ivec2(floor((centre - r) / cs)), level), b = clamp_cell(ivec2(floor((centre + r) / cs)), level);
     vec4 lo = vec4(1e30), hi = vec4(-1e30);
     for (int y = a.y; y <= b.y; ++y) {
         for (int x = a.x; x <= b.x; ++x) {
-            lo = min(lo, texelFetch(colour_min, ivec2(x, y), level));
-            hi = max(hi, texelFetch(colour_max, ivec2(x, y), level));
+            lo = min(lo, texelFetch(colour_min, ivec2(x, y), 0));
+            hi = max(hi, texelFetch(colour_max, ivec2(x, y), 0));
         }
     }
     colour = lo;
     return (open_scene == 0 || lo.a >= 1.0) && all(lessThanEqual(hi - lo, 1e-6 * (vec4(1.0) + abs(hi))));
 }
 
-uint hash(uvec2 v) {
-    uint h = v.x * 1664525u + v.y * 1013904223u;
-    h ^= h >> 16; h *= 0x7feb352du; h ^= h >> 15; h *= 0x846ca68bu; h ^= h >> 16;
-    return h;
-}
-
-void main() {
-    ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
-    if (pix.x >= size.x || pix.y >= size.y) return;
-    vec2 p = vec2(pix) + 0.5;
-    int offset = int(hash(uvec2(pix)) % uint(samples));
-    for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
-        vec4 line;
-        if (fetch_ray(achromatic, p, (offset + k) % samples, line) > 0.0) {
-            vec4 colour;
-            if (reach_px >= 0.0 && uniform_colour(line.xz + line.yw * focus_w, colour)) {
-                imageStore(result, pix, colour);
-                return;
-            }
-            break;
-        }
-    }
-    // each band's mean over its valid rays, into R, G, B by the band's weights; alpha with the achromatic
-    // band's rays; without chromatic blur the achromatic band's rays for everything
+// Each band's mean over its valid rays, into R, G, B by the band's weights; alpha with the achromatic
+// band's rays; without chromatic blur the achromatic band's rays for everything.
+vec4 band_pixel(vec2 p, int offset, int chromatic) {
     vec4 colour = vec4(0.0);
     for (int b = 0; b < bands; ++b) {
         if (chromatic == 0 && b != achromatic) continue;
@@ -169,6 +158,35 @@ void main() {
         colour.rgb += (chromatic != 0 ? band_weight[b] : vec3(1.0)) * mean.rgb;
         if (b == achromatic) colour.a = mean.a;
     }
+    return colour;
+}
+
+uint hash(uvec2 v) {
+    uint h = v.x * 1664525u + v.y * 1013904223u;
+    h ^= h >> 16; h *= 0x7feb352du; h ^= h >> 15; h *= 0x846ca68bu; h ^= h >> 16;
+    return h;
+}
+
+void main() {
+    ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
+    if (pix.x >= size.x || pix.y >= size.y) return;
+    vec2 p = vec2(pix) + 0.5;
+    int offset = int(hash(uvec2(pix + origin)) % uint(samples));  // as for the uncropped raster
+    for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
+        vec4 line;
+        if (fetch_ray(achromatic, p, (offset + k) % samples, line) > 0.0) {
+            vec4 colour;
+            if (reach_px >= 0.0 && uniform_colour(line.xz + line.yw * focus_w, colour)) {
+                imageStore(result, pix, colour);
+                return;
+            }
+            break;
+        }
+    }
+    // where every band's rays stay within chroma_tolerance of the achromatic band's, its rays serve all
+    vec2 f = clamp((p + vec2(origin)) / cell, vec2(0.0), vec2(grid - 1));
+    bool one_blur = texelFetch(achromatic_cell, min(ivec2(f), grid - 2), 0).r > 0.5;
+    vec4 colour = band_pixel(p, offset, chromatic != 0 && !one_blur ? 1 : 0);
     imageStore(result, pix, colour);
 }
 )GLSL";

@@ -201,6 +201,23 @@ RayTable make_ray_table(const Camera& camera, int samples, int grid) {
     return t;
 }
 
+double convergence_offset_px(const RayTable& t) {
+    double offset = 0.0;
+    for (int c = 0; c < t.channels; ++c)
+        for (int gy = 0; gy < t.grid_y; ++gy)
+            for (int gx = 0; gx < t.grid_x; ++gx) {
+                double mx = 0.0, my = 0.0, n = 0.0;
+                for (int k = 0; k < t.samples; ++k) {
+                    const std::size_t i = t.at(c, gx, gy, k);
+                    if (t.weight[i] <= 0.0f) continue;
+                    const auto& l = t.line[i];
+                    mx += double{l[0]} + double{l[1]} * t.focus_w, my += double{l[2]} + double{l[3]} * t.focus_w, n += 1.0;
+                }
+                if (n > 0.0) offset = std::max(offset, std::hypot(mx / n - gx * t.cell_w, my / n - gy * t.cell_h));
+            }
+    return offset;
+}
+
 double scene_scale(const RayTable& t, int channel, double w) {
     const int gx = t.grid_x / 2 - (t.grid_x % 2 == 0 ? 1 : 0), gy = t.grid_y / 2;
     double sum = 0.0;

@@ -87,43 +87,26 @@ std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& pa
     return levels;
 }
 
-std::array<std::vector<std::vector<float>>, 2> colour_pyramid(const LayerStack& layers, int padded_w, int padded_h) {
-    std::array<std::vector<std::vector<float>>, 2> out;  // [0]: minimum RGBA, [1]: maximum
-    const std::size_t n = 4 * static_cast<std::size_t>(padded_w) * static_cast<std::size_t>(padded_h);
-    std::vector<float> lo(n, 1e30f), hi(n, -1e30f);
+std::array<std::vector<float>, 2> colour_level(const LayerStack& layers, int level) {
+    const int cs = 1 << level;
+    const int nw = (layers.width + cs - 1) / cs, nh = (layers.height + cs - 1) / cs;
+    const std::size_t n = 4 * static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh);
+    std::array<std::vector<float>, 2> out{std::vector<float>(n, 1e30f), std::vector<float>(n, -1e30f)};
+    std::vector<float>&lo = out[0], &hi = out[1];
     for (int y = 0; y < layers.height; ++y) {
         for (int x = 0; x < layers.width; ++x) {
-            const std::size_t cell = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_w) + static_cast<std::size_t>(x));
+            const std::size_t cell = 4 * (static_cast<std::size_t>(y / cs) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x / cs));
             for (int k = 0; k < layers.count; ++k) {
                 const std::size_t i = layers.at(k, x, y);
                 const bool empty = layers.front[i] <= 0.0f;
                 if (empty && k > 0) break;
                 for (std::size_t c = 0; c < 4; ++c) {
-                    const float v = empty ? -1e30f : layers.rgba[4 * i + c];  // an empty pixel is never uniform
-                    lo[cell + c] = std::min(lo[cell + c], v), hi[cell + c] = std::max(hi[cell + c], empty ? 1e30f : v);
+                    const float v = layers.rgba[4 * i + c];
+                    lo[cell + c] = std::min(lo[cell + c], empty ? -1e30f : v);  // an empty pixel is never uniform
+                    hi[cell + c] = std::max(hi[cell + c], empty ? 1e30f : v);
                 }
             }
         }
-    }
-    out[0].push_back(std::move(lo));
-    out[1].push_back(std::move(hi));
-    for (int w = padded_w, h = padded_h; w > 1 || h > 1;) {
-        const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
-        for (int m = 0; m < 2; ++m) {
-            const std::vector<float>& prev = out[static_cast<std::size_t>(m)].back();
-            std::vector<float> next(4 * static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh), m == 0 ? 1e30f : -1e30f);
-            for (int y = 0; y < nh; ++y)
-                for (int x = 0; x < nw; ++x)
-                    for (int j = 0; j < 2; ++j)
-                        for (int i = 0; i < 2; ++i) {
-                            const std::size_t s = 4 * (static_cast<std::size_t>(std::min(2 * y + j, h - 1)) * static_cast<std::size_t>(w) + static_cast<std::size_t>(std::min(2 * x + i, w - 1)));
-                            const std::size_t d = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x));
-                            for (std::size_t c = 0; c < 4; ++c)
-                                next[d + c] = m == 0 ? std::min(next[d + c], prev[s + c]) : std::max(next[d + c], prev[s + c]);
-                        }
-            out[static_cast<std::size_t>(m)].push_back(std::move(next));
-        }
-        w = nw, h = nh;
     }
     return out;
 }
@@ -149,7 +132,53 @@ std::vector<float> inverse_depths(const LayerStack& layers) {
     return w;
 }
 
+// The table's lines with a stopped ray's cx set to -1e30 (the shader's mark: one fetch per ray and corner).
+std::vector<std::array<float, 4>> marked_lines(const RayTable& table) {
+    std::vector<std::array<float, 4>> lines = table.line;
+    for (std::size_t i = 0; i < lines.size(); ++i)
+        if (table.weight[i] <= 0.0f) lines[i][0] = -1e30f;
+    return lines;
+}
+
+// How far from where a pixel's first ray crosses focus_w any of its rays can meet a surface: the widest
+// blur of the scene's depth range, plus twice the table's focus spread (the first ray's own offset, and
+// the others').
+double uniform_reach_px(const LayerStack& layers, const RayTable& table) {
+    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
+    return table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w)) + 2.0 * table.focus_spread;
+}
+
 }  // namespace
+
+std::vector<float> achromatic_cells(const RayTable& t, double w_near, double w_far, double tolerance_px) {
+    const int cw = t.grid_x - 1, ch = t.grid_y - 1;
+    std::vector<float> one(static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch), 1.0f);
+    const auto apart = [&](const std::array<float, 4>& a, const std::array<float, 4>& b) {
+        double d = 0.0;
+        for (double w : {w_near, w_far})
+            d = std::max(d, std::hypot(double{a[0]} - double{b[0]} + (double{a[1]} - double{b[1]}) * w, double{a[2]} - double{b[2]} + (double{a[3]} - double{b[3]}) * w));
+        return d;
+    };
+    // whether grid point (gx, gy)'s every band ray passes where the achromatic one does and stays within tolerance of it
+    const auto one_blur_at = [&](int gx, int gy) {
+        for (int b = 0; b < t.channels; ++b)
+            for (int k = 0; b != t.achromatic && k < t.samples; ++k) {
+                const std::size_t i = t.at(b, gx, gy, k), g = t.at(t.achromatic, gx, gy, k);
+                if ((t.weight[i] > 0.0f) != (t.weight[g] > 0.0f)) return false;
+                if (t.weight[i] > 0.0f && !(apart(t.line[i], t.line[g]) <= tolerance_px)) return false;
+            }
+        return true;
+    };
+    std::vector<char> point(static_cast<std::size_t>(t.grid_x) * static_cast<std::size_t>(t.grid_y));
+    for (int gy = 0; gy < t.grid_y; ++gy)
+        for (int gx = 0; gx < t.grid_x; ++gx) point[static_cast<std::size_t>(gy * t.grid_x + gx)] = one_blur_at(gx, gy) ? 1 : 0;
+    for (int y = 0; y < ch; ++y)
+        for (int x = 0; x < cw; ++x) {
+            const auto at = [&](int i, int j) { return point[static_cast<std::size_t>((y + j) * t.grid_x + x + i)] != 0; };
+            one[static_cast<std::size_t>(y * cw + x)] = at(0, 0) && at(1, 0) && at(0, 1) && at(1, 1) ? 1.0f : 0.0f;
+        }
+    return one;
+}
 
 std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& table, const TraceSettings& settings,
                                     std::vector<float>* alpha) {
@@ -158,22 +187,30 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     int pw = 0, ph = 0;
     const std::vector<std::vector<float>> pyramid = minmax_pyramid(layers, pw, ph);
     gpu::GlObject hiz = mip_texture(GL_RG32F, GL_RG, pw, ph, pyramid);
-    const auto colours = colour_pyramid(layers, pw, ph);
-    gpu::GlObject cmin = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[0]);
-    gpu::GlObject cmax = mip_texture(GL_RGBA32F, GL_RGBA, pw, ph, colours[1]);
+    const int top_level = static_cast<int>(pyramid.size()) - 1;
+    const double reach = uniform_reach_px(layers, table);
+    const int level = std::min(top_level, static_cast<int>(std::ceil(std::log2(2.0 * (reach + 4.0) + 2.0))));
+    const auto colours = colour_level(layers, level);
+    const int cw = (layers.width + (1 << level) - 1) >> level, ch = (layers.height + (1 << level) - 1) >> level;
+    gpu::GlObject cmin = mip_texture(GL_RGBA32F, GL_RGBA, cw, ch, {colours[0]});
+    gpu::GlObject cmax = mip_texture(GL_RGBA32F, GL_RGBA, cw, ch, {colours[1]});
     const std::vector<float> inv = inverse_depths(layers);
     gpu::GlObject layer_w = texture_array(GL_RG32F, layers.width, layers.height, layers.count, GL_RG, inv.data());
     gpu::GlObject layer_rgba = texture_array(GL_RGBA32F, layers.width, layers.height, layers.count, GL_RGBA, layers.rgba.data());
     if (table.channels > kMaxBands) throw std::invalid_argument(fmt::format("lens blur: {} bands, at most {}", table.channels, kMaxBands));
     const int points = table.grid_x * table.grid_y;  // one layer per band
-    gpu::GlObject line = texture_array(GL_RGBA32F, table.samples, points, table.channels, GL_RGBA, table.line.front().data());
-    gpu::GlObject weight = texture_array(GL_R32F, table.samples, points, table.channels, GL_RED, table.weight.data());
+    gpu::GlObject line = texture_array(GL_RGBA32F, table.samples, points, table.channels, GL_RGBA, marked_lines(table).front().data());
+    const std::vector<float> one_blur = achromatic_cells(table, 1.0001 / static_cast<double>(layers.nearest()), 1.0 / static_cast<double>(layers.farthest()),
+                                                        settings.chroma_tolerance_px);
+    gpu::GlObject cells = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(cells.get(), 1, GL_R32F, table.grid_x - 1, table.grid_y - 1);
+    glTextureSubImage2D(cells.get(), 0, 0, 0, table.grid_x - 1, table.grid_y - 1, GL_RED, GL_FLOAT, one_blur.data());
     gpu::GlObject out = make_texture(GL_TEXTURE_2D);
     glTextureStorage2D(out.get(), 1, GL_RGBA32F, layers.width, layers.height);
 
     glUseProgram(prog);
-    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), weight.get(), cmin.get(), cmax.get()};
-    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "ray_weight", "colour_min", "colour_max"};
+    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), cells.get(), cmin.get(), cmax.get()};
+    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "achromatic_cell", "colour_min", "colour_max"};
     for (GLuint u = 0; u < 7; ++u) {
         glBindTextureUnit(u, units[u]);
         glUniform1i(state_->program.uniform(names[u]), static_cast<GLint>(u));
@@ -182,16 +219,14 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     const auto& p = state_->program;
     glUniform2i(p.uniform("size"), layers.width, layers.height);
     glUniform1i(p.uniform("layer_count"), layers.count);
-    glUniform1i(p.uniform("top_level"), static_cast<GLint>(pyramid.size()) - 1);
+    glUniform1i(p.uniform("top_level"), top_level);
+    glUniform1i(p.uniform("colour_level"), level);
     glUniform1i(p.uniform("start_level"), settings.start_level);
     glUniform1i(p.uniform("max_iterations"), settings.max_iterations);
     glUniform1f(p.uniform("w_near"), 1.0001f / layers.nearest());
     glUniform1f(p.uniform("w_far"), 1.0f / layers.farthest());
-    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
-    const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w));
-    // every ray of a pixel stays within the reach of where the first one crosses focus_w, plus twice the
-    // table's focus spread (the first ray's own offset, and the others')
-    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach + 2.0 * table.focus_spread) : -1e30f);
+    glUniform1f(p.uniform("reach_px"), settings.uniform_skip ? static_cast<float>(reach) : -1e30f);
+    glUniform2i(p.uniform("origin"), settings.origin_x, settings.origin_y);
     glUniform1f(p.uniform("focus_w"), static_cast<float>(table.focus_w));
     glUniform1i(p.uniform("samples"), table.samples);
     glUniform1i(p.uniform("rays"), std::clamp(settings.rays, 1, table.samples));

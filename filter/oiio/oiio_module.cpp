@@ -2,9 +2,13 @@
 // filter/src/oiio_module.h for why this is a module of its own).
 #include "../src/oiio_module.h"
 
+#include <algorithm>
 #include <cerrno>
+#include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <vector>
@@ -98,7 +102,89 @@ Frame read(const std::string& path, const MemoryBudget& budget) {
     return frame;
 }
 
-// An anonymous file in memory (memfd), named by its /proc/self/fd path for writers that want a name.
+// A file opened for writing whose every write is checked; `error()` is the first failure. OpenImageIO's
+// PNG and TIFF writers ignore a failed write, so a full disk gave a truncated file and a success: the
+// failure is kept here and thrown after the writer closes.
+class CheckedFd {
+public:
+    explicit CheckedFd(int fd) : fd_(fd) {}
+    int fd() const { return fd_; }
+    int error() const { return error_; }
+    // Writes all of `size` bytes at `offset`, or records why not; the bytes written.
+    std::size_t write_at(const void* data, std::size_t size, std::int64_t offset) {
+        std::size_t done = 0;
+        while (done < size && error_ == 0) {
+            const ssize_t n = ::pwrite(fd_, static_cast<const char*>(data) + done, size - done, static_cast<off_t>(offset) + static_cast<off_t>(done));
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) error_ = n < 0 ? errno : ENOSPC;
+            else done += static_cast<std::size_t>(n);
+        }
+        return done;
+    }
+
+private:
+    int fd_;
+    int error_ = 0;
+};
+
+// Opens `path` for writing (created or truncated); throws naming it.
+int create_file(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0) throw std::runtime_error(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
+    return fd;
+}
+
+// Closes `fd`, throwing naming `path` when an earlier write or the close failed.
+void close_checked(const std::string& path, const CheckedFd& file) {
+    const int err = file.error();
+    if (::close(file.fd()) != 0 && err == 0) throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
+    if (err != 0) throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(err)));
+}
+
+// An OpenImageIO I/O proxy onto a checked file: the encoder writes to disk as it goes, no copy in memory.
+class CheckedFileProxy : public OIIO::Filesystem::IOProxy {
+public:
+    explicit CheckedFileProxy(const std::string& path) : IOProxy(path, Write), file_(create_file(path)) {}
+    const char* proxytype() const override { return "lensfx-checked-file"; }
+    void close() override {}  // finish() closes, after the writer is done
+    std::size_t write(const void* buf, std::size_t size) override {
+        const std::size_t n = pwrite(buf, size, m_pos);
+        m_pos += static_cast<std::int64_t>(n);
+        return n;
+    }
+    std::size_t pwrite(const void* buf, std::size_t size, std::int64_t offset) override {
+        std::lock_guard lock(mutex_);
+        const std::size_t n = file_.write_at(buf, size, offset);
+        size_ = std::max(size_, static_cast<std::size_t>(offset) + n);
+        return n;
+    }
+    std::size_t pread(void* buf, std::size_t size, std::int64_t offset) override {
+        const ssize_t n = ::pread(file_.fd(), buf, size, static_cast<off_t>(offset));
+        return n < 0 ? 0 : static_cast<std::size_t>(n);
+    }
+    std::size_t read(void* buf, std::size_t size) override {
+        const std::size_t n = pread(buf, size, m_pos);
+        m_pos += static_cast<std::int64_t>(n);
+        return n;
+    }
+    std::size_t size() const override { return size_; }
+    void finish() {
+        closed_ = true;
+        close_checked(filename(), file_);
+    }
+    ~CheckedFileProxy() override {
+        if (!closed_) ::close(file_.fd());
+    }
+
+private:
+    CheckedFd file_;
+    std::size_t size_ = 0;
+    bool closed_ = false;
+    std::mutex mutex_;
+};
+
+// An anonymous file in memory (memfd), named by its /proc/self/fd path, for writers that take no proxy
+// and want a name; copied to the real file in blocks, every write checked.
 class MemoryFile {
 public:
     MemoryFile() : fd_(::memfd_create("lensfx-encode", MFD_CLOEXEC)) {
@@ -108,48 +194,28 @@ public:
     MemoryFile& operator=(const MemoryFile&) = delete;
     ~MemoryFile() { ::close(fd_); }
     std::string path() const { return fmt::format("/proc/self/fd/{}", fd_); }
-    std::vector<unsigned char> contents() const {
-        struct stat st {};
-        if (::fstat(fd_, &st) != 0) throw std::runtime_error(fmt::format("memfd: {}", std::strerror(errno)));
-        std::vector<unsigned char> bytes(static_cast<std::size_t>(st.st_size));
-        std::size_t done = 0;
-        while (done < bytes.size()) {
-            const ssize_t n = ::pread(fd_, bytes.data() + done, bytes.size() - done, static_cast<off_t>(done));
+    void copy_to(const std::string& path) const {
+        CheckedFd out(create_file(path));
+        std::vector<char> block(std::size_t{1} << 20);
+        for (std::int64_t offset = 0; out.error() == 0;) {
+            const ssize_t n = ::pread(fd_, block.data(), block.size(), static_cast<off_t>(offset));
             if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) throw std::runtime_error(fmt::format("memfd: {}", std::strerror(n < 0 ? errno : EIO)));
-            done += static_cast<std::size_t>(n);
+            if (n < 0) {
+                ::close(out.fd());
+                throw std::runtime_error(fmt::format("memfd: {}", std::strerror(errno)));
+            }
+            if (n == 0) break;
+            out.write_at(block.data(), static_cast<std::size_t>(n), offset);
+            offset += n;
         }
-        return bytes;
+        close_checked(path, out);
     }
 
 private:
     int fd_;
 };
 
-// Writes `bytes` to `path`, every write checked (a full disk is an error naming the file).
-void write_bytes(const std::string& path, const std::vector<unsigned char>& bytes) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (fd < 0) throw std::runtime_error(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
-    std::size_t done = 0;
-    while (done < bytes.size()) {
-        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            const int err = n < 0 ? errno : ENOSPC;
-            ::close(fd);
-            throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(err)));
-        }
-        done += static_cast<std::size_t>(n);
-    }
-    if (::close(fd) != 0) throw std::runtime_error(fmt::format("cannot write {}: {}", path, std::strerror(errno)));
-}
-
-void write(const std::string& path, const ImageSpec& spec, const void* data) {
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out) {
-        (void)OIIO::geterror();
-        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", path));
-    }
+OIIO::ImageSpec oiio_spec(const ImageSpec& spec) {
     const OIIO::TypeDesc type = oiio_type(spec.channeltypes.empty() ? PixelType::float32 : spec.channeltypes[0]);
     OIIO::ImageSpec s(spec.width, spec.height, spec.nchannels(), type);
     s.x = spec.x;
@@ -167,28 +233,51 @@ void write(const std::string& path, const ImageSpec& spec, const void* data) {
     }
     if (spec.pixel_aspect != 1.0f) s.attribute("PixelAspectRatio", spec.pixel_aspect);
     for (const auto& [name, value] : spec.text) s.attribute(name, value);
-    // Encoded in memory, then written here with every write checked: some writers (PNG, TIFF) ignore a
-    // failed write, so a full disk gave a truncated file and a success. Writers that take an I/O proxy
-    // write into a vector; the others into a memory file (memfd) by its /proc path.
-    std::vector<unsigned char> encoded;
-    OIIO::Filesystem::IOVecOutput memory(encoded);
-    const bool proxy = out->supports("ioproxy");
+    return s;
+}
+
+// The writer's message, else `fallback`.
+std::runtime_error writer_error(OIIO::ImageOutput& out, const std::string& fallback) {
+    std::string message = out.geterror();
+    return std::runtime_error(message.empty() ? fallback : message);
+}
+
+// Sends the image to an open writer a strip of rows at a time.
+void write_strips(OIIO::ImageOutput& out, const OIIO::ImageSpec& s, int strip_rows, const OiioModule::RowSource& rows,
+                  const std::string& path) {
+    const int strip = std::max(1, std::min(strip_rows, s.height));
+    std::vector<std::byte> buffer(static_cast<std::size_t>(s.scanline_bytes()) * static_cast<std::size_t>(strip));
+    for (int y = 0; y < s.height; y += strip) {
+        const int count = std::min(strip, s.height - y);
+        rows(y, count, buffer.data());
+        if (!out.write_scanlines(s.y + y, s.y + y + count, 0, s.format, buffer.data()))
+            throw writer_error(out, fmt::format("cannot write {}", path));
+    }
+}
+
+void write(const std::string& path, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
+    // Writers that take an I/O proxy write through a checked file; the others into a memory file (memfd)
+    // by its /proc path, copied with every write checked. Both outlive the writer, which may close on
+    // destruction.
+    std::optional<CheckedFileProxy> proxy;
     std::optional<MemoryFile> memfile;
-    if (proxy) {
-        out->set_ioproxy(&memory);
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) {
+        (void)OIIO::geterror();
+        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", path));
+    }
+    const OIIO::ImageSpec s = oiio_spec(spec);
+    if (out->supports("ioproxy")) {
+        proxy.emplace(path);
+        out->set_ioproxy(&*proxy);
     } else {
         memfile.emplace();
     }
-    const std::string target = proxy ? path : memfile->path();
-    if (!out->open(target, s)) {
-        std::string message = out->geterror();
-        throw std::runtime_error(message.empty() ? fmt::format("cannot create {}", path) : message);
-    }
-    if (!out->write_image(type, data) || !out->close()) {
-        std::string message = out->geterror();
-        throw std::runtime_error(message.empty() ? fmt::format("cannot write {}", path) : message);
-    }
-    write_bytes(path, proxy ? encoded : memfile->contents());
+    if (!out->open(proxy ? path : memfile->path(), s)) throw writer_error(*out, fmt::format("cannot create {}", path));
+    write_strips(*out, s, strip_rows, rows, path);
+    if (!out->close()) throw writer_error(*out, fmt::format("cannot write {}", path));
+    if (proxy) proxy->finish();
+    else memfile->copy_to(path);
 }
 
 std::string output_format(const std::string& path) {

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/core.h>
@@ -15,6 +17,7 @@
 #include <filter/colour.h>
 #include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
+#include <filter/output_files.h>
 #include <filter/pipeline.h>
 #include <filter/views.h>
 
@@ -55,13 +58,13 @@ std::vector<std::unique_ptr<Stage>> make_view_stages(const FilterArgs& args, con
     std::vector<std::unique_ptr<Stage>> stages;
     stages.push_back(std::make_unique<colour::ColourInputStage>(colour_session));
     bool flare_runs = false;
-    DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs);
+    auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
+        if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
+        return std::nullopt;
+    };
+    DofStages dof = make_dof_stages(args.dof, args.flare, gpu, flare_runs, primaries);
     if (dof.blur) stages.push_back(std::move(dof.blur));
     if (flare_runs) {
-        auto primaries = [colour_session]() -> std::optional<std::array<double, 9>> {
-            if (const colour::ColourPipeline* p = colour_session->pipeline()) return p->working().rgb_to_xyz;
-            return std::nullopt;
-        };
         FlareSettings flare = args.flare;
         flare.layer = layer;
         auto stage = std::make_unique<FlareStage>(flare, gpu, primaries);
@@ -141,6 +144,31 @@ void check_output_options(const FilterArgs& args, const CLI::App& app) {
                    args.colour.options.display, out.name);
 }
 
+// Whether the output (a file or frame pattern) names `path`: one of its frames, or the same pattern.
+bool output_names(const std::string& out, const std::string& path) {
+    std::error_code ec;
+    if (std::filesystem::weakly_canonical(path, ec) == std::filesystem::weakly_canonical(out, ec)) return true;
+    try {
+        refuse_overwrite(path, "-o", out);  // throws when `path` is one of the output's files
+    } catch (const std::runtime_error&) {
+        return true;
+    }
+    return false;
+}
+
+// Refuses an output that would overwrite a file the effects read (--matte, --tracks, --aperture-image,
+// --flare-look): the never-overwrite-an-input rule covers them too.
+void refuse_output_over_side_inputs(const FilterArgs& args) {
+    const std::string& out = args.pipeline.output;
+    if (out.empty() || out == "-") return;
+    const std::pair<const char*, const std::string*> side[] = {
+        {"--matte", &args.flare.controls.matte}, {"--tracks", &args.flare.tracks},
+        {"--aperture-image", &args.flare.pupil.aperture_image}, {"--flare-look", &args.flare.flare_look}};
+    for (const auto& [option, path] : side)
+        if (!path->empty() && *path != "-" && output_names(out, *path))
+            throw std::runtime_error(fmt::format("-o {}: refusing to overwrite the {} file {}", out, option, *path));
+}
+
 void run_filter(FilterArgs& args, const CLI::App& app) {
     PipelineOptions& o = args.pipeline;
     o.pfm_order = parse_pfm_order(args.pfm_order);
@@ -151,6 +179,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     o.memory = memory_budget_option(args.memory_limit);
     args.flare.memory = o.memory;
     check_output_options(args, app);
+    refuse_output_over_side_inputs(args);
     if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");
     o.options_toml = app.config_to_str(false, false);
     if (args.progress) o.progress = Progress::on;

@@ -43,19 +43,13 @@
 namespace lensfx::filter {
 namespace {
 
-struct FlareArgs {
-    std::string lens;
-    std::string zoom;
-    std::optional<double> fstop;
+struct FlareArgs : LensChoice {  // --lens, --zoom, --fstop, --blades, --coating, --coating-spread: as the filter's
     std::string angle;
     std::string sensor = "36";  // as the filter's (FlareSettings): the width, the height from the image's aspect
     std::string size;
-    std::optional<int> blades;
     std::optional<double> wavelength;
     int bands = 0;
     bool band_filter = false;
-    std::string coating = "lens";
-    double coating_spread = 0.03;
     std::vector<std::string> ghosts;
     bool list = false;
     std::string output;
@@ -128,20 +122,17 @@ void write_preview(const flare::FlareImage& image, const std::string& path, std:
 flare::FlareView flare_view(const FlareArgs& args) {
     flare::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
-    if (args.sensor.find('x') == std::string::npos) {
+    const auto [sensor_w, sensor_h] = parse_sensor(args.sensor);  // as the filter's
+    view.sensor_width_mm = sensor_w;
+    view.sensor_height_mm = sensor_h;
+    if (!(sensor_h > 0.0)) {
         // The width alone, as in the filter: the height follows the image's aspect (--size), else 3:2.
-        view.sensor_width_mm = parse_pair(args.sensor + "x1", 'x', "--sensor").first;
         double aspect = 2.0 / 3.0;
         if (!args.size.empty()) {
             const auto [w, h] = parse_pair(args.size, 'x', "--size");
             if (w > 0 && h > 0) aspect = h / w;
         }
-        view.sensor_height_mm = view.sensor_width_mm * aspect;
-    } else {
-        std::tie(view.sensor_width_mm, view.sensor_height_mm) = parse_pair(args.sensor, 'x', "--sensor");
-    }
-    if (!(view.sensor_width_mm > 0 && view.sensor_height_mm > 0)) {
-        throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", args.sensor));
+        view.sensor_height_mm = sensor_w * aspect;
     }
     if (args.size.empty()) {
         view.width = 960;
@@ -189,16 +180,7 @@ void run_measured_flare(const FlareArgs& args) {
 void run_flare(const FlareArgs& args) {
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
-    optics::Lens lens = optics::load_lens(args.lens);
-    if (args.blades) {
-        if (*args.blades < 0 || *args.blades == 1 || *args.blades == 2 || *args.blades > 64) {
-            throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *args.blades));
-        }
-        lens.aperture.blades = *args.blades;
-    }
-    const double zoom = args.zoom.empty() ? 0.0 : optics::parse_zoom(lens, args.zoom);
-    optics::System system = optics::realize(lens, zoom, args.fstop);
-    filter::apply_coatings(system, args.coating, args.coating_spread);
+    const optics::System system = realize_lens(args).system;
     flare::FlareView view = flare_view(args);
     const MemoryBudget memory = memory_budget_option(args.memory_limit);
     // The image, the GL targets at full and reduced sizes and a band of read-back rows.
@@ -263,10 +245,10 @@ void run_flare(const FlareArgs& args) {
         const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
         std::array<double, 3> energy = flare::direct_power(system, view.angle_x_deg, view.angle_y_deg);
         for (double& e : energy) e *= args.starburst_gain;
-        optics::draw_starburst(starburst, system.aperture, paraxial.f_number, args.starburst_scale,
-                               (xs / view.sensor_width_mm + 0.5) * view.width, (0.5 - ys / view.sensor_height_mm) * view.height,
-                               energy, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height, image.rgb.data(),
-                               view.width, view.height);
+        const optics::StarburstPlacement at{(xs / view.sensor_width_mm + 0.5) * view.width,
+                                            (0.5 - ys / view.sensor_height_mm) * view.height, paraxial.f_number, 0.0};
+        optics::draw_starburst(starburst, system.aperture, args.starburst_scale, at, energy,
+                               {image.rgb.data(), view.width, view.height, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height});
     }
     const double ms = ms_since(start);
 
@@ -293,19 +275,16 @@ void register_flare_command(CLI::App& app) {
     auto args = std::make_shared<FlareArgs>();
     auto* cmd = app.add_subcommand("flare", "Render the ghosts of one collimated light of irradiance 1 (sensor irradiance)");
     cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
-    cmd->add_option("--zoom", args->zoom, "Zoom: parameter 0..1 or focal label such as 135mm");
-    cmd->add_option("--fstop", args->fstop, "Set the stop so that the lens's f-number is F (default: wide open)");
+    add_lens_options(*cmd, *args, "Flare");
     cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
     cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str();
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
-    cmd->add_option("--blades", args->blades, "Iris blades (0 = round), replacing the lens's");
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
         ->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
         ->needs("--bands");
-    add_coating_options(*cmd, args->coating, args->coating_spread, "Flare");
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
     cmd->add_flag("--list", args->list, "Print each ghost's power on the image");
     cmd->add_option("--parts", args->parts, "What to render: ghosts, starburst or both (ghosts,starburst)")

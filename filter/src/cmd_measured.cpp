@@ -40,6 +40,10 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
+// A sensor's width and height in mm at least and at most: a phone's to large-format film's, with room
+// (1e300 mm once gave NaN estimators and a success).
+constexpr double kMinSensorMm = 0.1, kMaxSensorMm = 1000.0;
+
 // The sensor of a sweep or a prediction: "36" (height from the image's aspect) or "36x24".
 std::array<double, 2> sensor_of(const std::string& text, int width, int height) {
     const auto x = text.find('x');
@@ -52,10 +56,11 @@ std::array<double, 2> sensor_of(const std::string& text, int width, int height) 
             h = std::stod(text.substr(x + 1), &used);
             if (used != text.size() - x - 1) throw std::invalid_argument(text);
         }
-        if (w > 0.0 && h > 0.0 && std::isfinite(w) && std::isfinite(h)) return {w, h};
+        if (w >= kMinSensorMm && h >= kMinSensorMm && w <= kMaxSensorMm && h <= kMaxSensorMm) return {w, h};
     } catch (const std::exception&) {
     }
-    throw CLI::ValidationError("--sensor", fmt::format("'{}': expected WIDTH or WIDTHxHEIGHT in mm, e.g. 36x24", text));
+    throw CLI::ValidationError("--sensor", fmt::format("'{}': expected WIDTH or WIDTHxHEIGHT in mm, e.g. 36x24 ({:g} to {:g} each)", text,
+                                                       kMinSensorMm, kMaxSensorMm));
 }
 
 // "100x60" -> {100, 60}.

@@ -12,6 +12,8 @@
 #include <dof/deep_exr.h>
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
+#include <filter/colour/matrix.h>
+#include <filter/option_checks.h>
 #include <flare/cache.h>
 #include <flare/flare.h>
 #include <optics/lens_file.h>
@@ -22,10 +24,46 @@
 
 namespace lensfx::filter {
 
+// A rectangle of the frame's raster (pixels from the data window's corner).
+struct DofRegion {
+    int x = 0, y = 0, width = 0, height = 0;
+};
+
 struct DofShared {
     int x = 0, y = 0, width = 0, height = 0;  // data window the plates cover
     std::vector<float> sharp, blurred;        // RGB interleaved
 };
+
+namespace {
+
+std::array<double, 2> parse_pair(const std::string& text, const char* what) {
+    if (const auto xy = parse_pair_of<double>(text, ',')) return *xy;
+    throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
+}
+
+// "X,Y,METRES" of --focus-point, in display-window pixels: X and Y within a million pixels (as a track
+// file's positions), METRES positive and at most a light year.
+dof::FocusPoint parse_focus_point(const std::string& text) {
+    constexpr double kMaxPixels = 1e6, kMaxMetres = 1e16;
+    dof::FocusPoint p;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !(std::abs(p.x) <= kMaxPixels) ||
+        !(std::abs(p.y) <= kMaxPixels) || !(p.metres > 0.0) || !(p.metres <= kMaxMetres))
+        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels within 1e6, 0 < metres <= 1e16), not \"{}\"", text));
+    return p;
+}
+
+// A focus point's distance must be one the lens can focus at (beyond its focal length), checked here: the
+// focal surface between points stays within their distances, so no ray thread meets a bad one.
+void check_focus_distance(const optics::System& system, double metres, const std::string& text) {
+    try {
+        (void)dof::focus_of(system, metres);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("--focus-point {}: {}", text, e.what()));
+    }
+}
+
+}  // namespace
 
 void add_dof_options(CLI::App& app, DofSettings& s) {
     const std::string group = "Lens blur";
@@ -36,29 +74,17 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--deep", s.deep, "Deep EXR files (comma-separated, merged) whose samples are the scene's layers")->group(group);
     app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
-    app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")->group(group);
+    app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")
+        ->group(group)
+        ->check(parsed_by([](const std::string& t) { parse_pair(t, "--tilt"); }, "--tilt", "AX,AY"));
     app.add_option("--focus-point", s.focus_points,
                    "X,Y,METRES (display-window pixels; repeat): a focal surface through these, instead of the plane at --focus")
-        ->group(group);
+        ->group(group)
+        ->check(parsed_by([](const std::string& t) { parse_focus_point(t); }, "--focus-point", "X,Y,METRES"));
     app.add_flag("--dof-only", s.dof_only, "Lens blur without the flare")->group(group);
 }
 
 namespace {
-
-std::array<double, 2> parse_pair(const std::string& text, const char* what) {
-    if (const auto xy = parse_pair_of<double>(text, ',')) return *xy;
-    throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
-}
-
-// "X,Y,METRES" of --focus-point, in display-window pixels.
-dof::FocusPoint parse_focus_point(const std::string& text) {
-    dof::FocusPoint p;
-    char tail = 0;
-    if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &p.x, &p.y, &p.metres, &tail) != 3 || !std::isfinite(p.x) || !std::isfinite(p.y) ||
-        !(p.metres > 0.0) || !std::isfinite(p.metres))
-        throw std::runtime_error(fmt::format("--focus-point must be X,Y,METRES (pixels, metres > 0), not \"{}\"", text));
-    return p;
-}
 
 std::vector<std::string> split_commas(const std::string& text) {
     std::vector<std::string> out;
@@ -76,11 +102,77 @@ int channel_index(const Frame& frame, const std::string& name) {
     return it == names.end() ? -1 : static_cast<int>(it - names.begin());
 }
 
+// The `work` part of an image `width` pixels wide with `channels` values per pixel.
+std::vector<float> crop(const std::vector<float>& image, int width, int channels, const DofRegion& work) {
+    if (image.empty()) return {};
+    const auto n = static_cast<std::size_t>(channels);
+    std::vector<float> out(n * static_cast<std::size_t>(work.width) * static_cast<std::size_t>(work.height));
+    for (int y = 0; y < work.height; ++y)
+        std::copy_n(image.begin() + static_cast<std::ptrdiff_t>(n * (static_cast<std::size_t>(y + work.y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(work.x))),
+                    n * static_cast<std::size_t>(work.width), out.begin() + static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(y) * static_cast<std::size_t>(work.width)));
+    return out;
+}
+
+// The `work` part's values pasted into an image `width` x `height` of zeros.
+std::vector<float> uncrop(const std::vector<float>& part, int width, int height, int channels, const DofRegion& work) {
+    const auto n = static_cast<std::size_t>(channels);
+    std::vector<float> out(n * static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0.0f);
+    for (int y = 0; y < work.height; ++y)
+        std::copy_n(part.begin() + static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(y) * static_cast<std::size_t>(work.width)), n * static_cast<std::size_t>(work.width),
+                    out.begin() + static_cast<std::ptrdiff_t>(n * (static_cast<std::size_t>(y + work.y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(work.x))));
+    return out;
+}
+
+// What of a flat frame is not empty (black, alpha 0, at infinity: the fill around a data window), and
+// the nearest depth there (metres, 0: none).
+struct FlatContent {
+    DofRegion box;
+    double nearest_m = 0.0;
+};
+
+FlatContent flat_content(const Frame& frame, int z, double scale) {
+    const std::vector<float> depth = channels_as_float(frame, {z});
+    const int a = channel_index(frame, "A");
+    const std::vector<float> alpha = a >= 0 ? channels_as_float(frame, {a}) : std::vector<float>{};
+    const int w = frame.spec.width, h = frame.spec.height;
+    int x0 = w, y0 = h, x1 = 0, y1 = 0;
+    FlatContent c;
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+            const double m = static_cast<double>(depth[i]) * scale;
+            const bool at_depth = std::isfinite(m) && m > 0.0;
+            if (at_depth && (c.nearest_m == 0.0 || m < c.nearest_m)) c.nearest_m = m;
+            if (!at_depth && frame.rgb[3 * i] == 0.0f && frame.rgb[3 * i + 1] == 0.0f && frame.rgb[3 * i + 2] == 0.0f && (alpha.empty() || alpha[i] == 0.0f))
+                continue;
+            x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x + 1), y1 = std::max(y1, y + 1);
+        }
+    }
+    c.box = {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
+    return c;
+}
+
+// The part of the frame whose blur can differ from the empty fill (black, alpha 0, at infinity) around its
+// content: the content grown by the farthest from its pixel a ray can meet a surface, for depths from the
+// content's nearest to infinity (the fill).
+DofRegion blur_extent(const ImageSpec& spec, const FlatContent& content, const dof::RayTable& table) {
+    const double w_near = content.nearest_m > 0.0 ? 1.0 / content.nearest_m : table.focus_w;
+    const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), table.focus_w) + 2.0 * table.focus_spread +
+                         dof::convergence_offset_px(table);
+    const int margin = static_cast<int>(std::ceil(reach)) + 8;
+    const DofRegion& b = content.box;
+    // at a multiple of 64 pixels, so the hierarchy's cells are the uncropped raster's
+    const int x0 = std::max(0, b.x - margin) / 64 * 64, y0 = std::max(0, b.y - margin) / 64 * 64;
+    const int x1 = std::min(spec.width, b.x + b.width + margin), y1 = std::min(spec.height, b.y + b.height + margin);
+    return {x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0)};
+}
+
 }  // namespace
 
 struct DofStage::State {
     DofSettings settings;
     std::shared_ptr<GpuSession> gpu;
+    FlareStage::PrimariesSource primaries;  // the working space's RGB -> XYZ, for --bands
     bool flare_follows = false;
     optics::System system;
     std::optional<dof::DeepImage> deep;
@@ -94,7 +186,7 @@ struct DofStage::State {
     std::string cache_dir() const;
 
     dof::Camera camera_for(const Frame& frame) const;
-    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table) const;
+    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work) const;
 };
 
 // Sensor points across the raster's width in the ray table.
@@ -122,26 +214,32 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     }
     for (const std::string& text : settings.focus_points) {
         dof::FocusPoint p = parse_focus_point(text);
+        check_focus_distance(system, p.metres, text);
         p.x += 0.5 - spec.x, p.y += 0.5 - spec.y;  // the pixel's centre, in the raster
         c.focus_points.push_back(p);
     }
-    if (settings.bands != 0)
-        for (const flare::SpectralPass& p : flare::spectral_passes(settings.bands)) c.bands.push_back({p.wavelength_nm, p.weight});
+    if (settings.bands != 0) {  // mixed into the working space's R, G, B, as the flare's bands
+        const auto rgb_to_xyz = primaries ? primaries() : std::nullopt;
+        const optics::Mat3 xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
+        for (const flare::SpectralPass& p : flare::spectral_passes(settings.bands, xyz_to_rgb)) c.bands.push_back({p.wavelength_nm, p.weight});
+    }
     return c;
 }
 
-dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t) const {
+dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t, const DofRegion& work) const {
     const ImageSpec& spec = frame.spec;
-    if (deep) return dof::layers_from_deep(dof::reframe(*deep, spec.x, spec.y, spec.width, spec.height), settings.depth_scale);
+    const int x = spec.x + work.x, y = spec.y + work.y;
+    if (deep) return dof::layers_from_deep(dof::reframe(*deep, x, y, work.width, work.height), settings.depth_scale);
     if (dof::is_deep_exr(frame.source)) {  // a deep input: its samples are the layers
         const dof::DeepImage own = dof::read_deep_exr(frame.source);
-        return dof::layers_from_deep(dof::reframe(own, spec.x, spec.y, spec.width, spec.height), settings.depth_scale);
+        return dof::layers_from_deep(dof::reframe(own, x, y, work.width, work.height), settings.depth_scale);
     }
     const int z = channel_index(frame, settings.depth_channel);
     if (z < 0) throw std::runtime_error(fmt::format("no depth channel \"{}\" for --dof (see --depth-channel)", settings.depth_channel));
-    std::vector<float> depth = channels_as_float(frame, {z});
+    std::vector<float> depth = crop(channels_as_float(frame, {z}), spec.width, 1, work);
     const int a = channel_index(frame, "A");
-    const std::vector<float> alpha = a >= 0 ? channels_as_float(frame, {a}) : std::vector<float>{};
+    const std::vector<float> alpha = a >= 0 ? crop(channels_as_float(frame, {a}), spec.width, 1, work) : std::vector<float>{};
+    const std::vector<float> rgb = crop(frame.rgb, spec.width, 3, work);
     float zmin = 1e30f, zmax = 0.0f;
     for (float& d : depth) {
         d = static_cast<float>(static_cast<double>(d) * settings.depth_scale);
@@ -151,11 +249,11 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     // the hidden layer reaches as far as the widest blur of the frame's depth range
     const double reach = t.max_slope * std::max(std::abs(1.0 / double{zmin} - t.focus_w), std::abs(1.0 / double{std::max(zmax, zmin)} - t.focus_w));
     options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
-    return dof::layers_from_flat(frame.rgb.data(), depth.data(), frame.spec.width, frame.spec.height, options,
-                                 alpha.empty() ? nullptr : alpha.data());
+    return dof::layers_from_flat(rgb.data(), depth.data(), work.width, work.height, options, alpha.empty() ? nullptr : alpha.data());
 }
 
-DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows) : state_(std::make_unique<State>()) {
+DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows, FlareStage::PrimariesSource working_rgb_to_xyz)
+    : state_(std::make_unique<State>()) {
     State& s = *state_;
     if (settings.lens.empty()) throw std::runtime_error("--dof needs --lens");
     if (!settings.focus_m) throw std::runtime_error("--dof needs --focus METRES");
@@ -172,6 +270,7 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
     s.settings = std::move(settings);
     s.gpu = gpu ? std::move(gpu) : std::make_shared<GpuSession>();
     s.flare_follows = flare_follows;
+    s.primaries = std::move(working_rgb_to_xyz);
 }
 
 DofStage::~DofStage() = default;
@@ -192,7 +291,14 @@ void DofStage::process(Frame& frame) {
     }
     s.rays_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
-    const dof::LayerStack layers = s.layers_of(frame, *s.table);
+    // a flat frame's fill around its data window stays black: only the part the blur reaches is traced
+    DofRegion work{0, 0, spec.width, spec.height};
+    const int z = channel_index(frame, s.settings.depth_channel);
+    if (!s.deep && !dof::is_deep_exr(frame.source) && z >= 0) {
+        const DofRegion reached = blur_extent(spec, flat_content(frame, z, s.settings.depth_scale), *s.table);
+        if (reached.width > 0 && reached.height > 0) work = reached;
+    }
+    const dof::LayerStack layers = s.layers_of(frame, *s.table, work);
     s.layers_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
     s.gpu->get();
@@ -200,10 +306,13 @@ void DofStage::process(Frame& frame) {
     dof::TraceSettings trace;
     trace.rays = s.settings.rays;
     trace.chromatic = s.settings.chromatic;
+    trace.origin_x = work.x, trace.origin_y = work.y;
     const int alpha_channel = channel_index(frame, "A");
     std::vector<float> alpha;
-    std::vector<float> blurred = s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr);
-    if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, alpha);  // the alpha blurs with the colour
+    std::vector<float> blurred = uncrop(s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr), spec.width,
+                                        spec.height, 3, work);
+    // the alpha blurs with the colour
+    if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, uncrop(alpha, spec.width, spec.height, 1, work));
     s.trace_ms = ms_since(t0);
     if (!s.flare_follows) {
         frame.rgb = std::move(blurred);
@@ -262,14 +371,15 @@ Frame read_deep_exr_frame(const std::string& path) {
     return frame;
 }
 
-DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std::shared_ptr<GpuSession> gpu, bool& flare_runs) {
+DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std::shared_ptr<GpuSession> gpu, bool& flare_runs,
+                          FlareStage::PrimariesSource working_rgb_to_xyz) {
     flare_runs = !flare.lens.empty() && !(settings.enabled && settings.dof_only);
     if (!settings.enabled) return {};
     settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
     settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
     settings.cache_dir = flare.accel.cache_dir;
     settings.bands = flare.bands;
-    auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs);
+    auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs, std::move(working_rgb_to_xyz));
     DofStages stages;
     if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());
     stages.blur = std::move(blur);

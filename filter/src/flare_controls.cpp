@@ -2,12 +2,16 @@
 // sees (matte, added lights), and the run's summary of lights found.
 #include <filter/flare_controls.h>
 
+#include <CLI/CLI.hpp>
+#include <filter/option_checks.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include <fmt/core.h>
 
+#include <detect/track_file.h>
 #include <filter/frame_view.h>
 #include <filter/image_io.h>
 #include <filter/sequence.h>
@@ -15,6 +19,10 @@
 namespace lensfx::filter {
 
 namespace {
+
+// The brightest VALUE an added light may have: its largest disc (radius 4096 px) then sums to under a
+// track file's largest flux (detect::kMaxTrackFlux), far inside float range after every gain.
+constexpr double kMaxAddedLightValue = 1e7;
 
 // The numbers of a comma-separated list, each one whole and finite.
 std::vector<double> parse_numbers(std::string_view text) {
@@ -55,6 +63,15 @@ Rect disc_bounds(const AddedLight& l) {
             static_cast<int>(std::ceil(l.x + l.radius)), static_cast<int>(std::ceil(l.y + l.radius))};
 }
 
+// An added light is painted into the detector's copy of the plate, which grows to reach it: a light more
+// than half the display window's width or height outside it is refused (the copy stays within 4 frames).
+void check_within_reach(const AddedLight& l, const ImageSpec& spec) {
+    const double w = spec.full_width, h = spec.full_height;
+    if (l.x < -0.5 * w || l.x > 1.5 * w || l.y < -0.5 * h || l.y > 1.5 * h)
+        throw std::runtime_error(fmt::format("--add-light {:g},{:g}: more than half the {}x{} display window outside it",
+                                             l.x, l.y, spec.full_width, spec.full_height));
+}
+
 double clamp01(float v) { return std::isfinite(v) ? std::clamp(static_cast<double>(v), 0.0, 1.0) : 0.0; }
 
 }  // namespace
@@ -71,6 +88,10 @@ AddedLight parse_added_light(std::string_view text) {
     AddedLight light{v[0], v[1], v[2], v.size() == 4 ? v[3] : AddedLight{}.radius};
     if (light.value < 0.0 || !(light.radius > 0.0) || light.radius > 4096.0)
         throw std::invalid_argument(fmt::format("--add-light {}: VALUE must be >= 0 and RADIUS in (0, 4096] px", text));
+    if (!(std::abs(light.x) <= detect::kMaxTrackCoordinate) || !(std::abs(light.y) <= detect::kMaxTrackCoordinate) ||
+        !(light.value <= kMaxAddedLightValue))
+        throw std::invalid_argument(fmt::format("--add-light {}: X and Y must be within {:g} px and VALUE at most {:g}", text,
+                                                detect::kMaxTrackCoordinate, kMaxAddedLightValue));
     return light;
 }
 
@@ -91,7 +112,7 @@ void add_flare_control_options(CLI::App& app, FlareControls& c, const std::strin
     app.add_option("--add-light", c.add_lights,
                    "X,Y,VALUE[,RADIUS]: a disc of VALUE (radius 2 px) at display-window pixel X,Y lights the lens as if "
                    "the plate held it; the plate is unchanged (repeatable)")
-        ->group(group);
+        ->group(group)->check(parsed_by([](const std::string& t) { parse_added_light(t); }, "--add-light", "X,Y,VALUE[,RADIUS]"));
 }
 
 std::vector<float> read_matte(const std::string& path, int& width, int& height) {
@@ -197,6 +218,7 @@ detect::ImageView DetectionInput::view(const Frame& frame) {
     const int dx0 = frame.spec.x - frame.spec.full_x, dy0 = frame.spec.y - frame.spec.full_y;
     Rect region{dx0, dy0, dx0 + frame.spec.width, dy0 + frame.spec.height};
     for (const AddedLight& l : lights_) {
+        check_within_reach(l, frame.spec);
         const Rect d = disc_bounds(l);
         region = {std::min(region.x0, d.x0), std::min(region.y0, d.y0), std::max(region.x1, d.x1), std::max(region.y1, d.y1)};
     }

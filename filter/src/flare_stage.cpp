@@ -43,10 +43,13 @@
 #include <optics/tracer.h>
 
 #include <filter/float_range.h>
+#include <filter/image_ops.h>
 #include <filter/output_files.h>
 #include <filter/visibility.h>
 
-#include <filter/option_checks.h>
+#include <filter/colour/matrix.h>
+
+#include "stopwatch.h"
 
 namespace lensfx::filter {
 
@@ -59,106 +62,7 @@ namespace {
 
 constexpr double kDegrees = 180.0 / std::numbers::pi;
 
-// "36" or "36x24" (mm); height 0 when not given.
-std::array<double, 2> parse_sensor(const std::string& text) {
-    double w = 0.0, h = 0.0;
-    const auto x = text.find('x');
-    try {
-        std::size_t used = 0;
-        w = std::stod(text.substr(0, x), &used);
-        if (used != (x == std::string::npos ? text.size() : x)) throw std::invalid_argument(text);
-        if (x != std::string::npos) {
-            h = std::stod(text.substr(x + 1), &used);
-            if (used != text.size() - x - 1) throw std::invalid_argument(text);
-        }
-    } catch (const std::exception&) {
-        throw std::invalid_argument(fmt::format("--sensor must be WIDTH or WIDTHxHEIGHT in mm, not \"{}\"", text));
-    }
-    if (!(w > 0.0) || !std::isfinite(w) || h < 0.0 || !std::isfinite(h))
-        throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", text));
-    return {w, h};
-}
-
 }  // namespace
-
-void add_flare_options(CLI::App& app, FlareSettings& s) {
-    const std::string group = "Flare";
-    app.add_option("--lens", s.lens, "Lens preset (lensfx lens list) or lens file (.toml, pbrt .dat, lentil .fx)")->group(group);
-    app.add_option("--zoom", s.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group);
-    app.add_option("--fstop", s.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number());
-    app.add_option("--blades", s.blades, "Iris blade count (0 = round), overriding the lens's")->group(group)->check(CLI::Range(0, 64));
-    add_coating_options(app, s.coating, s.coating_spread, group);
-    app.add_option("--threshold", s.threshold, "Light-source threshold: luminance (20) or stops above the median (+6ev)")->capture_default_str()->group(group);
-    app.add_option("--max-lights", s.max_lights, "The brightest lights rendered per frame")->capture_default_str()->group(group)->check(CLI::Range(0, 4096));
-    app.add_option("--sensor", s.sensor, "Sensor width in mm, or WxH (the height follows the frame's aspect)")->capture_default_str()->group(group);
-    app.add_option("--fov", s.fov_deg, "Horizontal field of view in degrees (instead of the lens's focal length)")->group(group)->check(CLI::Range(0.1, 179.0))->check(finite_number());
-    app.add_option("--gain", s.gain, "Scale of the whole flare (1 = physical)")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
-    app.add_option("--source-gain", s.source_gain, "Strength multiplier for clipped sources")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
-    app.add_flag("--flare-only", s.flare_only, "Write the flare alone, on black")->group(group);
-    app.add_option("--tracks", s.tracks, "Render the lights of this track file (lensfx track) instead of detecting")->group(group);
-    app.add_option("--gpu", s.gpu, "EGL platform: auto, device (a GPU driver), surfaceless (Mesa)")->capture_default_str()->group(group)
-        ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
-    app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
-    add_part_gain_options(app, s.controls.ghost_gain, s.starburst_gain, group);
-    add_flare_control_options(app, s.controls, group);
-    app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
-    app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
-        ->capture_default_str()->group(group)->check(CLI::Range(0, flare::kMaxBands));
-    app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
-    app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
-        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
-    app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
-    app.add_option("--visibility", s.visibility,
-                   "Scene culling: leave out ghosts that together change no 32-pixel cell's 8-bit sRGB view by more than V codes")
-        ->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
-    app.add_flag("--no-scene-cull", s.no_scene_cull, "Draw every ghost, however faint against the plate")->group(group);
-    app.add_option("--grid", s.grid, "Base ray grid cells per side of each ghost (the adaptive grid scales it)")->capture_default_str()->group(group)->check(CLI::Range(4, 1024));
-    app.add_flag("--ringing", s.ringing, "Shade ghosts by the iris with its diffraction ringing (high quality)")->group(group);
-    app.add_option("--flare-look", s.flare_look, "Flare look file: per-ghost colour, gain, offset and imperfect symmetry (TOML)")->group(group);
-    add_pupil_options(app, s.pupil);
-    add_acceleration_options(app, s.accel, "Ghost renderer accelerations");
-}
-
-void add_coating_options(CLI::App& app, std::string& coating, double& spread, const std::string& group) {
-    app.add_option("--coating", coating,
-                   "Anti-reflection coatings of the air-glass surfaces: uncoated (before the 1940s), single (MgF2, "
-                   "1950s-70s), multi (broadband multi-layer, since the 1970s) or lens (the lens file's)")
-        ->capture_default_str()->group(group)->check(CLI::IsMember({"uncoated", "single", "multi", "lens", "none"}));
-    app.add_option("--coating-spread", spread, "Relative thickness spread of the coating layers (seeded per surface; 0 = exact)")
-        ->capture_default_str()->group(group)->check(CLI::Range(0.0, 0.49));
-}
-
-void apply_coatings(optics::System& system, const std::string& coating, double spread) {
-    optics::choose_coatings(system, optics::parse_coating_choice(coating), spread);
-}
-
-FlareParts parse_parts(std::string_view text) {
-    FlareParts parts{false, false};
-    std::size_t begin = 0;
-    while (begin <= text.size()) {
-        const std::size_t end = std::min(text.find(',', begin), text.size());
-        const std::string_view part = text.substr(begin, end - begin);
-        if (part == "ghosts") {
-            parts.ghosts = true;
-        } else if (part == "starburst") {
-            parts.starburst = true;
-        } else {
-            throw std::invalid_argument(fmt::format("--parts: unknown part \"{}\" (ghosts, starburst)", part));
-        }
-        begin = end + 1;
-    }
-    return parts;
-}
-
-optics::Mat3 xyz_to_rgb_of(const std::array<double, 9>& m) {
-    const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                       m[2] * (m[3] * m[7] - m[4] * m[6]);
-    if (!(std::abs(det) > 1e-12)) throw std::invalid_argument("the working space's RGB -> XYZ matrix is singular");
-    const double k = 1.0 / det;
-    return {{{(m[4] * m[8] - m[5] * m[7]) * k, (m[2] * m[7] - m[1] * m[8]) * k, (m[1] * m[5] - m[2] * m[4]) * k},
-             {(m[5] * m[6] - m[3] * m[8]) * k, (m[0] * m[8] - m[2] * m[6]) * k, (m[2] * m[3] - m[0] * m[5]) * k},
-             {(m[3] * m[7] - m[4] * m[6]) * k, (m[1] * m[6] - m[0] * m[7]) * k, (m[0] * m[4] - m[1] * m[3]) * k}}};
-}
 
 double min_light_fade(double relative, double min_light) {
     if (!(min_light > 0.0)) return 1.0;
@@ -169,7 +73,6 @@ double min_light_fade(double relative, double min_light) {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 }  // namespace
 
@@ -205,14 +108,12 @@ void keep_brightest(std::vector<detect::Light>& lights, std::size_t count) {
 }
 
 // The files the flare options name, refused when they are not regular files (a FIFO or /dev/zero would
-// hang the reader); --layer names that an EXR channel cannot hold; iris blade counts no iris has.
+// hang the reader); --layer names that an EXR channel cannot hold (--blades: realize_lens).
 void check_input_files(const FlareSettings& s) {
     if (std::filesystem::exists(s.lens)) require_regular_file(s.lens, "--lens");
     require_regular_file(s.tracks, "--tracks");
     require_regular_file(s.flare_look, "--flare-look");
     if (s.layer.size() > 253) throw std::invalid_argument(fmt::format("--layer: {} characters; EXR channel names hold 255 (the layer and \".R\")", s.layer.size()));
-    if (s.blades && (*s.blades == 1 || *s.blades == 2))
-        throw std::invalid_argument(fmt::format("--blades {}: 0 (round) or 3 to 64", *s.blades));
 }
 
 namespace {
@@ -235,43 +136,17 @@ double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool 
     return bytes;
 }
 
-// The flare image over the display window added to the frame: the data window grows to hold the flare
-// where it lands; into R, G, B, or as channels LAYER.R/G/B when `layer` is not empty.
+// Step 4, composite: the flare image over the display window added to the frame (ImageBufAlgo-like ops,
+// image_ops.h): the data window grows to hold where the flare is not zero; into R, G, B, or as channels
+// LAYER.R/G/B when `layer_name` is not empty.
 void composite(Frame& frame, const std::vector<float>& flare_rgb, const FlareGeometry& geo, const std::string& layer_name) {
+    const ConstRgbView flare{flare_rgb.data(), frame.spec.full_x, frame.spec.full_y, geo.width, geo.height};
+    if (const Region lit = nonzero_region(flare); !lit.empty()) grow_data_window(frame, lit.x0, lit.y0, lit.x1, lit.y1);
     const bool layer = !layer_name.empty();
-    int bx0 = geo.width, by0 = geo.height, bx1 = 0, by1 = 0;
-    for (int y = 0; y < geo.height; ++y) {
-        const float* row = flare_rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(geo.width) * 3;
-        auto lit = [&](int x) { return row[x * 3] != 0.0f || row[x * 3 + 1] != 0.0f || row[x * 3 + 2] != 0.0f; };
-        int first = 0;
-        while (first < geo.width && !lit(first)) ++first;
-        if (first == geo.width) continue;
-        int last = geo.width - 1;
-        while (!lit(last)) --last;
-        bx0 = std::min(bx0, first);
-        bx1 = std::max(bx1, last + 1);
-        by0 = std::min(by0, y);
-        by1 = y + 1;
-    }
-    if (bx1 > bx0)
-        grow_data_window(frame, frame.spec.full_x + bx0, frame.spec.full_y + by0, frame.spec.full_x + bx1,
-                         frame.spec.full_y + by1);
-    const int dx0 = frame.spec.x - frame.spec.full_x;
-    const int dy0 = frame.spec.y - frame.spec.full_y;
     std::vector<float> layer_rgb;
     if (layer) layer_rgb.assign(frame.pixel_count() * 3, 0.0f);
-    float* target = layer ? layer_rgb.data() : frame.rgb.data();
-    // Where the data window and the display window overlap, row by row.
-    const int x0 = std::max(0, -dx0), x1 = std::min(frame.spec.width, geo.width - dx0);
-    for (int y = 0; y < frame.spec.height && x1 > x0; ++y) {
-        const int fy = y + dy0;
-        if (fy < 0 || fy >= geo.height) continue;
-        float* px = target + (static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.spec.width) + static_cast<std::size_t>(x0)) * 3;
-        const float* f = flare_rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(geo.width) +
-                                             static_cast<std::size_t>(x0 + dx0)) * 3;
-        const std::size_t n = static_cast<std::size_t>(x1 - x0) * 3;
-        for (std::size_t i = 0; i < n; ++i) px[i] = added_within_float(px[i], f[i]);
-    }
+    const RgbView target{layer ? layer_rgb.data() : frame.rgb.data(), frame.spec.x, frame.spec.y, frame.spec.width, frame.spec.height};
+    add(target, flare, flare.region());
     if (layer) add_rgb_layer(frame, layer_name, layer_rgb);
 }
 
@@ -280,6 +155,59 @@ void composite(Frame& frame, const std::vector<float>& flare_rgb, const FlareGeo
 double footprint_reach_px(const detect::Shape& shape, double m) {
     return std::abs(m) * shape.cell * std::hypot(static_cast<double>(shape.width), static_cast<double>(shape.height)) + 4.0;
 }
+
+// A light with a footprint (a window, a lamp shade): its ghosts and starburst are spread over it.
+bool is_extended(const detect::Light& light) { return light.shape && !light.shape->weights.empty(); }
+
+// Step 2, fade: lights too dim against the brightest to show are left out, fading as they approach the limit
+// (min_light_fade of their luminous flux times weight and gain).
+void fade_dim_lights(std::vector<detect::Light>& lights, double min_light) {
+    auto luminous = [](const detect::Light& l) {
+        return detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2];
+    };
+    double brightest = 0.0;
+    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight * l.gain);
+    std::erase_if(lights, [&](detect::Light& l) {
+        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight * l.gain / brightest, min_light) : 0.0;
+        return !(l.weight > 0.0);
+    });
+}
+
+// R, G, B of half or float: what a flare is added to; throws naming what the frame has instead.
+void check_flare_channels(const Frame& frame) {
+    if (!frame.has_rgb()) {
+        std::string names;
+        for (const auto& n : frame.spec.channelnames) names += (names.empty() ? "" : ", ") + n;
+        throw std::runtime_error(fmt::format("the flare needs R, G, B channels (or LAYER.R, .G, .B); this frame has {}", names.empty() ? "none" : names));
+    }
+    for (int c : frame.rgb_channels)
+        if (frame.spec.channel_type(c) == PixelType::uint32)
+            throw std::runtime_error(fmt::format("channel {} is uint32 (integers such as ids, not light): the flare needs half or float R, G, B",
+                                                 frame.spec.channel_name(c)));
+}
+
+// A lens's ghosts, their first-order imaging and their power along the axis: how an extended light's ghosts
+// are grouped by footprint (footprint_groups).
+struct GhostImagingTable {
+    std::vector<optics::Ghost> ghosts;
+    std::vector<optics::GhostImaging> imaging;
+    std::vector<double> axial_power;
+
+    static GhostImagingTable of(const optics::System& system) {
+        GhostImagingTable t;
+        t.ghosts = optics::enumerate_ghosts(system);
+        t.imaging = optics::ghost_imaging(system, t.ghosts);
+        const optics::TraceSystem traced(system, optics::kLambdaD_nm);
+        for (const optics::Ghost& g : t.ghosts) t.axial_power.push_back(optics::ghost_axial_factor(traced, g));
+        return t;
+    }
+};
+
+// What the model step adds up over a frame's lights: the parts' times and the ghosts drawn and culled.
+struct FrameTally {
+    double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
+    int ghosts_drawn = 0, ghosts_culled = 0;
+};
 
 }  // namespace
 
@@ -307,9 +235,7 @@ struct FlareStage::State {
     std::string direct_key;                      // what the table depends on (its cache file's name)
     std::filesystem::path direct_file;
     std::string lens_text;                       // the lens as TOML: part of the table's key
-    std::vector<optics::Ghost> ghosts;           // the lens's ghosts, their imaging and axial power: for
-    std::vector<optics::GhostImaging> imaging;   // extended lights, made at the first one
-    std::vector<double> axial_power;
+    std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
     std::vector<std::pair<std::string, double>> times;  // of the last frame
     std::vector<std::pair<std::string, double>> figures;  // of the last frame
     std::vector<std::pair<std::string, double>> detected;  // the detector's figures of the last frame
@@ -363,13 +289,9 @@ struct FlareStage::State {
 
     // The prescription, realized at --zoom and --fstop with its coatings and blades.
     void load_physical_lens() {
-        const optics::Lens lens = optics::load_lens(settings.lens);
-        const double zoom = settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom);
-        system = optics::realize(lens, zoom, settings.fstop);
-        apply_coatings(system, settings.coating, settings.coating_spread);
-        lens_text = fmt::format("{}\nzoom {:.17g} fstop {:.17g} blades {} coating {} spread {:.17g}", optics::write_lens_toml(lens), zoom,
-                                settings.fstop.value_or(0.0), settings.blades.value_or(-1), settings.coating, settings.coating_spread);
-        if (settings.blades) system.aperture.blades = *settings.blades;
+        RealizedLens realized = realize_lens(settings);
+        system = std::move(realized.system);
+        lens_text = std::move(realized.text);
         const optics::Paraxial first_order = optics::paraxial(system);
         efl_mm = first_order.efl_mm;
         f_number = first_order.f_number;
@@ -400,7 +322,7 @@ struct FlareStage::State {
     void resolve_primaries() {
         if (xyz_to_rgb) return;
         const auto rgb_to_xyz = primaries_source ? primaries_source() : std::nullopt;
-        xyz_to_rgb = rgb_to_xyz ? xyz_to_rgb_of(*rgb_to_xyz) : optics::kXyzToRec709;
+        xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
         gpu::FlareView view;
         view.bands = settings.bands;
         view.xyz_to_rgb = *xyz_to_rgb;
@@ -444,6 +366,232 @@ struct FlareStage::State {
                          (extended ? settings.controls.extended_gain : 1.0);
         return std::isfinite(b) ? b : std::numeric_limits<double>::max();
     }
+
+    void start_frame() {
+        times.clear();
+        figures.clear();
+        detected.clear();
+    }
+
+    // Step 1, lights: this frame's (detected and tracked, or from the track file), less those too dim against
+    // the brightest to show; counted in the run's summary and the frame's figures.
+    std::vector<detect::Light> frame_lights(const Frame& frame) {
+        const auto t = Clock::now();
+        std::vector<detect::Light> found = lights(frame);
+        times.emplace_back("detect", ms_since(t));
+        fade_dim_lights(found, settings.min_light);
+        summary.lights_per_frame.push_back(static_cast<int>(found.size()));
+        figures.emplace_back("lights", static_cast<double>(found.size()));
+        figures.insert(figures.end(), detected.begin(), detected.end());
+        return found;
+    }
+
+    bool draws_nothing(const std::vector<detect::Light>& found) const {
+        return found.empty() || settings.gain == 0.0 || (!parts.ghosts && !parts.starburst);
+    }
+
+    // The flare image of this frame, cleared: the frame's own R, G, B when `into_frame`, else a buffer over the
+    // display window; with the working space resolved, the renderer made and the plate's visibility for culling.
+    std::vector<float>& start_flare(Frame& frame, const FlareGeometry& geo, const std::vector<detect::Light>& found, bool into_frame) {
+        resolve_primaries();
+        if (!renderer && parts.ghosts) renderer = std::make_unique<gpu::FlareRenderer>(gpu_session->get());
+        // Scene culling needs the plate the flare is added to: not with --flare-only or --layer (composited later).
+        const bool layer = !settings.layer.empty();
+        const bool scene_cull = parts.ghosts && !settings.no_scene_cull && !settings.flare_only && !layer;
+        render_options.visibility = scene_cull ? plate_visibility(frame, settings.visibility) : nullptr;
+        const bool any_extended = std::any_of(found.begin(), found.end(), [](const detect::Light& l) { return is_extended(l); });
+        settings.memory.check(flare_frame_bytes(frame, into_frame, parts.ghosts, any_extended, layer),
+                              fmt::format("the flare over the {}x{} display window", geo.width, geo.height));
+        if (into_frame) {
+            flare_rgb = {};
+            return frame.rgb;
+        }
+        flare_rgb.assign(static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) * 3, 0.0f);
+        return flare_rgb;
+    }
+
+    // Step 3, the model: every light's starburst and ghosts added into `rgb` (the display window) at the light's
+    // strength; the point lights' ghosts drawn together at the end (one clear and read-back).
+    FrameTally add_model(const std::vector<detect::Light>& found, const FlareGeometry& geo, std::vector<float>& rgb) {
+        FrameTally tally;
+        gpu::FlareView view = flare_view(geo);  // each light sets the angles
+        std::vector<gpu::ScaledLight> point_lights;
+        for (const detect::Light& light : found) {
+            auto t = Clock::now();
+            const auto [ax, ay] = geo.angles_at(light.x, light.y);
+            const std::optional<std::array<float, 3>> scale = ghost_scale(light, geo, ax, ay);
+            tally.direct_ms += ms_since(t);
+            if (!scale) continue;  // outside what the lens images: nothing reaches the sensor
+            if (parts.starburst) {
+                t = Clock::now();
+                add_starburst(light, geo, rgb);
+                tally.starburst_ms += ms_since(t);
+            }
+            if (!parts.ghosts) continue;
+            view.angle_x_deg = ax;
+            view.angle_y_deg = ay;
+            const gpu::ScaledLight scaled{ax, ay, {(*scale)[0], (*scale)[1], (*scale)[2]}};
+            if (!add_light_ghosts(light, *scale, view, rgb, tally)) point_lights.push_back(scaled);
+        }
+        if (!point_lights.empty()) {
+            const auto t = Clock::now();
+            renderer->render_add(system, view, point_lights, render_options, rgb);
+            count_ghosts(tally);
+            tally.ghosts_ms += ms_since(t);
+        }
+        return tally;
+    }
+
+    // The frame as the lens sees it: sensor, pixels, bands and the working space's primaries.
+    gpu::FlareView flare_view(const FlareGeometry& geo) const {
+        gpu::FlareView view;
+        view.sensor_width_mm = geo.sensor_width_mm;
+        view.sensor_height_mm = geo.sensor_height_mm;
+        view.width = geo.width;
+        view.height = geo.height;
+        view.bands = settings.bands;
+        view.xyz_to_rgb = *xyz_to_rgb;
+        return view;
+    }
+
+    // direct_power at (ax, ay) from the table over the frame's field (made at the first light, kept on disk).
+    std::array<double, 3> direct_power_at(const FlareGeometry& geo, double ax, double ay) {
+        if (direct.empty()) {
+            const auto [cx, cy] = geo.angles_at(0.0, 0.0);
+            const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
+            direct = flare::DirectPowerTable(system, std::min(89.0, 1.02 * corner), 12, 96, passes);
+            direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens_text, direct.max_field_deg(), flare::passes_key(passes));
+            if (const std::string dir = flare::cache_dir_of(settings.accel.cache_dir); !dir.empty()) {
+                direct_file = flare::cache_file(dir, "direct", flare::key_hash(direct_key));
+                direct.load(direct_file, direct_key);
+            }
+        }
+        const int traced_before = direct.traced();
+        const std::array<double, 3> power = direct.at(ax, ay);
+        if (direct.traced() != traced_before && !direct_file.empty()) direct.save(direct_file, direct_key);
+        return power;
+    }
+
+    // The factor per channel a light's ghosts are added with: its irradiance at the lens (the energy its image
+    // recorded over what unit irradiance gives through the direct path) times its gains; nullopt when nothing
+    // of it reaches the sensor.
+    std::optional<std::array<float, 3>> ghost_scale(const detect::Light& light, const FlareGeometry& geo, double ax, double ay) {
+        const std::array<double, 3> power = direct_power_at(geo, ax, ay);
+        const double gains = boost(light, is_extended(light));
+        std::array<float, 3> scale{};
+        bool any = false;
+        for (std::size_t c = 0; c < 3; ++c) {
+            if (power[c] <= 0.0) continue;
+            const double irradiance = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / power[c];
+            scale[c] = to_float_within(std::min(irradiance * gains * settings.controls.ghost_gain, kMaxLightScale));
+            any = any || irradiance * gains > 0.0;
+        }
+        return any ? std::optional(scale) : std::nullopt;
+    }
+
+    // The light's diffraction pattern, carrying its recorded energy, centred on its image; its core is already in
+    // the recorded pixels, so only the spikes and rings are added. An extended light's is every point's pattern
+    // over its footprint (the direct image), less what its recorded pixels hold (footprint.h).
+    void add_starburst(const detect::Light& light, const FlareGeometry& geo, std::vector<float>& rgb) {
+        if (!starburst) {
+            optics::StarburstOptions options = starburst_options;
+            options.xyz_to_rgb = *xyz_to_rgb;
+            starburst = flare::cached_starburst(system.aperture, options, flare::cache_dir_of(settings.accel.cache_dir));
+        }
+        const double gains = boost(light, is_extended(light));
+        std::array<double, 3> energy{};
+        for (std::size_t c = 0; c < 3; ++c)
+            energy[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * settings.starburst_gain * gains, kMaxLightScale);
+        // Never leave out more than the light's own pixel, or a small light would show a hole.
+        const double texel_px = starburst->texel_per_fnumber_mm * f_number / (geo.sensor_width_mm / geo.width);
+        const double core_texels = std::min(optics::starburst_core_radius_texels(*starburst), 0.75 / texel_px);
+        const optics::SensorImage image{rgb.data(), geo.width, geo.height, geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height};
+        if (is_extended(light)) {
+            add_extended_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy,
+                                   *light.shape, image);
+        } else {
+            optics::draw_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy, image);
+        }
+    }
+
+    // The groups of a light's ghosts by footprint magnification (footprint.h): one group of every ghost, no
+    // footprint, for a point light or an extended light whose ghosts all image as from a point.
+    std::vector<FootprintGroup> ghost_groups(const detect::Light& light, double pixel_mm) {
+        if (!is_extended(light)) return std::vector<FootprintGroup>(1);
+        if (!ghost_imaging) ghost_imaging = GhostImagingTable::of(system);
+        const GhostImagingTable& t = *ghost_imaging;
+        std::vector<FootprintGroup> groups = footprint_groups(t.ghosts, t.imaging, t.axial_power, *light.shape, pixel_mm);
+        if (groups.size() == 1 && groups[0].magnification == 0.0) groups[0].ghosts.clear();  // every ghost: a point light's caches
+        return groups;
+    }
+
+    // A light's ghosts added into `rgb` group by group (each convolved with its footprint), or with
+    // --band-filter one render per band; false for a point light, left to be drawn with the frame's others.
+    bool add_light_ghosts(const detect::Light& light, const std::array<float, 3>& scale, gpu::FlareView& view, std::vector<float>& rgb,
+                          FrameTally& tally) {
+        auto t = Clock::now();
+        const std::vector<FootprintGroup> groups = ghost_groups(light, view.sensor_width_mm / view.width);
+        if (is_extended(light)) tally.extended_ms += ms_since(t);
+        const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
+        if (as_point && !settings.band_filter) return false;
+        const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, {scale[0], scale[1], scale[2]}};
+        const std::size_t display_px = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
+        std::vector<float> group_rgb;  // the group's ghosts, before its footprint
+        for (const FootprintGroup& group : groups) {
+            t = Clock::now();
+            if (settings.band_filter) {
+                view.only_ghosts = group.ghosts;
+                gpu::FlareImage flare = gpu::render_band_filtered(
+                    system, view, [&](const gpu::FlareView& one) { return renderer->render(system, one, render_options); });
+                view.only_ghosts.clear();
+                if (flare.width != view.width || flare.height != view.height)
+                    throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
+                                                         view.width, view.height));
+                group_rgb = std::move(flare.rgb);
+                for (std::size_t i = 0; i < display_px; ++i)
+                    for (std::size_t c = 0; c < 3; ++c) group_rgb[i * 3 + c] = scaled_within_float(group_rgb[i * 3 + c], scale[c]);
+            } else {
+                // The group's ghosts out of the whole lens's (one bounds table and estimate for all groups), at
+                // the light's strength, so scene culling weighs them in the frame's units.
+                gpu::GpuFlareOptions group_options = render_options;
+                group_options.draw_only = group.ghosts;
+                group_options.spread_px = group.magnification != 0.0 ? footprint_reach_px(*light.shape, group.magnification) : 0.0;
+                group_rgb.assign(display_px * 3, 0.0f);
+                renderer->render_add(system, view, std::span(&scaled, 1), group_options, group_rgb);
+            }
+            count_ghosts(tally);
+            tally.ghosts_ms += ms_since(t);
+            if (group.magnification != 0.0) {
+                t = Clock::now();
+                convolve_footprint(group_rgb, view.width, view.height, *light.shape, group.magnification);
+                tally.extended_ms += ms_since(t);
+            }
+            for (std::size_t i = 0; i < display_px * 3; ++i) rgb[i] = added_within_float(rgb[i], group_rgb[i]);
+        }
+        return true;
+    }
+
+    void count_ghosts(FrameTally& tally) const {
+        tally.ghosts_drawn += renderer->last_stats().ghosts_drawn;
+        tally.ghosts_culled += renderer->last_stats().ghosts_culled;
+    }
+
+    // The model's figures and part times for the frame and the run; above 4K the GL targets (over 300 MB) are
+    // not kept for the next frame: making them again costs little against rendering at that size, and the
+    // frame is stored and written without them.
+    void finish_model(const FrameTally& tally, const FlareGeometry& geo) {
+        constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
+        if (renderer && static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) > kKeepTargetsPixels)
+            renderer->release_targets();
+        figures.emplace_back("ghosts drawn", static_cast<double>(tally.ghosts_drawn));
+        figures.emplace_back("ghosts culled", static_cast<double>(tally.ghosts_culled));
+        summary.ghosts_drawn += tally.ghosts_drawn;
+        summary.ghosts_culled += tally.ghosts_culled;
+        times.emplace_back("direct", tally.direct_ms);
+        times.emplace_back("starburst", tally.starburst_ms);
+        times.emplace_back("ghosts", tally.ghosts_ms);
+        times.emplace_back("extended", tally.extended_ms);
+    }
 };
 
 FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, PrimariesSource working_rgb_to_xyz)
@@ -454,219 +602,26 @@ std::vector<std::pair<std::string, double>> FlareStage::part_times() const { ret
 std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { return state_->figures; }
 const LightSummary& FlareStage::summary() const { return state_->summary; }
 
+// lights -> fade -> model -> composite.
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
-    s.times.clear();
-    s.figures.clear();
-    s.detected.clear();
-    if (!frame.has_rgb()) {
-        std::string names;
-        for (const auto& n : frame.spec.channelnames) names += (names.empty() ? "" : ", ") + n;
-        throw std::runtime_error(fmt::format("the flare needs R, G, B channels (or LAYER.R, .G, .B); this frame has {}", names.empty() ? "none" : names));
-    }
-    for (int c : frame.rgb_channels)
-        if (frame.spec.channel_type(c) == PixelType::uint32)
-            throw std::runtime_error(fmt::format("channel {} is uint32 (integers such as ids, not light): the flare needs half or float R, G, B",
-                                                 frame.spec.channel_name(c)));
-    auto t = Clock::now();
-    std::vector<detect::Light> lights = s.lights(frame);
-    s.times.emplace_back("detect", ms_since(t));
-    const FlareParts& parts = s.parts;
+    s.start_frame();
+    check_flare_channels(frame);
+    const std::vector<detect::Light> lights = s.frame_lights(frame);
     if (s.settings.flare_only) std::fill(frame.rgb.begin(), frame.rgb.end(), 0.0f);
-
-    // Lights too dim against the brightest to show are left out, fading as they approach the limit.
-    auto luminous = [](const detect::Light& l) {
-        return detect::kRec709Luma[0] * l.flux[0] + detect::kRec709Luma[1] * l.flux[1] + detect::kRec709Luma[2] * l.flux[2];
-    };
-    double brightest = 0.0;
-    for (const auto& l : lights) brightest = std::max(brightest, luminous(l) * l.weight * l.gain);
-    std::erase_if(lights, [&](detect::Light& l) {
-        l.weight *= brightest > 0.0 ? min_light_fade(luminous(l) * l.weight * l.gain / brightest, s.settings.min_light) : 0.0;
-        return !(l.weight > 0.0);
-    });
-    s.summary.lights_per_frame.push_back(static_cast<int>(lights.size()));
-    s.figures.emplace_back("lights", static_cast<double>(lights.size()));
-    s.figures.insert(s.figures.end(), s.detected.begin(), s.detected.end());
-
     const bool layer = !s.settings.layer.empty();
-    if (lights.empty() || s.settings.gain == 0.0 || (!parts.ghosts && !parts.starburst)) {  // nothing to draw (the context made ahead waits)
+    if (s.draws_nothing(lights)) {  // the context made ahead waits
         if (layer) add_rgb_layer(frame, s.settings.layer, std::vector<float>(frame.pixel_count() * 3, 0.0f));
         return;
     }
-
     const FlareGeometry geo = s.geometry(frame);
     if (s.measured_lens) return s.add_measured_flare(frame, lights, geo);
-    s.resolve_primaries();
-    if (!s.renderer && parts.ghosts) s.renderer = std::make_unique<gpu::FlareRenderer>(s.gpu_session->get());
-    // Scene culling needs the plate the flare is added to: not with --flare-only or --layer (composited later).
-    const bool scene_cull = parts.ghosts && !s.settings.no_scene_cull && !s.settings.flare_only && !layer;
-    s.render_options.visibility = scene_cull ? plate_visibility(frame, s.settings.visibility) : nullptr;
-    const gpu::GpuFlareOptions& render_options = s.render_options;
-    int ghosts_drawn = 0, ghosts_culled = 0;
-    auto count_ghosts = [&] {
-        ghosts_drawn += s.renderer->last_stats().ghosts_drawn;
-        ghosts_culled += s.renderer->last_stats().ghosts_culled;
-    };
-
     // The flare over the display window, composited into the frame once every light is in; when the data
     // window is the display window (and R, G, B are the target), added into the frame's R, G, B directly.
-    const std::size_t display_px = static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height);
     const bool into_frame = frame.spec.data_is_display() && !layer;
-    const bool any_extended = std::any_of(lights.begin(), lights.end(), [](const detect::Light& l) {
-        return l.shape && !l.shape->weights.empty();
-    });
-    s.settings.memory.check(flare_frame_bytes(frame, into_frame, parts.ghosts, any_extended, layer),
-                            fmt::format("the flare over the {}x{} display window", geo.width, geo.height));
-    if (into_frame) s.flare_rgb = {};
-    std::vector<float>& flare_rgb = into_frame ? frame.rgb : s.flare_rgb;
-    if (!into_frame) flare_rgb.assign(display_px * 3, 0.0f);
-    double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
-    gpu::FlareView view;  // the frame as the lens sees it; each light sets the angles
-    view.sensor_width_mm = geo.sensor_width_mm;
-    view.sensor_height_mm = geo.sensor_height_mm;
-    view.width = geo.width;
-    view.height = geo.height;
-    view.bands = s.settings.bands;
-    view.xyz_to_rgb = *s.xyz_to_rgb;
-    std::vector<gpu::ScaledLight> point_lights;  // their ghosts drawn together: one clear and read-back
-    std::vector<float> group_rgb;  // an extended light's group of ghosts, before its footprint
-    for (const detect::Light& light : lights) {
-        t = Clock::now();
-        const auto [ax, ay] = geo.angles_at(light.x, light.y);
-        const bool extended = light.shape && !light.shape->weights.empty();
-        if (s.direct.empty()) {
-            const auto [cx, cy] = geo.angles_at(0.0, 0.0);
-            const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
-            s.direct = flare::DirectPowerTable(s.system, std::min(89.0, 1.02 * corner), 12, 96, s.passes);
-            s.direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", s.lens_text, s.direct.max_field_deg(),
-                                       flare::passes_key(s.passes));
-            if (const std::string dir = flare::cache_dir_of(s.settings.accel.cache_dir); !dir.empty()) {
-                s.direct_file = flare::cache_file(dir, "direct", flare::key_hash(s.direct_key));
-                s.direct.load(s.direct_file, s.direct_key);
-            }
-        }
-        const int traced_before = s.direct.traced();
-        const std::array<double, 3> direct = s.direct.at(ax, ay);
-        if (s.direct.traced() != traced_before && !s.direct_file.empty()) s.direct.save(s.direct_file, s.direct_key);
-        const double boost = s.boost(light, extended);
-        std::array<float, 3> scale{};  // of the ghosts
-        bool any = false;
-        for (std::size_t c = 0; c < 3; ++c) {
-            // Irradiance of the light at the lens: the energy its image recorded over what unit irradiance gives.
-            if (direct[c] <= 0.0) continue;
-            const double irradiance = std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / direct[c];
-            scale[c] = to_float_within(std::min(irradiance * boost * s.settings.controls.ghost_gain, kMaxLightScale));
-            any = any || irradiance * boost > 0.0;
-        }
-        direct_ms += ms_since(t);
-        if (!any) continue;  // outside what the lens images: nothing reaches the sensor
-
-        if (parts.starburst) {
-            t = Clock::now();
-            if (!s.starburst) {
-                optics::StarburstOptions starburst_options = s.starburst_options;
-                starburst_options.xyz_to_rgb = *s.xyz_to_rgb;
-                s.starburst = flare::cached_starburst(s.system.aperture, starburst_options, flare::cache_dir_of(s.settings.accel.cache_dir));
-            }
-            // The light's diffraction pattern carries its recorded energy, centred on its image; its core is
-            // already in the recorded pixels, so only the spikes and rings are added.
-            std::array<double, 3> energy{};
-            for (std::size_t c = 0; c < 3; ++c)
-                energy[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * s.settings.starburst_gain * boost, kMaxLightScale);
-            // Never leave out more than the light's own pixel, or a small light would show a hole.
-            const double texel_px = s.starburst->texel_per_fnumber_mm * s.f_number / (geo.sensor_width_mm / geo.width);
-            const double core_texels = std::min(optics::starburst_core_radius_texels(*s.starburst), 0.75 / texel_px);
-            // An extended light's diffraction is every point's pattern over its footprint (the direct image),
-            // less what its recorded pixels hold (footprint.h).
-            const double f_number = s.f_number;
-            const double pixel_w_mm = geo.sensor_width_mm / geo.width, pixel_h_mm = geo.sensor_height_mm / geo.height;
-            if (extended) {
-                // An extended light's pattern is spread over its footprint from the texture alone, which
-                // --starburst-scale enlarges as a whole (the point lights' spikes are lengthened instead).
-                add_extended_starburst(*s.starburst, f_number * s.settings.starburst_scale, light.x, light.y, energy, pixel_w_mm, pixel_h_mm,
-                                       core_texels, *light.shape, flare_rgb.data(), geo.width, geo.height);
-            } else {
-                optics::draw_starburst(*s.starburst, s.system.aperture, f_number, s.settings.starburst_scale, light.x,
-                                       light.y, energy, pixel_w_mm, pixel_h_mm, flare_rgb.data(), geo.width, geo.height,
-                                       core_texels);
-            }
-            starburst_ms += ms_since(t);
-        }
-        if (!parts.ghosts) continue;
-
-        view.angle_x_deg = ax;
-        view.angle_y_deg = ay;
-        std::vector<FootprintGroup> groups(1);  // a point light: every ghost, no footprint
-        if (extended) {
-            t = Clock::now();
-            if (s.imaging.empty()) {
-                s.ghosts = optics::enumerate_ghosts(s.system);
-                s.imaging = optics::ghost_imaging(s.system, s.ghosts);
-                const optics::TraceSystem traced(s.system, optics::kLambdaD_nm);
-                for (const optics::Ghost& g : s.ghosts) s.axial_power.push_back(optics::ghost_axial_factor(traced, g));
-            }
-            groups = footprint_groups(s.ghosts, s.imaging, s.axial_power, *light.shape, geo.sensor_width_mm / geo.width);
-            extended_ms += ms_since(t);
-        }
-        const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
-        if (as_point) groups[0].ghosts.clear();  // every ghost: a point light's selection, and its caches
-        if (as_point && !s.settings.band_filter) {
-            point_lights.push_back({ax, ay, {static_cast<double>(scale[0]), static_cast<double>(scale[1]), static_cast<double>(scale[2])}});  // drawn with the frame's others
-            continue;
-        }
-        const gpu::ScaledLight scaled{ax, ay, {static_cast<double>(scale[0]), static_cast<double>(scale[1]), static_cast<double>(scale[2])}};
-        for (const FootprintGroup& group : groups) {
-            t = Clock::now();
-            if (s.settings.band_filter) {
-                view.only_ghosts = group.ghosts;
-                gpu::FlareImage flare = gpu::render_band_filtered(
-                    s.system, view, [&](const gpu::FlareView& one) { return s.renderer->render(s.system, one, render_options); });
-                view.only_ghosts.clear();
-                if (flare.width != geo.width || flare.height != geo.height)
-                    throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width,
-                                                         flare.height, geo.width, geo.height));
-                group_rgb = std::move(flare.rgb);
-                for (std::size_t i = 0; i < display_px; ++i)
-                    for (std::size_t c = 0; c < 3; ++c) group_rgb[i * 3 + c] = scaled_within_float(group_rgb[i * 3 + c], scale[c]);
-            } else {
-                // The group's ghosts out of the whole lens's (one bounds table and estimate for all groups),
-                // at the light's strength, so scene culling weighs them in the frame's units.
-                gpu::GpuFlareOptions group_options = render_options;
-                group_options.draw_only = group.ghosts;
-                group_options.spread_px = group.magnification != 0.0 ? footprint_reach_px(*light.shape, group.magnification) : 0.0;
-                group_rgb.assign(display_px * 3, 0.0f);
-                s.renderer->render_add(s.system, view, std::span(&scaled, 1), group_options, group_rgb);
-            }
-            count_ghosts();
-            ghosts_ms += ms_since(t);
-            if (group.magnification != 0.0) {
-                t = Clock::now();
-                convolve_footprint(group_rgb, geo.width, geo.height, *light.shape, group.magnification);
-                extended_ms += ms_since(t);
-            }
-            for (std::size_t i = 0; i < display_px * 3; ++i) flare_rgb[i] = added_within_float(flare_rgb[i], group_rgb[i]);
-        }
-    }
-    if (!point_lights.empty()) {
-        t = Clock::now();
-        s.renderer->render_add(s.system, view, point_lights, render_options, flare_rgb);
-        count_ghosts();
-        ghosts_ms += ms_since(t);
-    }
-    // Above 4K the GL targets (over 300 MB) are not kept for the next frame: making them again costs
-    // little against rendering at that size, and the frame is stored and written without them.
-    constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
-    if (s.renderer && display_px > kKeepTargetsPixels) s.renderer->release_targets();
-    s.figures.emplace_back("ghosts drawn", static_cast<double>(ghosts_drawn));
-    s.figures.emplace_back("ghosts culled", static_cast<double>(ghosts_culled));
-    s.summary.ghosts_drawn += ghosts_drawn;
-    s.summary.ghosts_culled += ghosts_culled;
-    s.times.emplace_back("direct", direct_ms);
-    s.times.emplace_back("starburst", starburst_ms);
-    s.times.emplace_back("ghosts", ghosts_ms);
-    s.times.emplace_back("extended", extended_ms);
-
-    t = Clock::now();
+    std::vector<float>& flare_rgb = s.start_flare(frame, geo, lights, into_frame);
+    s.finish_model(s.add_model(lights, geo, flare_rgb), geo);
+    const auto t = Clock::now();
     if (!into_frame) composite(frame, flare_rgb, geo, s.settings.layer);
     s.times.emplace_back("composite", ms_since(t));
 }

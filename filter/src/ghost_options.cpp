@@ -1,5 +1,7 @@
 #include <filter/ghost_options.h>
 
+#include <CLI/CLI.hpp>
+
 namespace lensfx::filter {
 
 gpu::Acceleration AccelerationSettings::acceleration() const {

@@ -68,27 +68,36 @@ std::string output_compression(const Frame& frame, const WriteOptions& options) 
 // (blue noise 64, Bayer 16), so the strips give exactly the values the whole image would.
 constexpr int kStripRows = 256;
 
-// R, G, B (and A) of the data window quantised to T (8 or 16 bits) with the output's dither, a strip of
-// rows at a time: no float copy of the whole frame is made.
+// Fills rows of R, G, B (and A) quantised to T (8 or 16 bits) with the output's dither from a strip of
+// floats; called with strips of kStripRows rows (the last shorter), so the dither is the whole image's.
 template <typename T>
-std::vector<T> quantised_display(const Frame& frame, const std::vector<int>& channels, const WriteOptions& options,
-                                 const std::string& format) {
+OiioModule::RowSource quantised_rows(const Frame& frame, const std::vector<int>& channels, const WriteOptions& options) {
     const auto w = static_cast<std::size_t>(frame.spec.width), k = channels.size();
-    const int height = frame.spec.height, strip = std::min(kStripRows, height);
-    options.memory.check(bytes_of(w, height, static_cast<double>(k * sizeof(T))) + bytes_of(w, strip, static_cast<double>(k * sizeof(float))),
-                         fmt::format("{} output of the {}x{} data window", format, w, height));
-    std::vector<T> out(w * static_cast<std::size_t>(height) * k);
-    std::vector<float> floats(w * static_cast<std::size_t>(strip) * k);
-    for (int y = 0; y < height; y += strip) {
-        const int rows = std::min(strip, height - y);
-        rows_as_float(frame, channels, y, rows, floats.data());
-        const colour::PixelSpan span{floats.data(), w, static_cast<std::size_t>(rows), static_cast<int>(k), 0};
+    auto floats = std::make_shared<std::vector<float>>();
+    return [&frame, channels, &options, w, k, floats](int first, int count, void* out) {
+        floats->resize(w * static_cast<std::size_t>(count) * k);
+        rows_as_float(frame, channels, first, count, floats->data());
+        const colour::PixelSpan span{floats->data(), w, static_cast<std::size_t>(count), static_cast<int>(k), 0};
         std::vector<T> q;
         if constexpr (sizeof(T) == 1) q = colour::quantise8(span, options.dither, frame.index);
         else q = colour::quantise16(span, options.dither, frame.index);
-        std::copy(q.begin(), q.end(), out.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(y) * w * k));
-    }
-    return out;
+        std::copy(q.begin(), q.end(), static_cast<T*>(out));
+    };
+}
+
+// Rows of `channels` as float.
+OiioModule::RowSource float_rows(const Frame& frame, std::vector<int> channels) {
+    return [&frame, channels = std::move(channels)](int first, int count, void* out) {
+        rows_as_float(frame, channels, first, count, static_cast<float*>(out));
+    };
+}
+
+// Rows of every channel in their own (one) type, as the frame holds them.
+OiioModule::RowSource native_rows(const Frame& frame) {
+    return [&frame](int first, int count, void* out) {
+        const std::size_t row = frame.spec.pixel_bytes() * static_cast<std::size_t>(frame.spec.width);
+        std::memcpy(out, frame.pixels.data() + static_cast<std::size_t>(first) * row, static_cast<std::size_t>(count) * row);
+    };
 }
 
 }  // namespace
@@ -153,20 +162,13 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
     if (format.empty()) throw std::runtime_error(fmt::format("unknown output format \"{}\"", fs::path(path).extension().string()));
 
     ImageSpec spec = frame.spec;
-    const void* data = frame.pixels.data();
-    std::vector<float> converted;  // TIFF and HDR: the channels written, as float
-    std::vector<std::uint8_t> quantised8;
-    std::vector<std::uint16_t> quantised16;
-    // Only these channels, as float; `type` is what `data` holds when the writer gets it.
-    auto select = [&](const std::vector<int>& channels, PixelType type) {
-        std::vector<std::string> names;
-        for (int c : channels) names.push_back(frame.spec.channel_name(c));
-        options.memory.check(bytes_of(spec.width, spec.height, static_cast<double>(channels.size() * sizeof(float))),
-                             fmt::format("{} output's float copy of the {}x{} data window", format, spec.width, spec.height));
-        converted = channels_as_float(frame, channels);
-        spec.channelnames = names;
-        spec.channeltypes.assign(channels.size(), type);
-        data = converted.data();
+    OiioModule::RowSource rows = native_rows(frame);
+    // Only these channels, as float.
+    auto select = [&](const std::vector<int>& channels) {
+        spec.channelnames.clear();
+        for (int c : channels) spec.channelnames.push_back(frame.spec.channel_name(c));
+        spec.channeltypes.assign(channels.size(), PixelType::float32);
+        rows = float_rows(frame, channels);
     };
     auto rgb = [&](bool with_alpha) {
         if (!frame.has_rgb()) throw std::runtime_error(fmt::format("{} output needs R, G, B channels", format));
@@ -181,27 +183,21 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
         if (mixed) {
             std::vector<int> all(static_cast<std::size_t>(frame.spec.nchannels()));
             for (int c = 0; c < frame.spec.nchannels(); ++c) all[static_cast<std::size_t>(c)] = c;
-            select(all, PixelType::float32);
+            select(all);
         }
     } else if (format == "hdr") {
-        select(rgb(false), PixelType::float32);
+        select(rgb(false));
     } else {
         const bool wide = options.display_bits == 16 && (format == "png" || format == "pnm" || format == "dpx");
         const std::vector<int> channels = rgb(true);
         spec.channelnames.clear();
         for (int c : channels) spec.channelnames.push_back(frame.spec.channel_name(c));
         spec.channeltypes.assign(channels.size(), wide ? PixelType::uint16 : PixelType::uint8);
-        if (wide) {
-            quantised16 = quantised_display<std::uint16_t>(frame, channels, options, format);
-            data = quantised16.data();
-        } else {
-            quantised8 = quantised_display<std::uint8_t>(frame, channels, options, format);
-            data = quantised8.data();
-        }
+        rows = wide ? quantised_rows<std::uint16_t>(frame, channels, options) : quantised_rows<std::uint8_t>(frame, channels, options);
     }
 
     TempFile tmp(path);
-    oiio.write(tmp.path(), spec, data);
+    oiio.write(tmp.path(), spec, kStripRows, rows);
     tmp.commit();
 }
 

@@ -4,6 +4,7 @@
 // same build with the same compiler and standard library, so C++ types and exceptions cross.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include <filter/frame.h>
@@ -15,9 +16,12 @@ struct OiioModule {
     // Reads the first subimage at full resolution, channels in their native types; throws std::runtime_error,
     // and MemoryLimitError before allocating when the image does not fit the budget.
     Frame (*read)(const std::string& path, const MemoryBudget& budget);
-    // Writes spec.nchannels() channels of one type (spec.channeltypes[0]) interleaved in `data`, with the
-    // spec's text attributes; throws std::runtime_error.
-    void (*write)(const std::string& path, const ImageSpec& spec, const void* data);
+    // Fills rows [first, first + count) of the data window (0 = its top row), spec.nchannels() channels of
+    // one type (spec.channeltypes[0]) interleaved, into `out`.
+    using RowSource = std::function<void(int first, int count, void* out)>;
+    // Writes the image `rows` gives, `strip_rows` rows at a time (only a strip is ever held), with the
+    // spec's text attributes; straight to `path`, every write checked; throws std::runtime_error.
+    void (*write)(const std::string& path, const ImageSpec& spec, int strip_rows, const RowSource& rows);
     // OpenImageIO's name of the format it would write for this path ("tiff", "png"), or "" if none.
     std::string (*output_format)(const std::string& path);
     void (*set_threads)(int threads);

@@ -1,5 +1,7 @@
 #include <filter/pupil_options.h>
 
+#include <CLI/CLI.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>

@@ -65,7 +65,7 @@ std::string temporary_beside(const std::string& path) {
 
 std::uint64_t system_hash(const optics::System& system) {
     KeyHash f;
-    f.text("lensfx bounds v1");
+    f.text("lensfx bounds v2");
     f.text(system.name);
     f.num(static_cast<std::int64_t>(system.interfaces.size()));
     for (const optics::System::Interface& s : system.interfaces) {

@@ -117,10 +117,20 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     out.copyTo(image);
 }
 
-void add_extended_starburst(const optics::Starburst& sb, double f_number, double cx, double cy,
-                            const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                            double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height) {
-    if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+namespace {
+
+// The radius in pixels of the disc of the footprint's cells holding any of the light: each point's pattern
+// within it, spread over the source, would only blur the source within its own size.
+double own_radius_px(const detect::Shape& shape) {
+    std::size_t cells = 0;
+    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
+    return std::sqrt(static_cast<double>(cells) / std::numbers::pi) * FootprintSampler{shape}.cell;
+}
+
+// The texture's part of an extended light's diffraction (see add_extended_starburst).
+void add_extended_texture(const optics::Starburst& sb, double f_number, double cx, double cy,
+                          const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
+                          double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height) {
     // The region the pattern and then the footprint can reach: the same sums as over the whole frame
     // (nothing is drawn or spread beyond it), at the cost of the source and its pattern.
     const FootprintSampler footprint{shape};
@@ -137,12 +147,10 @@ void add_extended_starburst(const optics::Starburst& sb, double f_number, double
     // Each point's pattern within the source's radius (of the disc of its cells' area), spread over the
     // source, would only blur it within its own size: the recording holds that. What reaches farther (the
     // spikes) is new.
-    std::size_t cells = 0;
-    for (float v : shape.weights) cells += v > 0.0f ? 1 : 0;
-    const double radius_px = std::sqrt(static_cast<double>(cells) / std::numbers::pi) * footprint.cell;
+    const double radius_px = own_radius_px(shape);
     const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
     if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
-    optics::splat_starburst(sb, f_number, cx - x0, cy - y0, power, pixel_w_mm, pixel_h_mm, own.data(), w, h, core);
+    optics::splat_starburst(sb, {cx - x0, cy - y0, f_number, core}, power, {own.data(), w, h, pixel_w_mm, pixel_h_mm});
     convolve_footprint(own, w, h, shape, 1.0);
     // Over the light's own pixels the recording already holds its light, spread by the lens or not: the
     // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
@@ -156,6 +164,73 @@ void add_extended_starburst(const optics::Starburst& sb, double f_number, double
                 to[static_cast<std::size_t>(x) * 3 + c] += beyond * from[static_cast<std::size_t>(x) * 3 + c];
         }
     }
+}
+
+// The spikes beyond the texture, spread over the footprint: they hold nothing finer than the footprint, so
+// they are drawn and spread at 1/factor of the frame's size (the footprint's kernel at most ~8 px wide),
+// enlarged bilinearly and added beyond the light's own pixels.
+void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aperture, double f_number,
+                       double length_scale, double cx, double cy, const std::array<double, 3>& power,
+                       double pixel_w_mm, double pixel_h_mm, const detect::Shape& shape, float* rgb, int width,
+                       int height) {
+    const FootprintSampler footprint{shape};
+    const int factor = std::clamp(std::max(footprint.reach_x(1.0), footprint.reach_y(1.0)) / 8, 1, std::max(1, std::max(width, height) / 8));
+    const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
+    std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3, 0.0f);
+    optics::draw_starburst_tail(sb, aperture, length_scale, {cx / factor, cy / factor, f_number, 0.0}, power,
+                                {small.data(), sw, sh, pixel_w_mm * factor, pixel_h_mm * factor});
+    // As the texture's: the pattern within the source's own radius is left out (bounds clamped in double,
+    // so a light far outside the frame never reaches int arithmetic).
+    const double inner = own_radius_px(shape) / factor, ux = cx / factor, uy = cy / factor;
+    const auto clamp_to = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n))); };
+    for (int y = clamp_to(std::floor(uy - inner), sh); y < clamp_to(std::ceil(uy + inner) + 1.0, sh); ++y)
+        for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
+            if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
+                std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
+    detect::Shape reduced = shape;
+    reduced.cell /= factor;
+    reduced.origin_x /= factor;
+    reduced.origin_y /= factor;
+    convolve_footprint(small, sw, sh, reduced, 1.0);
+    cv::Mat full;
+    if (factor == 1) {
+        full = cv::Mat(sh, sw, CV_32FC3, small.data());
+    } else {
+        // Pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
+        cv::resize(cv::Mat(sh, sw, CV_32FC3, small.data()), full, cv::Size(sw * factor, sh * factor), 0.0, 0.0, cv::INTER_LINEAR);
+    }
+    for (int y = 0; y < height; ++y) {
+        const float* from = full.ptr<float>(y);
+        float* to = rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
+        const double oy = y + 0.5 - cy;
+        const bool rows_of_light = oy > footprint.y0 - footprint.cell && oy < footprint.y1 + footprint.cell;
+        for (int x = 0; x < width; ++x) {
+            const double ox = x + 0.5 - cx;
+            const float beyond = rows_of_light ? 1.0f - footprint.inside(ox, oy) : 1.0f;
+            if (beyond <= 0.0f) continue;
+            for (std::size_t c = 0; c < 3; ++c)  // the DFT filter's rounding leaves tiny negatives: no light
+                to[static_cast<std::size_t>(x) * 3 + c] += beyond * std::max(0.0f, from[static_cast<std::size_t>(x) * 3 + c]);
+        }
+    }
+}
+
+}  // namespace
+
+void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
+                            const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+                            const detect::Shape& shape, const optics::SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy, core_radius_texels = at.core_radius_texels;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    float* const rgb = image.rgb;
+    const int width = image.width, height = image.height;
+    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+    // As a point light's: the texture at the lens's f-number gives up the tail's share, and the tail,
+    // lengthened by length_scale, runs to the frame edge.
+    const optics::StarburstTail tail = optics::starburst_tail_share(sb, aperture, f_number, length_scale);
+    std::array<double, 3> texture_power{};
+    for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
+    add_extended_texture(sb, f_number, cx, cy, texture_power, pixel_w_mm, pixel_h_mm, core_radius_texels, shape, rgb, width, height);
+    add_extended_tail(sb, aperture, f_number, length_scale, cx, cy, power, pixel_w_mm, pixel_h_mm, shape, rgb, width, height);
 }
 
 std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,

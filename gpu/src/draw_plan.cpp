@@ -50,14 +50,14 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     const double c = std::cos(rotation), sn = std::sin(rotation);
     const std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
     const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
-    CullItem item{1e300, 1e300, -1e300, -1e300, 0.0};
+    CullItem item{1e300, 1e300, -1e300, -1e300, {}};
     for (const double sx : {e.sensor.x0, e.sensor.x1})
         for (const double sy : {e.sensor.y0, e.sensor.y1}) {
             const double up_x = offset[0] - (c * sx - sn * sy);
             const double up_y = offset[1] - (sn * sx + c * sy);
             const double px = (up_x + 0.5 * view.sensor_width_mm) / pixel_w;
             const double py = (0.5 * view.sensor_height_mm - up_y) / pixel_h;
-            item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), 0.0};
+            item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), {}};
         }
     constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
     const double spread = kSpreadPx + spread_px;
@@ -65,10 +65,8 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     item.y0 -= spread;
     item.x1 += spread;
     item.y1 += spread;
-    double factor = 0.0;
     for (std::size_t k = 0; k < 3; ++k)
-        factor = std::max(factor, std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0)));
-    item.peak = e.peak * factor;
+        item.peak[k] = e.peak * std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
     return item;
 }
 

@@ -1,5 +1,6 @@
 // GPU ghost renderer: CPU side (ghost sequences, coating tables, pupil bounds) and the GL passes.
 #include <gpu/flare_renderer.h>
+#include <gpu/ghost_cap.h>
 
 #include <algorithm>
 #include <atomic>
@@ -33,6 +34,7 @@ namespace {
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kIrisSize = 512;         // iris SDF texture side
 constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
+constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
@@ -353,6 +355,16 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     return out;
 }
 
+// A ghost's peak and sensor box from a finer pass over its own rectangle (its coarse estimate had no whole
+// cell): the finer pass's peak when it found one, and the union of the two boxes; the rest stays the coarse
+// pass's, so only scene culling sees the difference.
+void learn_peak(GhostEstimate& coarse, const GhostEstimate& fine) {
+    if (!(fine.peak > 0.0) || fine.sensor.x1 < fine.sensor.x0 || fine.sensor.y1 < fine.sensor.y0) return;
+    coarse.peak = fine.peak;
+    coarse.sensor = {std::min(coarse.sensor.x0, fine.sensor.x0), std::min(coarse.sensor.y0, fine.sensor.y0),
+                     std::max(coarse.sensor.x1, fine.sensor.x1), std::max(coarse.sensor.y1, fine.sensor.y1)};
+}
+
 // A render target read back a band of rows at a time (RGBA, rows bottom to top as GL stores them): rows are
 // asked for from the top of the image down, so a band is read ending just above the row asked for.
 class BandReader {
@@ -514,6 +526,8 @@ private:
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
+    void find_unknown_peaks(std::vector<GhostEstimate>& coarse, const GhostSequences& seq, const optics::Vec3& direction,
+                            const Aperture& aperture);
     BoundsTable& bounds_table(const FlareView& lit, const FieldDirection& field);
     LightEstimates estimate_light(const ScaledLight& light);
     void draw_pass(std::size_t l, std::size_t p);
@@ -687,7 +701,40 @@ std::vector<GhostEstimate> FlareRenderer::Drawing::coarse_pass(std::size_t p, co
             coarse[g] = coarse_estimate(readback.data() + (g - first) * coarse_vertices * 12, res, square, seq.stop_crossings[g],
                                         aperture, std::abs(ray.direction.z), sensor_radius_);
     }
+    find_unknown_peaks(coarse, seq, ray.direction, aperture);
     return coarse;
+}
+
+// Ghosts with no whole coarse cell (their light gets through a sliver of the pupil) have no peak, and scene
+// culling draws such ghosts whatever their level: a pass of kPeakGrid cells over each one's own rectangle
+// finds it (learn_peak).
+void FlareRenderer::Drawing::find_unknown_peaks(std::vector<GhostEstimate>& coarse, const GhostSequences& seq,
+                                                const optics::Vec3& direction, const Aperture& aperture) {
+    std::vector<std::size_t> unknown;
+    for (std::size_t g = 0; g < coarse.size(); ++g)
+        if (!coarse[g].rect.empty() && !(coarse[g].peak > 0.0)) unknown.push_back(g);
+    const std::size_t vertices = static_cast<std::size_t>(kPeakGrid + 1) * static_cast<std::size_t>(kPeakGrid + 1);
+    const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (vertices * 48));
+    std::vector<float> readback;
+    for (std::size_t first = 0; first < unknown.size(); first += batch) {
+        const std::size_t n = std::min(batch, unknown.size() - first);
+        GlObject buffer = GlObject::buffer();
+        glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(n * vertices * 48), nullptr, GL_MAP_READ_BIT);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer.get());
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::size_t g = unknown[first + k];
+            dispatch_trace(kPeakGrid, coarse[g].rect, 0.0, direction, seq.offset[g], seq.count[g], k * vertices);
+        }
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        readback.resize(n * vertices * 12);
+        glGetNamedBufferSubData(buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)), readback.data());
+        check_gl("the finer pass over ghosts of unknown peak");
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::size_t g = unknown[first + k];
+            learn_peak(coarse[g], coarse_estimate(readback.data() + k * vertices * 12, kPeakGrid, coarse[g].rect, seq.stop_crossings[g],
+                                                  aperture, std::abs(direction.z), sensor_radius_));
+        }
+    }
 }
 
 // The bounds table of this lens, ghosts and wavelengths with the entries on either side of the light's field
@@ -854,11 +901,13 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!bound) bind_level(reduce);
             bound = true;
             if (reduce > 1) ++s_.stats.ghosts_reduced;
-            ghost_uniforms(job, pd, reduce, reduce >= kRimReduce ? 1 : 0);
+            ghost_uniforms(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
             glUseProgram(s_.raster.get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-            glUseProgram(s_.splat.get());
-            glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
+            if (plan.splat) {
+                glUseProgram(s_.splat.get());
+                glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
+            }
             check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
             if (options_.per_ghost_power) add_ghost_power(g);
         }
@@ -868,7 +917,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
         bool bound = false;
         for (const BatchJob& job : batch) {
             const GhostPlan& plan = pd.plans[job.ghost];
-            if (plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
+            if (!plan.rim || plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
             if (!bound) bind_level(level);
             bound = true;
             ghost_uniforms(job, pd, plan.reduce, 2);
@@ -1097,36 +1146,74 @@ void check_ghost_tables(const System& system, std::size_t passes, const MemoryBu
                                            format_bytes(static_cast<double>(budget.limit))));
 }
 
+namespace {
+
+// The ghosts' indices from the brightest down by their power along the axis (at the d line), and each
+// one's power (0 where it is not finite).
+std::vector<std::pair<double, std::size_t>> brightest_first(const System& system, const std::vector<Ghost>& ghosts) {
+    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
+    std::vector<std::pair<double, std::size_t>> order;
+    for (std::size_t g = 0; g < ghosts.size(); ++g) {
+        const double power = optics::ghost_axial_factor(traced, ghosts[g]);
+        order.emplace_back(std::isfinite(power) ? power : 0.0, g);
+    }
+    std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    return order;
+}
+
+// The warning when fit left ghosts out: why, how many are drawn and the share of the power left out.
+std::string fit_warning(const System& system, std::size_t passes, const GhostFit& fit, const MemoryBudget& budget) {
+    const std::string why =
+        fit_over_budget(fit, budget) ? fmt::format("needs {}, over half the memory limit of {}", format_bytes(fit.bytes_needed),
+                                      format_bytes(static_cast<double>(budget.limit)))
+                        : fmt::format("takes more than the {} interface steps a lens's ghosts are drawn with", kMaxLensGhostSteps);
+    return fmt::format("lensfx: warning: {} {}: drawing its {} brightest ghosts (by power along the axis); the {} left out "
+                       "carry {:.2g}% of that power\n",
+                       lens_ghosts_text(system, passes), why, fit.ghosts.size(), fit.total - fit.ghosts.size(), 100.0 * fit.power_left_out);
+}
+
+}  // namespace
+
+bool fit_over_budget(const GhostFit& fit, const MemoryBudget& budget) {
+    return budget.limited() && fit.bytes_needed > static_cast<double>(budget.limit) / 2.0;
+}
+
 GhostFit ghosts_within_budget(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget) {
+    return ghosts_within(system, std::move(ghosts), passes, budget, kMaxLensGhostSteps);
+}
+
+std::size_t summed_steps(const std::vector<Ghost>& ghosts) {
+    std::size_t steps = 0;
+    for (const Ghost& g : ghosts) steps += g.path.size();
+    return steps;
+}
+
+GhostFit ghosts_within(const System& system, std::vector<Ghost> ghosts, std::size_t passes, const MemoryBudget& budget,
+                       std::size_t max_steps) {
     GhostFit fit;
     fit.total = ghosts.size();
     double need = factor_table_bytes(system, passes);
     for (const Ghost& g : ghosts) need += static_cast<double>(g.path.size()) * drawn_step_bytes(passes);
     fit.bytes_needed = need + ghost_list_bytes(system);
     // Half of the budget for the ghost data: frames, flare images and GL targets need the rest.
-    const double room = static_cast<double>(budget.limit) / 2.0 - ghost_list_bytes(system) - factor_table_bytes(system, passes);
-    if (!budget.limited() || fit.bytes_needed <= static_cast<double>(budget.limit) / 2.0) {
+    const double room = budget.limited() ? static_cast<double>(budget.limit) / 2.0 - ghost_list_bytes(system) - factor_table_bytes(system, passes)
+                                         : std::numeric_limits<double>::infinity();
+    if (!fit_over_budget(fit, budget) && summed_steps(ghosts) <= max_steps) {
         fit.ghosts = std::move(ghosts);
         return fit;
     }
-    // The brightest by their power along the axis (at the d line), as many as fit.
-    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
-    std::vector<std::pair<double, std::size_t>> order;
-    double total_power = 0.0;
-    for (std::size_t g = 0; g < ghosts.size(); ++g) {
-        const double power = optics::ghost_axial_factor(traced, ghosts[g]);
-        const double finite = std::isfinite(power) ? power : 0.0;
-        order.emplace_back(-finite, g);
-        total_power += finite;
-    }
-    std::sort(order.begin(), order.end());
-    double used = 0.0, kept_power = 0.0;
+    double used = 0.0, kept_power = 0.0, total_power = 0.0;
+    std::size_t steps = 0;
+    bool full = false;
     std::vector<char> keep(ghosts.size(), 0);
-    for (const auto& [negative_power, g] : order) {
+    for (const auto& [power, g] : brightest_first(system, ghosts)) {
+        total_power += power;
         const double bytes = static_cast<double>(ghosts[g].path.size()) * drawn_step_bytes(passes);
-        if (used + bytes > room) break;
+        full = full || used + bytes > room || steps + ghosts[g].path.size() > max_steps;
+        if (full) continue;
         used += bytes;
-        kept_power -= negative_power;
+        steps += ghosts[g].path.size();
+        kept_power += power;
         keep[g] = 1;
     }
     for (std::size_t g = 0; g < ghosts.size(); ++g)
@@ -1143,10 +1230,7 @@ std::vector<Ghost> FlareRenderer::fitted_ghosts(const System& system, const Flar
     GhostFit fit = ghosts_within_budget(system, selected_ghosts(system, view), view.passes().size(), budget);
     if (fit.ghosts.size() < fit.total && !state_->fit_warned) {
         state_->fit_warned = true;  // once per renderer: every frame draws the same ghosts
-        fmt::print(stderr, "lensfx: warning: {} needs {}, over half the memory limit of {}: drawing its {} brightest ghosts "
-                           "(by power along the axis); the {} left out carry {:.2g}% of that power\n",
-                   lens_ghosts_text(system, view.passes().size()), format_bytes(fit.bytes_needed), format_bytes(static_cast<double>(budget.limit)),
-                   fit.ghosts.size(), fit.total - fit.ghosts.size(), 100.0 * fit.power_left_out);
+        fmt::print(stderr, "{}", fit_warning(system, view.passes().size(), fit, budget));
     }
     return std::move(fit.ghosts);
 }

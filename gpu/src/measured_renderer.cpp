@@ -77,10 +77,14 @@ void main() {
         if (float(px.x) < ghost[base + 16] || float(px.y) < ghost[base + 17] || float(px.x) >= ghost[base + 18] || float(px.y) >= ghost[base + 19]) continue;
         float u = u0 - P(g, 0);
         float L = P(g, 1), R = P(g, 2), h = P(g, 3), cl = P(g, 4), cr = P(g, 5);
-        float d = min(side_distance(R, cr, h, vec2(u, v)), side_distance(L, cl, h, vec2(-u, v)));
         bool right = u >= 0.0;
         float e = right ? R : L, c = right ? cr : cl;
-        bool inside = abs(u) < e && v < side_height(e, c, h, abs(u));
+        bool inside = abs(u) < e && v < h && v < side_height(e, c, h, abs(u));
+        // Outside and farther than the fall-off from the box around the shape: nothing.
+        if (!inside && max(abs(u) - e, v - h) >= P(g, 8)) continue;
+        // The far side's segment lies at |u| or more: it is nearer only when the near one is farther.
+        float d = side_distance(e, c, h, vec2(abs(u), v));
+        if (d > abs(u)) d = min(d, side_distance(right ? L : R, right ? cl : cr, h, vec2(-abs(u), v)));
         vec2 w;
         if (inside) {
             float t = min(1.0, d / P(g, 6));

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <cmath>
 #include <mutex>
 #include <numeric>
@@ -18,17 +19,33 @@ namespace lensfx::measured {
 
 namespace {
 
-// The capture's black level under Gaussian noise, from the 1st and 5th percentiles (mu - 2.326 sigma and
-// mu - 1.645 sigma): below the wide faint ghosts that may cover most of the frame, as long as some 5% of
-// it is dark.
-double black_level(std::vector<double> values) {
-    auto percentile = [&](double q) {
-        const auto at = values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-        std::nth_element(values.begin(), at, values.end());
-        return *at;
-    };
-    const double p1 = percentile(0.01), p5 = percentile(0.05);
-    return p5 + 1.645 * (p5 - p1) / (2.326 - 1.645);
+// The capture's background level per channel, one for the whole sweep (a black level, the room's light):
+// the ghosts move with the angle, so every part of the frame is dark in some frame unless a ghost covers
+// it at every angle. Per 16 x 16 block and channel, one half of its pixels (a checkerboard) picks the frame
+// where the block is darkest; the other half, independent of that choice's noise, gives the level there.
+// The background is the median of those levels over the darkest tenth of the blocks.
+std::array<double, 3> sweep_background(const std::vector<SweepFrame>& frames) {
+    const int w = frames[0].width, h = frames[0].height;
+    const int block = std::clamp(std::min(w, h) / 10, 4, 16);
+    const int bx = w / block, by = h / block;
+    std::array<double, 3> level{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        std::vector<std::pair<double, double>> darkest(static_cast<std::size_t>(bx * by), {1e300, 0.0});  // (picker, level)
+        for (const SweepFrame& f : frames)
+            for (int b = 0; b < bx * by; ++b) {
+                double pick = 0.0, measure = 0.0;
+                for (int y = (b / bx) * block; y < (b / bx + 1) * block; ++y)
+                    for (int x = (b % bx) * block; x < (b % bx + 1) * block; ++x)
+                        ((x + y) % 2 ? pick : measure) += static_cast<double>(f.rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 3 + c]);
+                auto& d = darkest[static_cast<std::size_t>(b)];
+                if (pick < d.first) d = {pick, measure * 2.0 / (block * block)};
+            }
+        std::sort(darkest.begin(), darkest.end());
+        std::vector<double> levels;
+        for (std::size_t i = 0; i < std::max<std::size_t>(3, darkest.size() / 10) && i < darkest.size(); ++i) levels.push_back(darkest[i].second);
+        level[c] = median(levels);
+    }
+    return level;
 }
 
 // A frame with its background taken off, and what the detector and the fit need of it.
@@ -51,20 +68,15 @@ struct Detection {
 struct Track {
     std::vector<Detection> seen;
     std::vector<std::pair<int, GhostParams>> fitted;  // frame, parameters
+    bool glow = false;  // a wide soft glow over the whole frame (fitted to what the ghosts leave), not a ghost
 };
 
 double pixel_mm(const FitOptions& o, int width) { return o.sensor_width_mm / width; }
 
-Prepared prepare(const SweepFrame& f, const FitOptions& o) {
+Prepared prepare(const SweepFrame& f, const std::array<double, 3>& level, const FitOptions& o) {
     Prepared p;
     p.width = f.width, p.height = f.height, p.angle_deg = f.angle_deg;
     const std::size_t n = static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height);
-    std::array<double, 3> level{};
-    for (std::size_t c = 0; c < 3; ++c) {
-        std::vector<double> channel(n);
-        for (std::size_t i = 0; i < n; ++i) channel[i] = static_cast<double>(f.rgb[i * 3 + c]);
-        level[c] = black_level(channel);
-    }
     p.rgb.resize(n * 3);
     for (std::size_t i = 0; i < n; ++i)
         for (std::size_t c = 0; c < 3; ++c) p.rgb[i * 3 + c] = static_cast<double>(f.rgb[i * 3 + c]) - level[c];
@@ -154,20 +166,34 @@ std::vector<Track> link(const std::vector<std::vector<Detection>>& per_frame, do
             double best_d = gate;
             for (std::size_t i = 0; i < per_frame[f].size(); ++i) {
                 const double d = std::abs(per_frame[f][i].seed[kPosition] - predicted);
-                if (!taken[i] && d < best_d) best_d = d, best = static_cast<int>(i);
+                // A ghost keeps its size from one frame to the next within a factor of 1.6 (a larger change is
+                // another ghost passing by).
+                const double size_ratio = per_frame[f][i].seed[kLeft] / std::max(last.seed[kLeft], 1e-9);
+                if (!taken[i] && d < best_d && size_ratio < 1.6 && size_ratio > 1.0 / 1.6) best_d = d, best = static_cast<int>(i);
             }
             if (best >= 0) taken[static_cast<std::size_t>(best)] = 1, t.seen.push_back(per_frame[f][static_cast<std::size_t>(best)]);
         }
         for (std::size_t i = 0; i < per_frame[f].size(); ++i)
-            if (!taken[i]) tracks.push_back({{per_frame[f][i]}, {}});
+            if (!taken[i]) tracks.push_back({{per_frame[f][i]}, {}, false});
     }
     return tracks;
+}
+
+// A glow is an elliptical dome: its level rises from 0 at the border to Ii at the middle (so that Ii is
+// its peak, not traded against the fall-off), only its place and size free.
+GhostParams glow_shape(GhostParams p) {
+    p[kCurveLeft] = p[kCurveRight] = 0.5523;
+    p[kFallInside] = std::min(p[kHeight], 0.5 * (p[kLeft] + p[kRight]));
+    p[kSlopeInside] = 1.5;
+    p[kFallOutside] = 1e-3, p[kSlopeOutside] = 1.0;
+    return p;
 }
 
 // The cost of one ghost against one frame's crop (paper section 3.3.1), the levels solved exactly.
 class GhostCost {
 public:
-    GhostCost(const Prepared& p, const GhostParams& seed, const FitOptions& o) : options_(o) {
+    // glow: no local background (the sweep's is taken off already) and no edge cost.
+    GhostCost(const Prepared& p, const GhostParams& seed, const FitOptions& o, bool glow = false) : glow_(glow), options_(o) {
         view_.sensor_width_mm = o.sensor_width_mm, view_.sensor_height_mm = o.sensor_height_mm;
         view_.width = p.width, view_.height = p.height;
         GhostParams wide = seed;
@@ -176,7 +202,8 @@ public:
         box_ = ghost_box(wide, 0.0, view_);
         // A large ghost is fitted on every stride-th pixel: the cost stays that of a 48 x 48 crop.
         const int bw = std::max(0, box_[2] - box_[0]), bh = std::max(0, box_[3] - box_[1]);
-        stride_ = std::max(1, (std::max(bw, bh) + kCropSamples - 1) / kCropSamples);
+        const int samples = glow ? kCropSamples / 2 : kCropSamples;  // a glow is smooth
+        stride_ = std::max(1, (std::max(bw, bh) + samples - 1) / samples);
         w_ = (bw + stride_ - 1) / stride_, h_ = (bh + stride_ - 1) / stride_;
         const std::size_t n = static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_);
         target_.resize(n * 3), mask_.resize(n);
@@ -188,6 +215,7 @@ public:
                 for (std::size_t c = 0; c < 3; ++c) target_[i * 3 + c] = p.rgb[src * 3 + c];
                 lum[i] = luminance(target_[i * 3], target_[i * 3 + 1], target_[i * 3 + 2]);
                 mask_[i] = std::hypot(px - p.light_x, py - p.light_y) > p.light_radius ? 1.0 : 0.0;
+                tie_sides_ = tie_sides_ || (mask_[i] == 0.0 && !glow);
             }
         target_edges_ = edge_image(lum, w_, h_);
         for (std::size_t i = 0; i < n; ++i) {
@@ -202,6 +230,8 @@ public:
     // The cost at p; p's levels are set to their least-squares values.
     double operator()(GhostParams& p) {
         p = clamped(p);
+        if (tie_sides_) p[kRight] = p[kLeft], p[kCurveRight] = p[kCurveLeft];
+        if (glow_) p = glow_shape(p);
         distances(p);
         solve_levels(p);
         const std::size_t n = distance_.size();
@@ -220,7 +250,7 @@ public:
         const std::vector<double> edges = edge_image(lum, w_, h_);
         double edge = 0.0;
         for (std::size_t i = 0; i < n; ++i) edge += mask_[i] * (edges[i] - target_edges_[i]) * (edges[i] - target_edges_[i]);
-        return mse / target_power_ + options_.edge_weight * edge / edge_power_;
+        return mse / target_power_ + (glow_ ? 0.0 : options_.edge_weight) * edge / edge_power_;
     }
 
     // sum |target - model| / sum |target| over the crop (outside the light).
@@ -261,6 +291,13 @@ private:
                 for (std::size_t ch = 0; ch < 3; ++ch) rhs[ch][static_cast<std::size_t>(r)] += mask_[i] * basis[r] * target_[i * 3 + ch];
             }
         }
+        if (glow_) {  // the inside level alone (a dome from 0 at the border), no background
+            for (int ch = 0; ch < 3; ++ch) {
+                p[kBorderR + ch] = 0.0, local_background_[static_cast<std::size_t>(ch)] = 0.0;
+                p[kInsideR + ch] = m[1][1] > 0.0 ? std::max(0.0, rhs[static_cast<std::size_t>(ch)][1] / m[1][1]) : 0.0;
+            }
+            return;
+        }
         for (int ch = 0; ch < 3; ++ch) {
             const auto& r = rhs[static_cast<std::size_t>(ch)];
             std::array<double, 3> x = solve3(m, r);
@@ -295,6 +332,10 @@ private:
     }
 
     std::array<double, 3> local_background_{};
+    bool glow_ = false;
+    // The light's own image hides part of the ghost: its two sides are taken alike (ghosts of a round lens
+    // are near-symmetric along the axis), so the hidden end follows the seen one.
+    bool tie_sides_ = false;
     const FitOptions& options_;
     MeasuredView view_;
     static constexpr int kCropSamples = 48;
@@ -312,8 +353,9 @@ std::array<double, kFallOutside + 2> parameter_steps(double pixel) {
 
 // Gradient descent with per-parameter steps and a decaying learning rate, shape before shade, each change
 // taken at once (online); the levels follow by least squares at every evaluation.
-GhostParams descend(GhostCost& cost, GhostParams p, int iterations, double learning_rate, double pixel) {
-    const auto steps = parameter_steps(pixel);
+GhostParams descend(GhostCost& cost, GhostParams p, int iterations, double learning_rate, double pixel, std::size_t free_params) {
+    auto all_steps = parameter_steps(pixel);
+    const std::vector<double> steps(all_steps.begin(), all_steps.begin() + static_cast<std::ptrdiff_t>(std::min(free_params, all_steps.size())));
     double current = cost(p);
     for (int it = 0; it < iterations && learning_rate > 1.0 / 32; ++it) {
         bool improved = false;
@@ -380,32 +422,6 @@ GhostParams next_seed(const std::vector<std::pair<double, GhostParams>>& walk, d
     return clamped(seed);
 }
 
-// Fits one track: its key frame from the detection, then frame by frame away from it in both directions.
-void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
-    const auto key = std::max_element(track.seen.begin(), track.seen.end(), [](const Detection& a, const Detection& b) {
-        return a.snr * a.seed[kLeft] < b.snr * b.seed[kLeft];
-    });
-    const double pixel = o.sensor_width_mm / frames[0].width;
-    GhostCost key_cost(frames[static_cast<std::size_t>(key->frame)], key->seed, o);
-    if (key_cost.empty()) return;
-    const GhostParams key_fit = descend(key_cost, key->seed, o.key_iterations, 4.0, pixel);
-    track.fitted.emplace_back(key->frame, key_fit);
-    const int first = track.seen.front().frame, last = track.seen.back().frame;
-    for (int direction : {1, -1}) {
-        std::vector<std::pair<double, GhostParams>> walk{{frames[static_cast<std::size_t>(key->frame)].angle_deg, key_fit}};
-        for (int f = key->frame + direction; f >= first && f <= last; f += direction) {
-            const Prepared& frame = frames[static_cast<std::size_t>(f)];
-            const GhostParams seed = next_seed(walk, frame.angle_deg);
-            GhostCost cost(frame, seed, o);
-            if (cost.empty()) break;
-            const GhostParams fit = descend(cost, seed, o.track_iterations, 1.0, pixel);
-            walk.emplace_back(frame.angle_deg, fit);
-            track.fitted.emplace_back(f, fit);
-        }
-    }
-    std::sort(track.fitted.begin(), track.fitted.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-}
-
 MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& frames) {
     MeasuredGhost g;
     std::vector<double> x;
@@ -418,6 +434,62 @@ MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& fr
         g.poly[static_cast<std::size_t>(k)] = fit_polynomial(x, y);
     }
     return g;
+}
+
+// The track's fits replaced by its polynomials over the angle: the shape's polynomials first, the levels
+// solved again for that shape in each frame (the per-frame shapes trade size against fall-off and level,
+// so levels fitted with one shape do not suit the smoothed one), then the levels' polynomials.
+void settle_on_polynomials(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
+    for (int pass = 0; pass < 2; ++pass) {
+        const MeasuredGhost g = to_polynomials(track, frames);
+        for (auto& [f, p] : track.fitted) {
+            p = g.at(frames[static_cast<std::size_t>(f)].angle_deg);
+            if (pass == 0) {
+                GhostCost cost(frames[static_cast<std::size_t>(f)], p, o, track.glow);
+                if (!cost.empty()) cost(p);
+            }
+        }
+    }
+}
+
+// The seed for frame f: the walk's, placed by the frame's own detection where the track has one
+// (so that a fit cannot drift along the track, onto the light or a neighbour); a glow's from its frame alone.
+GhostParams anchored_seed(GhostParams seed, const Track& track, int f) {
+    const auto seen = std::find_if(track.seen.begin(), track.seen.end(), [&](const Detection& d) { return d.frame == f; });
+    if (seen == track.seen.end()) return seed;
+    if (track.glow) return seen->seed;
+    // The middle of the seed's extent along the axis moved onto the detection's.
+    const auto middle = [](const GhostParams& p) { return p[kPosition] + 0.5 * (p[kRight] - p[kLeft]); };
+    seed[kPosition] += middle(seen->seed) - middle(seed);
+    return seed;
+}
+
+// Fits one track: its key frame from the detection, then frame by frame away from it in both directions.
+void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptions& o) {
+    const auto key = std::max_element(track.seen.begin(), track.seen.end(), [](const Detection& a, const Detection& b) {
+        return a.snr * a.seed[kLeft] < b.snr * b.seed[kLeft];
+    });
+    const double pixel = (track.glow ? 4.0 : 1.0) * o.sensor_width_mm / frames[0].width;  // a glow's steps: 4 px
+    const std::size_t free = track.glow ? kCurveLeft : kFallOutside + 2;  // a glow: place and size only
+    GhostCost key_cost(frames[static_cast<std::size_t>(key->frame)], key->seed, o, track.glow);
+    if (key_cost.empty()) return;
+    const GhostParams key_fit = descend(key_cost, key->seed, o.key_iterations, 4.0, pixel, free);
+    track.fitted.emplace_back(key->frame, key_fit);
+    const int first = track.seen.front().frame, last = track.seen.back().frame;
+    for (int direction : {1, -1}) {
+        std::vector<std::pair<double, GhostParams>> walk{{frames[static_cast<std::size_t>(key->frame)].angle_deg, key_fit}};
+        for (int f = key->frame + direction; f >= first && f <= last; f += direction) {
+            const Prepared& frame = frames[static_cast<std::size_t>(f)];
+            const GhostParams seed = anchored_seed(next_seed(walk, frame.angle_deg), track, f);
+            GhostCost cost(frame, seed, o, track.glow);
+            if (cost.empty()) continue;
+            const GhostParams fit = descend(cost, seed, o.track_iterations, 1.0, pixel, free);
+            walk.emplace_back(frame.angle_deg, fit);
+            track.fitted.emplace_back(f, fit);
+        }
+    }
+    std::sort(track.fitted.begin(), track.fitted.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    settle_on_polynomials(track, frames, o);
 }
 
 // sum |frame - model| / sum |frame| over the pixels `model_of` lights, outside the light's own image.
@@ -469,23 +541,113 @@ void fit_tracks(std::vector<Track>& tracks, const std::vector<Prepared>& frames,
     for (auto& t : pool) t.join();
 }
 
+// Pixels brighter than the 97th percentile of the frame's luminance dimmed to it: the light's own image
+// and its starburst reach past any radius around the light, are small and much brighter than a glow.
+void clip_bright(Prepared& p) {
+    const std::size_t n = p.rgb.size() / 3;
+    const std::vector<double> lum = luminance_of(p.rgb, n);
+    std::vector<double> sorted = lum;
+    const auto at = sorted.begin() + static_cast<std::ptrdiff_t>(0.97 * static_cast<double>(n - 1));
+    std::nth_element(sorted.begin(), at, sorted.end());
+    const double cap = std::max(*at, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+        if (lum[i] > cap)
+            for (std::size_t c = 0; c < 3; ++c) p.rgb[i * 3 + c] *= cap / lum[i];
+}
+
+// Each frame less the fitted ghosts (and the glows fitted before), smoothed (sigma 2 px): what a glow is
+// fitted to.
+std::vector<Prepared> residual_frames(const std::vector<Prepared>& frames, const std::vector<Track>& tracks, const FitOptions& o) {
+    std::vector<Prepared> out = frames;
+    for (std::size_t f = 0; f < out.size(); ++f) {
+        Prepared& p = out[f];
+        MeasuredView view;
+        view.sensor_width_mm = o.sensor_width_mm, view.sensor_height_mm = o.sensor_height_mm, view.width = p.width, view.height = p.height;
+        std::vector<double> model(p.rgb.size(), 0.0);
+        for (const Track& t : tracks)
+            for (const auto& [frame, params] : t.fitted)
+                if (frame == static_cast<int>(f)) {
+                    const auto box = ghost_box(params, 0.0, view);
+                    if (box[2] > box[0] && box[3] > box[1]) add_box(model, p.width, box, params, view);
+                }
+        const std::size_t n = model.size() / 3;
+        for (std::size_t c = 0; c < 3; ++c) {
+            std::vector<double> channel(n);
+            for (std::size_t i = 0; i < n; ++i) channel[i] = p.rgb[i * 3 + c] - model[i * 3 + c];
+            channel = gaussian_blur(channel, p.width, p.height, 2.0);
+            for (std::size_t i = 0; i < n; ++i) p.rgb[i * 3 + c] = channel[i];
+        }
+        clip_bright(p);
+    }
+    return out;
+}
+
+// A glow's seed in one residual frame: a soft disc at the centroid of its light along the axis, as wide
+// and high as twice its spread (luminance-weighted moments outside the light's own image).
+Detection glow_seed(const Prepared& r, int frame, const FitOptions& o) {
+    const double pw = pixel_mm(o, r.width), ph = o.sensor_height_mm / r.height;
+    double sw = 0.0, sx = 0.0, sxx = 0.0, syy = 0.0;
+    std::array<double, 3> level{};
+    for (int y = 0; y < r.height; ++y)
+        for (int x = 0; x < r.width; ++x) {
+            if (std::hypot(x - r.light_x, y - r.light_y) <= r.light_radius) continue;
+            const std::size_t i = static_cast<std::size_t>(y * r.width + x);
+            const double w = std::max(0.0, luminance(r.rgb[i * 3], r.rgb[i * 3 + 1], r.rgb[i * 3 + 2]));
+            const double xm = (x + 0.5 - 0.5 * r.width) * pw, ym = (0.5 * r.height - y - 0.5) * ph;
+            sw += w, sx += w * xm, sxx += w * xm * xm, syy += w * ym * ym;
+            for (std::size_t c = 0; c < 3; ++c) level[c] += std::max(0.0, r.rgb[i * 3 + c]);
+        }
+    Detection d;
+    d.frame = frame;
+    const double cx = sw > 0.0 ? sx / sw : 0.0;
+    const double sigma_x = sw > 0.0 ? std::sqrt(std::max(0.0, sxx / sw - cx * cx)) : 0.25 * o.sensor_width_mm;
+    const double sigma_y = sw > 0.0 ? std::sqrt(syy / sw) : 0.25 * o.sensor_height_mm;
+    const double n = static_cast<double>(r.width) * r.height;
+    d.seed = disc_ghost(cx, std::max(2.0 * sigma_x, 4.0 * pw), {level[0] / n, level[1] / n, level[2] / n});
+    d.seed[kHeight] = std::max(2.0 * sigma_y, 4.0 * ph);
+    const double size = std::min(d.seed[kLeft], d.seed[kHeight]);
+    d.seed[kFallInside] = 0.8 * size, d.seed[kFallOutside] = 0.5 * size;
+    d.snr = sw;
+    return d;
+}
+
+// Wide soft glows, one after the other, each fitted to what the ghosts and the glows before it leave, in
+// every frame: the many faint ghosts wider than the frame that no detection on the axis separates.
+void fit_glows(std::vector<Track>& tracks, const std::vector<Prepared>& frames, const FitOptions& o) {
+    for (int g = 0; g < o.glows; ++g) {
+        const std::vector<Prepared> residual = residual_frames(frames, tracks, o);
+        Track glow;
+        glow.glow = true;
+        for (std::size_t f = 0; f < residual.size(); ++f) glow.seen.push_back(glow_seed(residual[f], static_cast<int>(f), o));
+        fit_track(glow, residual, o);
+        if (o.progress) o.progress(fmt::format("glow {}/{}: fitted over {} frames", g + 1, o.glows, glow.fitted.size()));
+        tracks.push_back(std::move(glow));
+    }
+}
+
 }  // namespace
 
 FitResult fit_sweep(const std::vector<SweepFrame>& input, const FitOptions& o) {
     check_frames(input);
     std::vector<Prepared> frames;
     std::vector<std::vector<Detection>> per_frame;
+    const std::array<double, 3> background = sweep_background(input);
     for (std::size_t i = 0; i < input.size(); ++i) {
-        frames.push_back(prepare(input[i], o));
+        frames.push_back(prepare(input[i], background, o));
         per_frame.push_back(detect(frames.back(), static_cast<int>(i), o));
         if (o.progress)
             o.progress(fmt::format("frame {}/{} ({:g} deg): background {:.4g}, noise {:.3g}, {} ghosts on the axis", i + 1, input.size(),
                                    input[i].angle_deg, frames.back().background, frames.back().noise, per_frame.back().size()));
+        if (o.progress && std::getenv("LENSFX_FIT_DEBUG"))
+            for (const Detection& d : per_frame.back())
+                o.progress(fmt::format("   at x {:.1f} px, half width {:.1f} px, half height {:.1f} px, snr {:.0f}, light at {:.1f}", d.seed[kPosition] / pixel_mm(o, input[i].width) + 0.5 * input[i].width - 0.5,
+                                       d.seed[kLeft] / pixel_mm(o, input[i].width), d.seed[kHeight] / pixel_mm(o, input[i].width), d.snr, frames.back().light_x));
     }
     std::vector<Track> tracks = link(per_frame, o.sensor_width_mm / input[0].width);
     std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.seen.size()) < o.min_frames; });
     fit_tracks(tracks, frames, o);
     std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.fitted.size()) < o.min_frames; });
+    fit_glows(tracks, frames, o);
 
     FitResult result;
     MeasuredLens& lens = result.lens;

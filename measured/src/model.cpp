@@ -106,9 +106,12 @@ double signed_distance(const GhostParams& p, double u, double v) {
     v = std::abs(v);
     const Segment right = side_segment(std::max(p[kRight], kMinSize), p[kCurveRight], std::max(p[kHeight], kMinSize));
     const Segment left = side_segment(std::max(p[kLeft], kMinSize), p[kCurveLeft], std::max(p[kHeight], kMinSize));
-    const double d = std::min(distance_to(right, u, v), distance_to(left, -u, v));
-    const Segment& side = u >= 0.0 ? right : left;
-    const bool inside = std::abs(u) < side.p0.x && v < height_over(side, std::abs(u));
+    const Segment& near = u >= 0.0 ? right : left;
+    const Segment& far = u >= 0.0 ? left : right;
+    // The far side's segment lies at |u| or more from (u, v): it is nearer only when the near one is farther.
+    double d = distance_to(near, std::abs(u), v);
+    if (d > std::abs(u)) d = std::min(d, distance_to(far, -std::abs(u), v));
+    const bool inside = std::abs(u) < near.p0.x && v < near.p3.y && v < height_over(near, std::abs(u));
     return inside ? -d : d;
 }
 

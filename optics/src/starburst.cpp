@@ -185,9 +185,12 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
     return sb;
 }
 
-void splat_starburst(const Starburst& sb, double f_number, double cx, double cy, const std::array<double, 3>& power,
-                     double pixel_w_mm, double pixel_h_mm, float* rgb, int width, int height,
-                     double core_radius_texels) {
+void splat_starburst(const Starburst& sb, const StarburstPlacement& at, const std::array<double, 3>& power,
+                     const SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy, core_radius_texels = at.core_radius_texels;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    float* const rgb = image.rgb;
+    const int width = image.width, height = image.height;
     if (sb.size == 0 || !(f_number > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
     const double texel_mm = sb.texel_per_fnumber_mm * f_number;
     const double tx = texel_mm / pixel_w_mm;  // texel size in pixels
@@ -399,18 +402,60 @@ void add_curved_tail(const IrisOutline& iris, const std::array<double, 3>& a, co
 
 double starburst_tail_coefficient(const Aperture& aperture) { return iris_outline(aperture).coefficient; }
 
-StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double f_number, double length_scale,
-                             double cx, double cy, const std::array<double, 3>& power, double pixel_w_mm,
-                             double pixel_h_mm, float* rgb, int width, int height, double core_radius_texels) {
-    StarburstTail tail;
-    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return tail;
-    const IrisOutline iris = iris_outline(aperture);
-    const std::array<double, 3> nm = channel_wavelengths();
+namespace {
+
+// The tail's reach in mm, where the texture fades out (the outer third of its radius) at this f-number.
+TailRamp tail_ramp(const Starburst& sb, double f_number) {
     const double texel_mm = sb.texel_per_fnumber_mm * f_number;
-    const TailRamp ramp{2.0 / 3.0 * 0.5 * sb.size * texel_mm, 0.5 * sb.size * texel_mm};
-    // Energy outside r (per unit power, channel c): a[c] / r.
+    return TailRamp{2.0 / 3.0 * 0.5 * sb.size * texel_mm, 0.5 * sb.size * texel_mm};
+}
+
+// Energy outside r (per unit power, channel c): a[c] / r, each channel at its own wavelength.
+std::array<double, 3> tail_amplitude(const IrisOutline& iris, double f_number, double length_scale) {
+    const std::array<double, 3> nm = channel_wavelengths();
     std::array<double, 3> a{};
     for (std::size_t c = 0; c < 3; ++c) a[c] = iris.coefficient * nm[c] * 1e-6 * f_number * length_scale;
+    return a;
+}
+
+// Across a spike: the edge's sinc^2 (first zeros at +-2 lambda N R / length) as a Gaussian per channel,
+// each as wide as its own wavelength makes it (red widest), sampled at half-pixel offsets (mm) shared by
+// the channels; each channel's weights sum to 1.
+struct SpikeProfile {
+    std::vector<double> offsets{0.0};
+    std::vector<std::array<double, 3>> weights{{1.0, 1.0, 1.0}};
+};
+
+SpikeProfile spike_profile(const TailEdge& edge, double f_number, double pixel_mm) {
+    const std::array<double, 3> nm = channel_wavelengths();
+    std::array<double, 3> sigma_mm{};
+    for (std::size_t c = 0; c < 3; ++c) sigma_mm[c] = 0.376 * 2.0 * nm[c] * 1e-6 * f_number / edge.length;
+    const double widest = std::max({sigma_mm[0], sigma_mm[1], sigma_mm[2]});
+    SpikeProfile profile;
+    if (widest / pixel_mm <= 0.5) return profile;
+    profile.offsets.clear();
+    profile.weights.clear();
+    const int taps = static_cast<int>(std::ceil(3.0 * widest / pixel_mm / 0.5));
+    std::array<double, 3> total{};
+    for (int j = -taps; j <= taps; ++j) {
+        const double t = j * 0.5 * pixel_mm;
+        std::array<double, 3> w{};
+        for (std::size_t c = 0; c < 3; ++c) total[c] += w[c] = std::exp(-0.5 * t * t / (sigma_mm[c] * sigma_mm[c]));
+        profile.offsets.push_back(t);
+        profile.weights.push_back(w);
+    }
+    for (auto& w : profile.weights)
+        for (std::size_t c = 0; c < 3; ++c) w[c] /= total[c];
+    return profile;
+}
+
+}  // namespace
+
+StarburstTail starburst_tail_share(const Starburst& sb, const Aperture& aperture, double f_number, double length_scale) {
+    StarburstTail tail;
+    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0)) return tail;
+    const TailRamp ramp = tail_ramp(sb, f_number);
+    const std::array<double, 3> a = tail_amplitude(iris_outline(aperture), f_number, length_scale);
     // The tail's share: the ramp over the fade (midpoint rule), all of it beyond.
     constexpr int kFadeSteps = 64;
     double fade = 0.0;
@@ -420,13 +465,20 @@ StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, doub
         fade += ramp(r0 + 0.5 * dr) * (1.0 / r0 - 1.0 / (r0 + dr));
     }
     const double outside = fade + 1.0 / ramp.fade_end_mm;
-    std::array<double, 3> texture_power{};
-    for (std::size_t c = 0; c < 3; ++c) {
-        tail.share[c] = std::min(1.0, a[c] * outside);
-        texture_power[c] = power[c] * (1.0 - tail.share[c]);
-    }
-    splat_starburst(sb, f_number, cx, cy, texture_power, pixel_w_mm, pixel_h_mm, rgb, width, height, core_radius_texels);
+    for (std::size_t c = 0; c < 3; ++c) tail.share[c] = std::min(1.0, a[c] * outside);
+    return tail;
+}
 
+void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
+                         const std::array<double, 3>& power, const SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    float* const rgb = image.rgb;
+    const int width = image.width, height = image.height;
+    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+    const IrisOutline iris = iris_outline(aperture);
+    const TailRamp ramp = tail_ramp(sb, f_number);
+    const std::array<double, 3> a = tail_amplitude(iris, f_number, length_scale);
     const double pixel_area = pixel_w_mm * pixel_h_mm;
     // The farthest frame corner from the light, in mm: where the walk along a spike ends.
     double reach = 0.0;
@@ -436,40 +488,36 @@ StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, doub
     const double step = 0.5 * std::min(pixel_w_mm, pixel_h_mm);
     for (const TailEdge& edge : iris.edges) {
         if (edge.spread > 0.0) continue;
-        // Across the spike: the edge's sinc^2 (first zeros at +-2 lambda N R / length) as a Gaussian.
-        const double sigma_mm = 0.376 * 2.0 * nm[1] * 1e-6 * f_number / edge.length;
+        const SpikeProfile across = spike_profile(edge, f_number, std::min(pixel_w_mm, pixel_h_mm));
         for (const double angle : {edge.normal, edge.normal + std::numbers::pi}) {
             const double ux = std::cos(angle), uy = std::sin(angle);
             // Pixels per mm along and across the spike (the image's y runs down).
             const double sx = ux / pixel_w_mm, sy = -uy / pixel_h_mm;
             const double tx = -uy / pixel_w_mm, ty = -ux / pixel_h_mm;
-            const double sigma_px = sigma_mm / std::min(pixel_w_mm, pixel_h_mm);
-            std::vector<std::pair<double, double>> across{{0.0, 1.0}};  // (offset mm, weight)
-            if (sigma_px > 0.5) {
-                across.clear();
-                const int taps = static_cast<int>(std::ceil(3.0 * sigma_px / 0.5));
-                double total = 0.0;
-                for (int j = -taps; j <= taps; ++j) {
-                    const double t = j * 0.5 * std::min(pixel_w_mm, pixel_h_mm);
-                    const double w = std::exp(-0.5 * t * t / (sigma_mm * sigma_mm));
-                    across.emplace_back(t, w);
-                    total += w;
-                }
-                for (auto& [t, w] : across) w /= total;
-            }
             for (double r = ramp.fade_begin_mm; r < reach; r += step) {
                 const double mid = r + 0.5 * step;
                 const double x = cx + mid * sx, y = cy + mid * sy;
                 const double fraction = 0.5 * edge.share * ramp(mid) * (1.0 / r - 1.0 / (r + step));
-                for (const auto& [t, w] : across) {
+                for (std::size_t k = 0; k < across.offsets.size(); ++k) {
+                    const double t = across.offsets[k];
                     std::array<double, 3> e{};
-                    for (std::size_t c = 0; c < 3; ++c) e[c] = power[c] * a[c] * fraction * w / pixel_area;
+                    for (std::size_t c = 0; c < 3; ++c) e[c] = power[c] * a[c] * fraction * across.weights[k][c] / pixel_area;
                     deposit(rgb, width, height, x + t * tx, y + t * ty, e);
                 }
             }
         }
     }
     add_curved_tail(iris, a, ramp, cx, cy, power, pixel_w_mm, pixel_h_mm, rgb, width, height);
+}
+
+StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
+                             const std::array<double, 3>& power, const SensorImage& image) {
+    if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return {};
+    const StarburstTail tail = starburst_tail_share(sb, aperture, at.f_number, length_scale);
+    std::array<double, 3> texture_power{};
+    for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
+    splat_starburst(sb, at, texture_power, image);
+    draw_starburst_tail(sb, aperture, length_scale, at, power, image);
     return tail;
 }
 

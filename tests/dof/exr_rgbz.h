@@ -4,6 +4,7 @@
 #include <vector>
 
 #include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
@@ -11,9 +12,11 @@
 
 namespace lensfx::dof::test {
 
-// Planes of one channel each, rows top first.
-inline void write_exr(const std::string& path, int w, int h, const std::vector<std::string>& names, const std::vector<std::vector<float>>& planes) {
+// Planes of one channel each, rows top first; `chromaticities`: the file's primaries (null: none, Rec. 709).
+inline void write_exr(const std::string& path, int w, int h, const std::vector<std::string>& names, const std::vector<std::vector<float>>& planes,
+                      const Imf::Chromaticities* chromaticities = nullptr) {
     Imf::Header header(w, h);
+    if (chromaticities) Imf::addChromaticities(header, *chromaticities);
     Imf::FrameBuffer fb;
     for (std::size_t c = 0; c < names.size(); ++c) {
         header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));

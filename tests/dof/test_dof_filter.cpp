@@ -113,10 +113,11 @@ std::set<std::string> cache_kinds(const std::filesystem::path& dir) {
 
 // --cache-dir steers every disk cache (bounds tables, direct-power tables, starburst textures, the ray
 // table) over $LENSFX_CACHE_DIR; `none` keeps them all in memory; without it the environment's folder holds them.
+// The Cooke triplet (7 surfaces, 15 ghosts): each run computes every table, a third of the double Gauss's time.
 TEST(DofFilter, CacheDirSteersEveryCache) {
     const auto dir = lensfx::test::scratch_dir("dof_cache_dir");
     const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
-    const std::string args = " -i " + in + " -o " + out + " --dof --lens mld-double-gauss --fstop 4 --focus 1 --sensor 6 --dof-rays 16";
+    const std::string args = " -i " + in + " -o " + out + " --dof --lens cooke-triplet --fstop 5.6 --focus 1 --sensor 6 --dof-rays 16";
     const std::set<std::string> every{"bounds", "direct", "starburst", "dof-rays"};
     auto run_with = [&](const std::string& env, const std::string& option) {
         const auto r = lensfx::test::run("LENSFX_CACHE_DIR=" + (dir / env).string() + " " + lensfx::test::lensfx_cmd() + args + option);
@@ -129,6 +130,39 @@ TEST(DofFilter, CacheDirSteersEveryCache) {
     EXPECT_TRUE(cache_kinds(dir / "env2").empty());
     run_with("env3", "");
     EXPECT_EQ(cache_kinds(dir / "env3"), every);
+}
+
+// --bands mixes each band's blur into the working space's R, G, B (as the flare's bands): the same pixels
+// tagged ACEScg (AP1 primaries, the working space) and untagged (Rec. 709) blur differently through the
+// Cooke triplet's dispersion, while each channel keeps its energy (each channel's weights sum to 1).
+TEST(DofFilter, SpectralBandsMixIntoTheWorkingSpacesPrimaries) {
+    const auto dir = lensfx::test::scratch_dir("dof_bands_space");
+    std::vector<float> rgb(kSize * kSize, 0.0f), z(kSize * kSize, 2.0f);
+    rgb[static_cast<std::size_t>(kSize / 2 * kSize + kSize / 2)] = 1000.0f;
+    const Imf::Chromaticities ap1({0.713f, 0.293f}, {0.165f, 0.830f}, {0.128f, 0.044f}, {0.32168f, 0.33767f});
+    const std::string rec709 = (dir / "rec709.exr").string(), acescg = (dir / "acescg.exr").string();
+    write_exr(rec709, kSize, kSize, {"R", "G", "B", "Z"}, {rgb, rgb, rgb, z});
+    write_exr(acescg, kSize, kSize, {"R", "G", "B", "Z"}, {rgb, rgb, rgb, z}, &ap1);
+    const std::string common = " --dof --dof-only --lens cooke-triplet --fstop 5.6 --focus 1 --sensor 6 --dof-rays 64 --cache-dir none";
+    // largest difference between the two outputs, over the peak; each channel's energy ratio within 3 % (the
+    // bands' energies differ a little: each wavelength's own focus breathing and vignetting)
+    const auto compare = [&](const std::string& options) {
+        for (const std::string& in : {rec709, acescg}) {
+            const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + in + ".out.exr" + common + options);
+            EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+        }
+        double most = 0.0, peak = 0.0;
+        for (const char* c : {"R", "G", "B"}) {
+            int w = 0, h = 0;
+            const std::vector<float> a = read_channel(rec709 + ".out.exr", c, w, h), b = read_channel(acescg + ".out.exr", c, w, h);
+            for (std::size_t i = 0; i < a.size(); ++i) most = std::max(most, double{std::abs(a[i] - b[i])}), peak = std::max(peak, double{a[i]});
+            EXPECT_NEAR(std::accumulate(b.begin(), b.end(), 0.0) / std::accumulate(a.begin(), a.end(), 0.0), 1.0, 0.03) << c << options;
+        }
+        return most / peak;
+    };
+    // one blur for all channels: the working space (each file's own) changes nothing
+    EXPECT_LT(compare(" --no-chromatic-blur"), 1e-5);
+    EXPECT_GT(compare(" --bands 7"), 1e-3) << "the working space's primaries weigh the bands";
 }
 
 TEST(DofFilter, MissingDepthIsAOneLineError) {
@@ -151,9 +185,17 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     const auto no_focus = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --lens mld-double-gauss");
     EXPECT_NE(no_focus.stderr_text.find("--focus"), std::string::npos) << no_focus.stderr_text;
     const std::string dof = " --dof --dof-only --lens mld-double-gauss --focus 1";
+    // a malformed --focus-point or --tilt is a usage error: exit 2, before any frame is read
+    for (const char* bad : {" --focus-point 10,20", " --focus-point 10,20,0", " --focus-point 1,2,nan", " --tilt 5"}) {
+        const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + (dir / "missing.exr").string() + " -o " + out + dof + bad);
+        EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.stderr_text;
+        EXPECT_EQ(r.stderr_text.rfind("lensfx: ", 0), 0u) << r.stderr_text;
+        EXPECT_NE(r.stderr_text.find(std::string(bad).substr(1, std::string(bad).find(' ', 1) - 1) + ": must be "), std::string::npos) << r.stderr_text;
+        EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+    }
     const auto bad_point = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --focus-point 10,20");
-    EXPECT_NE(bad_point.exit_code, 0);
-    EXPECT_NE(bad_point.stderr_text.find("--focus-point must be X,Y,METRES"), std::string::npos) << bad_point.stderr_text;
+    EXPECT_EQ(bad_point.exit_code, 2);
+    EXPECT_NE(bad_point.stderr_text.find("X,Y,METRES"), std::string::npos) << bad_point.stderr_text;
     const auto bad_bands = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --bands 5");
     EXPECT_NE(bad_bands.exit_code, 0);
     EXPECT_NE(bad_bands.stderr_text.find("--bands 5"), std::string::npos) << bad_bands.stderr_text;

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <filter/flare_controls.h>
+#include <filter/option_checks.h>
 #include <filter/frame.h>
 #include <filter/image_io.h>
 

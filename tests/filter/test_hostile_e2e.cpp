@@ -356,3 +356,42 @@ TEST(Hostile, SmallerOnes) {
     EXPECT_EQ(cache_lines, 1u) << cache.stderr_text;
     fs::remove_all(dir);
 }
+
+// The newer options under the same classes: absurd, non-finite and far-away values of --add-light,
+// --focus-point and --coating-spread are usage errors (exit 2) or one-line refusals, never a crash or a
+// frame-sized allocation; an output naming the --matte file is refused and leaves it unchanged.
+TEST(Hostile, NewerOptionsRefuseHostileValues) {
+    const auto dir = scratch_dir("hostile-newer");
+    write_rgb(dir / "in.exr");  // 64 x 48
+    write_image(dir / "inz.exr", {"R", "G", "B", "Z"});
+    const std::string d = dir.string();
+    const std::string flare = fmt::format("{} -i {}/in.exr -o {}/o.exr --lens brendel-tessar", lensfx_cmd(), d, d);
+    for (const char* light : {"3e9,3e9,100", "nan,10,100", "10,10,inf", "10,10,1e300", "10,10,100,2,5"}) {
+        const auto r = run(fmt::format("{}{} --add-light {}", kAddressLimit, flare, light));
+        expect_one_line_refusal(r, "--add-light");
+        EXPECT_EQ(r.exit_code, 2) << light << ": " << r.stderr_text;
+    }
+    expect_one_line_refusal(run(fmt::format("{}{} --add-light 5000,10,100", kAddressLimit, flare)), "display window");
+    const auto spread = run(flare + " --coating-spread nan");
+    expect_one_line_refusal(spread, "--coating-spread");
+    EXPECT_EQ(spread.exit_code, 2);
+
+    const std::string dof = fmt::format("{} -i {}/inz.exr -o {}/o.exr --lens brendel-tessar --dof --focus 2 --dof-only", lensfx_cmd(), d, d);
+    const auto near = run(dof + " --focus-point 10,10,1e-300");  // once an exception escaping a ray thread
+    expect_one_line_refusal(near, "--focus-point 10,10,1e-300");
+    EXPECT_EQ(near.exit_code, 1);
+    for (const char* point : {"1e30,10,2", "10,10,nan", "10,10,1e300", "10,10"}) {
+        const auto r = run(fmt::format("{} --focus-point {}", dof, point));
+        expect_one_line_refusal(r, "--focus-point");
+        EXPECT_EQ(r.exit_code, 2) << point << ": " << r.stderr_text;
+    }
+
+    write_image(dir / "matte.exr", {"R", "G", "B"});
+    const std::string matte_before = slurp(dir / "matte.exr");
+    expect_one_line_refusal(run(fmt::format("{} -i {}/in.exr -o {}/matte.exr --lens brendel-tessar --matte {}/matte.exr", lensfx_cmd(), d, d, d)),
+                            "--matte");
+    expect_one_line_refusal(run(fmt::format("{} -i {}/in.exr -o {}/./matte.exr --lens brendel-tessar --matte {}/matte.exr", lensfx_cmd(), d, d, d)),
+                            "--matte");
+    EXPECT_EQ(slurp(dir / "matte.exr"), matte_before);
+    fs::remove_all(dir);
+}

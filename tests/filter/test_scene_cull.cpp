@@ -36,7 +36,7 @@ lensfx::filter::Frame split_plate(float left, float right) {
 }
 
 // A ghost over pixels [x0, x0 + 60) x [30, 90) adding `peak` at most.
-CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, peak}; }
+CullItem ghost_at(double x0, double peak) { return {x0, 30.0, x0 + 60.0, 90.0, {peak, peak, peak}}; }
 
 }  // namespace
 
@@ -63,15 +63,56 @@ TEST(SceneCull, CulledGhostsTogetherStayWithinTheBudget) {
     EXPECT_EQ(again[1], SceneVerdict::Cull);
 }
 
+namespace {
+
+// A ghost of one spectral pass: over the same pixels as ghost_at, adding `peak` to channel `channel` only.
+CullItem ghost_in(std::size_t channel, double peak) {
+    CullItem item = ghost_at(40.0, 0.0);
+    item.peak[channel] = peak;
+    return item;
+}
+
+}  // namespace
+
+// Each of R, G and B has its own budget: a pass adds to one channel, and the 8-bit view's codes are per
+// channel, so ten third-of-a-code ghosts per channel cull three in each (one shared budget culled three in all).
+TEST(SceneCull, EachChannelSpendsItsOwnBudget) {
+    auto map = lensfx::filter::plate_visibility(split_plate(0.5f, 0.5f), 1.0);
+    const double step = lensfx::filter::srgb8_code_step(0.5);
+    std::vector<CullItem> items;
+    for (std::size_t c = 0; c < 3; ++c)
+        for (int i = 0; i < 10; ++i) items.push_back(ghost_in(c, 0.3 * step));
+    const auto verdicts = lensfx::gpu::scene_cull(items, *map);
+    for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_EQ(std::count(verdicts.begin() + static_cast<std::ptrdiff_t>(c * 10), verdicts.begin() + static_cast<std::ptrdiff_t>(c * 10 + 10),
+                             SceneVerdict::Cull), 3) << "channel " << c;
+    ASSERT_EQ(map->used.size(), map->visible.size());
+    for (double used : map->used) EXPECT_LE(used, 1.0 + 1e-12);
+}
+
+// A plate bright in R and dark in G and B hides a ghost in R, not the same ghost in G.
+TEST(SceneCull, ABrightChannelHidesOnlyItsOwnGhosts) {
+    lensfx::filter::Frame plate = split_plate(0.001f, 0.001f);
+    for (std::size_t i = 0; i < plate.rgb.size(); i += 3) plate.rgb[i] = 1.0f;
+    auto map = lensfx::filter::plate_visibility(plate, 1.0);
+    const double peak = 0.3 * lensfx::filter::srgb8_code_step(1.0);
+    const auto verdicts = lensfx::gpu::scene_cull({ghost_in(0, peak), ghost_in(1, peak)}, *map);
+    EXPECT_EQ(verdicts[0], SceneVerdict::Cull);
+    EXPECT_EQ(verdicts[1], SceneVerdict::Draw);  // several codes over the dark G
+}
+
 TEST(SceneCull, UnknownGhostsAreDrawnAndGhostsOffTheImageCulled) {
     auto map = lensfx::filter::plate_visibility(split_plate(1.0f, 1.0f), 1.0);
+    CullItem negative = ghost_at(20.0, 1e-9);
+    negative.peak[2] = -1e-9;
     const auto verdicts = lensfx::gpu::scene_cull(
-        {CullItem{}, ghost_at(20.0, 0.0), ghost_at(20.0, std::nan("")), ghost_at(20.0, HUGE_VAL), ghost_at(400.0, 1e6)}, *map);
+        {CullItem{}, ghost_at(20.0, 0.0), ghost_at(20.0, std::nan("")), ghost_at(20.0, HUGE_VAL), ghost_at(400.0, 1e6), negative}, *map);
     EXPECT_EQ(verdicts[0], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[1], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[2], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[3], SceneVerdict::Draw);
     EXPECT_EQ(verdicts[4], SceneVerdict::Cull);
+    EXPECT_EQ(verdicts[5], SceneVerdict::Draw);  // a negative channel: not a peak scene culling can weigh
 }
 
 namespace {
@@ -144,4 +185,23 @@ TEST(SceneCull, VisibilityRefusesNegativeAndNonFiniteValues) {
         EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << v << ": " << r.stderr_text;
         EXPECT_FALSE(fs::exists("/tmp/never.exr"));
     }
+}
+
+// A plate of 256 x 128 pixels in a 10^6 x 10^6 display window (issue 14: a tiny file declaring a huge
+// window): the map's cells grow so that it holds at most 2048 x 2048 of them, covering the whole window,
+// and the plate's cells still see its level.
+TEST(SceneCull, HugeDisplayWindowGetsCoarserCells) {
+    lensfx::filter::Frame frame = split_plate(1.0f, 1.0f);
+    frame.spec.full_width = frame.spec.full_height = 1000000;
+    const auto map = lensfx::filter::plate_visibility(frame, 1.0);
+    EXPECT_GT(map->cell, lensfx::filter::kVisibilityCell);
+    EXPECT_LE(static_cast<std::size_t>(map->cols) * static_cast<std::size_t>(map->rows), std::size_t{1} << 22);
+    EXPECT_GE(static_cast<long long>(map->cols) * map->cell, 1000000LL);
+    EXPECT_GE(static_cast<long long>(map->rows) * map->cell, 1000000LL);
+    EXPECT_EQ(map->visible.size(), static_cast<std::size_t>(map->cols) * static_cast<std::size_t>(map->rows) * 3);  // per channel
+    // The plate fills less than its cell: the cell's least value is the black around it.
+    EXPECT_FLOAT_EQ(map->visible[0], static_cast<float>(lensfx::filter::srgb8_code_step(0.0)));
+
+    const auto normal = lensfx::filter::plate_visibility(split_plate(1.0f, 1.0f), 1.0);
+    EXPECT_EQ(normal->cell, lensfx::filter::kVisibilityCell);
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <flare/cache.h>
 #include <flare/direct_power.h>
@@ -27,7 +28,8 @@ using namespace lensfx;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("lensfx_cache_" + name);
+    // Named by the process too: runs of other checkouts at the same time must not share it.
+    const fs::path dir = fs::temp_directory_path() / ("lensfx_cache_" + name + "_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     return dir;

@@ -145,10 +145,11 @@ TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
     for (const double cx : {150.4, 290.7}) {
         const double cy = 80.2;
         std::vector<float> whole(static_cast<std::size_t>(w * h * 3), 0.0f);
-        optics::splat_starburst(sb, f_number, cx, cy, power, pixel, pixel, whole.data(), w, h, 2.0 * radius_px);
+        optics::splat_starburst(sb, {cx, cy, f_number, 2.0 * radius_px}, power, {whole.data(), w, h, pixel, pixel});
         flare::convolve_footprint(whole, w, h, bar, 1.0);
         std::vector<float> added(whole.size(), 0.0f);
-        flare::add_extended_starburst(sb, f_number, cx, cy, power, pixel, pixel, core, bar, added.data(), w, h);
+        // A vanishing length scale leaves the texture alone (its tail share and the tail both vanish).
+        flare::add_extended_starburst(sb, optics::Aperture{6, 0.0, 0.0}, 1e-12, {cx, cy, f_number, core}, power, bar, {added.data(), w, h, pixel, pixel});
         float peak = 0.0f;
         for (float v : whole) peak = std::max(peak, v);
         ASSERT_GT(peak, 0.0f);
@@ -171,6 +172,71 @@ TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
     }
 }
 
+namespace {
+
+// A disc of 2 px cells, radius_cells cells, even weights summing to 1, centred on the light.
+detect::Shape disc_footprint(int radius_cells) {
+    detect::Shape disc;
+    disc.width = disc.height = 2 * radius_cells;
+    disc.cell = 2.0;
+    disc.origin_x = disc.origin_y = -2.0 * radius_cells;
+    for (int j = 0; j < disc.height; ++j)
+        for (int i = 0; i < disc.width; ++i)
+            disc.weights.push_back(std::hypot(i + 0.5 - radius_cells, j + 0.5 - radius_cells) < radius_cells ? 1.0f : 0.0f);
+    float sum = 0.0f;
+    for (float w : disc.weights) sum += w;
+    for (float& w : disc.weights) w /= sum;
+    return disc;
+}
+
+// The upward spike of a hexagonal iris at rows [row0, row1) above the light, within +-half px of its
+// column: the green energy there and the root-mean-square offset across the spike.
+struct SpikeCut {
+    double energy = 0.0, rms_px = 0.0;
+};
+SpikeCut cut_spike(const std::vector<float>& rgb, int w, double cx, int row0, int row1, int half) {
+    SpikeCut cut;
+    double moment = 0.0;
+    for (int y = row0; y < row1; ++y)
+        for (int x = static_cast<int>(cx) - half; x <= static_cast<int>(cx) + half; ++x) {
+            const double v = static_cast<double>(rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 3 + 1]);
+            cut.energy += v;
+            moment += v * (x + 0.5 - cx) * (x + 0.5 - cx);
+        }
+    cut.rms_px = std::sqrt(moment / cut.energy);
+    return cut;
+}
+
+}  // namespace
+
+// Issue 16: --starburst-scale lengthens an extended light's spikes as a point light's (the light far out
+// grows with the scale) and leaves them as wide (it once enlarged the whole texture: fat petals).
+TEST(Footprint, ExtendedStarburstScaleLengthensTheSpikesWithoutWideningThem) {
+    optics::StarburstOptions options;
+    options.size = 128;
+    options.pupil_samples = 24;
+    const optics::Aperture hexagon{6, 0.0, 0.0};
+    const optics::Starburst sb = optics::make_starburst(hexagon, options);
+    const detect::Shape disc = disc_footprint(4);  // 16 px across
+    const int w = 240, h = 400;
+    const double f_number = 8.0, pixel = 2.0 * sb.texel_per_fnumber_mm * f_number, cx = 120.3, cy = 300.6;
+    const std::array<double, 3> power{1.0, 1.0, 1.0};
+    std::vector<SpikeCut> cuts;
+    for (const double scale : {1.0, 4.0}) {
+        std::vector<float> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        flare::add_extended_starburst(sb, hexagon, scale, {cx, cy, f_number, 1.0}, power, disc, {rgb.data(), w, h, pixel, pixel});
+        cuts.push_back(cut_spike(rgb, w, cx, 20, 120, 30));  // 180 to 280 px above the light
+        const auto [low, high] = std::minmax_element(rgb.begin(), rgb.end());
+        EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v); }));
+        EXPECT_GE(*low, -1e-6f * *high) << "no more than the DFT filter's rounding below 0";
+    }
+    ASSERT_GT(cuts[0].energy, 0.0) << "the spike reaches 180 px, far beyond the texture's 32 px";
+    EXPECT_NEAR(cuts[1].energy / cuts[0].energy, 4.0, 0.4) << "the light far out grows with the scale";
+    EXPECT_NEAR(cuts[1].rms_px, cuts[0].rms_px, 0.05 * cuts[0].rms_px) << "as wide at any scale";
+    EXPECT_GT(cuts[0].rms_px, 3.0) << "as wide as the 16 px source, not the point light's 1 px";
+    EXPECT_LT(cuts[0].rms_px, 8.0);
+}
+
 // Issue 14, class 1: lights far outside the frame draw nothing and touch no memory out of bounds (an int
 // overflow once wrote out of the buffer), and a footprint of enormous cells ends (it once looped forever).
 TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
@@ -183,7 +249,7 @@ TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
     for (const double x : {3e9, -3e9, 1e300, 40.0}) {
         for (const double f_number : {8.0, 8000.0}) {  // texels smaller and far larger than pixels
             std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
-            optics::splat_starburst(sb, f_number, x, x == 40.0 ? 3e9 : 20.0, {1.0, 1.0, 1.0}, pixel, pixel, rgb.data(), w, h, 0.0);
+            optics::splat_starburst(sb, {x, x == 40.0 ? 3e9 : 20.0, f_number, 0.0}, {1.0, 1.0, 1.0}, {rgb.data(), w, h, pixel, pixel});
             EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return v == 0.0f; })) << x << " f/" << f_number;
         }
     }

@@ -1,7 +1,9 @@
 // The renderer under a memory budget (issue 14): the full-size target drawn in bands gives the image the
 // whole target gives; a lens whose ghost data does not fit half the budget draws its brightest ghosts, and
 // is refused only when not even its ghost list fits.
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -9,13 +11,18 @@
 #include <gpu/context.h>
 #include <flare/flare.h>
 #include <gpu/flare_renderer.h>
+#include <gpu/ghost_cap.h>
+#include <optics/ghosts.h>
 #include <optics/lens_file.h>
+#include <optics/presets.h>
 #include <optics/system.h>
 
 #include "../memory/plate_lens.h"
 
 namespace lensfx::gpu {
 namespace {
+
+constexpr std::size_t kNoCap = std::numeric_limits<std::size_t>::max();  // no cap on the ghosts' steps
 
 // The whole of the render, and the sum of one channel.
 double channel_sum(const FlareImage& image, int c) {
@@ -59,13 +66,14 @@ TEST(MemoryFit, ManySurfacesDrawTheBrightestGhostsThatFit) {
     const optics::System system = optics::realize(optics::parse_lens_toml(test::plate_lens_toml(101), "plates"));
     const std::vector<Ghost> all = optics::enumerate_ghosts(system);
     const double need = ghost_table_bytes(system, 3);
-    const GhostFit fit_all = ghosts_within_budget(system, all, 3, MemoryBudget{static_cast<std::size_t>(2.5 * need)});
+    const GhostFit fit_all = ghosts_within(system, all, 3, MemoryBudget{static_cast<std::size_t>(2.5 * need)}, kNoCap);
     EXPECT_EQ(fit_all.ghosts.size(), all.size());
     EXPECT_EQ(fit_all.power_left_out, 0.0);
 
     const MemoryBudget tight{static_cast<std::size_t>(need)};  // half of it for the ghost data
     EXPECT_NO_THROW(check_ghost_tables(system, 3, tight));
-    const GhostFit fit = ghosts_within_budget(system, all, 3, tight);
+    const GhostFit fit = ghosts_within(system, all, 3, tight, kNoCap);
+    EXPECT_TRUE(fit_over_budget(fit, tight));
     EXPECT_GT(fit.ghosts.size(), 0u);
     EXPECT_LT(fit.ghosts.size(), all.size());
     EXPECT_EQ(fit.total, all.size());
@@ -81,6 +89,42 @@ TEST(MemoryFit, ManySurfacesDrawTheBrightestGhostsThatFit) {
         EXPECT_NE(message.find("lens plates and a triplet"), std::string::npos) << message;
         EXPECT_NE(message.find("ghosts of its 101 surfaces"), std::string::npos) << message;
         EXPECT_NE(message.find("over half the memory limit of 66 KB"), std::string::npos) << message;
+    }
+}
+
+// Without a memory limit a lens of 101 surfaces (about 4900 ghosts) draws its brightest ghosts up to
+// kMaxLensGhostSteps: none left out is brighter than the dimmest kept, and they carry at least their
+// count's share of the power.
+TEST(MemoryFit, ManyGhostsAreCappedAtTheBrightest) {
+    const optics::System system = optics::realize(optics::parse_lens_toml(test::plate_lens_toml(101), "plates"));
+    const std::vector<Ghost> all = optics::enumerate_ghosts(system);
+    ASSERT_GT(summed_steps(all), kMaxLensGhostSteps);
+    const GhostFit fit = ghosts_within_budget(system, all, 3, MemoryBudget{});
+    EXPECT_LE(summed_steps(fit.ghosts), kMaxLensGhostSteps);
+    EXPECT_GT(summed_steps(fit.ghosts), kMaxLensGhostSteps - 2 * system.interfaces.size() - 2);  // filled up to the cap
+    EXPECT_EQ(fit.total, all.size());
+    EXPECT_FALSE(fit_over_budget(fit, MemoryBudget{}));
+    EXPECT_GT(fit.power_left_out, 0.0);
+    EXPECT_GE(1.0 - fit.power_left_out, static_cast<double>(fit.ghosts.size()) / static_cast<double>(all.size()) - 1e-12);
+
+    const optics::TraceSystem traced(system, optics::kLambdaD_nm);
+    double dimmest_kept = INFINITY, brightest_left = 0.0;
+    for (const Ghost& g : fit.ghosts) dimmest_kept = std::min(dimmest_kept, optics::ghost_axial_factor(traced, g));
+    for (const Ghost& g : all) {
+        const bool kept = std::any_of(fit.ghosts.begin(), fit.ghosts.end(),
+                                      [&](const Ghost& k) { return k.first == g.first && k.second == g.second; });
+        const double power = optics::ghost_axial_factor(traced, g);
+        if (!kept && std::isfinite(power)) brightest_left = std::max(brightest_left, power);
+    }
+    EXPECT_GE(dimmest_kept, brightest_left);
+}
+
+// Every real lens of presets/ is drawn whole: the cap is only reached by generated lenses.
+TEST(MemoryFit, EveryPresetIsUnderTheGhostCap) {
+    ASSERT_GT(optics::preset_names().size(), 10u);
+    for (const std::string& name : optics::preset_names()) {
+        const optics::System system = optics::realize(optics::load_preset(name));
+        EXPECT_LE(summed_steps(optics::enumerate_ghosts(system)), kMaxLensGhostSteps / 2) << name;
     }
 }
 

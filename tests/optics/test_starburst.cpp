@@ -84,7 +84,7 @@ TEST(Starburst, SplatKeepsEnergyAndGrowsWithTheFNumber) {
     const double pixel = 0.002;  // mm: texels are larger than pixels at f/16, smaller at f/2
     for (double n : {2.0, 16.0}) {
         std::vector<float> img(static_cast<std::size_t>(w * h * 3), 0.0f);
-        splat_starburst(s, n, 100.3, 99.7, {2.0, 1.0, 0.5}, pixel, pixel, img.data(), w, h);
+        splat_starburst(s, {100.3, 99.7, n}, {2.0, 1.0, 0.5}, {img.data(), w, h, pixel, pixel});
         std::array<double, 3> sum{};
         double spread = 0.0;
         for (int y = 0; y < h; ++y)
@@ -115,8 +115,7 @@ TEST(Starburst, CoreLeftOutHoldsMostOfTheEnergy) {
     const int w = 64, h = 64;
     std::vector<float> img(static_cast<std::size_t>(w * h * 3), 0.0f);
     const double pixel = s.texel_per_fnumber_mm * 8.0 * 20.0;  // texels much smaller than pixels at f/8
-    splat_starburst(s, 8.0, 32.0, 32.0, {1.0, 1.0, 1.0}, pixel, pixel, img.data(), w, h,
-                    starburst_core_radius_texels(s));
+    splat_starburst(s, {32.0, 32.0, 8.0, starburst_core_radius_texels(s)}, {1.0, 1.0, 1.0}, {img.data(), w, h, pixel, pixel});
     double sum = 0.0;
     for (std::size_t i = 1; i < img.size(); i += 3) sum += static_cast<double>(img[i]) * pixel * pixel;
     EXPECT_GT(sum, 0.05);
@@ -132,7 +131,7 @@ TEST(Starburst, SmallTexelSplatMatchesEachTexelBilinearlyAtTheFramesCorner) {
     const std::array<double, 3> power{2.0, 1.0, 0.5};
     const double cx = 4.3, cy = 6.8;
     std::vector<float> img(static_cast<std::size_t>(w * h * 3), 0.0f);
-    splat_starburst(s, f_number, cx, cy, power, pixel, pixel, img.data(), w, h, core);
+    splat_starburst(s, {cx, cy, f_number, core}, power, {img.data(), w, h, pixel, pixel});
     std::vector<double> ref(img.size(), 0.0);
     const double t = 1.0 / 7.3, half = s.size / 2;
     for (int j = 0; j < s.size; ++j)

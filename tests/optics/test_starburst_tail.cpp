@@ -67,12 +67,17 @@ std::vector<double> reference_outside(const Aperture& aperture, const std::vecto
     return outside;
 }
 
+const Starburst& hexagon_texture() {
+    static const Starburst texture = make_starburst(kHexagon);
+    return texture;
+}
+
 // The starburst of a light at the frame's centre, power 1 per channel.
 std::vector<float> render(double scale, StarburstTail* tail = nullptr) {
-    static const Starburst texture = make_starburst(kHexagon);
+    const Starburst& texture = hexagon_texture();
     std::vector<float> rgb(static_cast<std::size_t>(kWidth) * kHeight * 3, 0.0f);
-    const StarburstTail t = draw_starburst(texture, kHexagon, kFNumber, scale, kWidth / 2.0, kHeight / 2.0, {1.0, 1.0, 1.0},
-                                           kPixelMm, kPixelMm, rgb.data(), kWidth, kHeight);
+    const StarburstTail t = draw_starburst(texture, kHexagon, scale, {kWidth / 2.0, kHeight / 2.0, kFNumber}, {1.0, 1.0, 1.0},
+                                           {rgb.data(), kWidth, kHeight, kPixelMm, kPixelMm});
     if (tail) *tail = t;
     return rgb;
 }
@@ -148,4 +153,64 @@ TEST(StarburstTail, ScaleLengthensWithoutWidening) {
     EXPECT_NEAR(spread(twenty), spread(one), 0.25);
     // No hole: most of the light stays in the core, at the physical size.
     EXPECT_LT(outside(twenty, 3.0, 1), 0.5);
+}
+
+namespace {
+
+// Per channel, the mean wavelength (nm) of the light the channel holds: the CIE functions into linear
+// Rec.709, each wavelength weighted by its (non-negative) share of the channel.
+std::array<double, 3> channel_mean_nm() {
+    std::array<double, 3> sum{}, weight{};
+    for (double l = 380.0; l <= 780.0; l += 5.0) {
+        const std::array<double, 3> xyz = cie1931_xyz(l);
+        for (std::size_t c = 0; c < 3; ++c) {
+            const double w = std::max(0.0, kXyzToRec709[c][0] * xyz[0] + kXyzToRec709[c][1] * xyz[1] + kXyzToRec709[c][2] * xyz[2]);
+            sum[c] += w * l;
+            weight[c] += w;
+        }
+    }
+    return {sum[0] / weight[0], sum[1] / weight[1], sum[2] / weight[2]};
+}
+
+// Channel c's radius (texels) enclosing `fraction` of its energy, interpolated within the texel ring.
+double enclosing_radius(const Starburst& sb, int c, double fraction) {
+    std::vector<double> ring(static_cast<std::size_t>(sb.size), 0.0);
+    for (int y = 0; y < sb.size; ++y)
+        for (int x = 0; x < sb.size; ++x) {
+            const auto r = static_cast<std::size_t>(std::hypot(x - sb.size / 2, y - sb.size / 2));
+            if (r < ring.size()) ring[r] += static_cast<double>(sb.at(x, y, c));
+        }
+    double total = 0.0;
+    for (double v : ring) total += v;
+    double inside = 0.0;
+    for (std::size_t r = 0; r < ring.size(); ++r) {
+        if (inside + ring[r] >= fraction * total) return static_cast<double>(r) + (fraction * total - inside) / ring[r];
+        inside += ring[r];
+    }
+    return static_cast<double>(ring.size());
+}
+
+}  // namespace
+
+// Issue 16: the pattern scales with the wavelength, so each channel's spikes and rings lie at radii in
+// the ratio of its wavelengths: the red reaches farthest, and a star's spikes end in red fringes.
+TEST(StarburstTail, RedReachesFartherThanBlueByTheWavelengthRatio) {
+    const Starburst& sb = hexagon_texture();
+    const std::array<double, 3> nm = channel_mean_nm();
+    for (const double fraction : {0.5, 0.8, 0.9}) {
+        const double red = enclosing_radius(sb, 0, fraction), green = enclosing_radius(sb, 1, fraction),
+                     blue = enclosing_radius(sb, 2, fraction);
+        std::printf("%.0f%% of the energy within r: red %.3f green %.3f blue %.3f texels; red/blue %.3f, wavelengths %.3f\n",
+                    100.0 * fraction, red, green, blue, red / blue, nm[0] / nm[2]);
+        EXPECT_GT(red, green) << fraction;
+        EXPECT_GT(green, blue) << fraction;
+        EXPECT_NEAR(red / blue, nm[0] / nm[2], 0.1 * nm[0] / nm[2]) << fraction;
+    }
+    // Far out along a spike (the tail), each channel holds light in proportion to its wavelength: the
+    // red spike is the brightest.
+    const std::vector<float> rgb = render(1.0);
+    std::array<double, 3> sum{};
+    for (int dx = -12; dx <= 12; ++dx)
+        for (std::size_t c = 0; c < 3; ++c) sum[c] += static_cast<double>(rgb[(static_cast<std::size_t>(kHeight / 2 - 300) * kWidth + kWidth / 2 + dx) * 3 + c]);
+    EXPECT_NEAR(sum[0] / sum[2], nm[0] / nm[2], 0.02 * nm[0] / nm[2]);
 }

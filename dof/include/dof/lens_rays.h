@@ -84,6 +84,11 @@ struct RayTable {
     double focus_spread = 0.0;
 };
 
+// Largest distance between a grid point and where its rays cross focus_w on average (distortion, focus
+// breathing, tilt): with the table's reach and focus spread it bounds how far from its pixel a ray can
+// meet a surface.
+double convergence_offset_px(const RayTable& table);
+
 // The camera's bands: its spectral bands, or one per RGB channel (weight 1 into that channel only).
 std::vector<Band> bands_of(const Camera& camera);
 

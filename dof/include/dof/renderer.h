@@ -20,6 +20,12 @@ struct TraceSettings {
     int start_level = 2;     // hierarchy level a ray starts at
     int max_iterations = 2048;
     bool uniform_skip = true;  // pixels whose every reachable surface has one colour take it untraced
+    // Chromatic blur only where it shows: between grid points of the table whose every band ray stays
+    // within this many pixels of the achromatic band's ray of the same sample, over the scene's depth
+    // range, the achromatic band's rays serve every band (0: only where they are equal).
+    double chroma_tolerance_px = 0.1;
+    // Where the layers' pixel (0, 0) lies in the table's raster (the layers may be a crop of it).
+    int origin_x = 0, origin_y = 0;
 };
 
 // Needs a current gpu::Context on the calling thread, for its whole life.
@@ -47,8 +53,14 @@ private:
 // to powers of two), (lowest, highest) inverse depth 1/back .. 1/front over every layer; empty cells
 // (1e30, -1e30). Level 0 first.
 std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& padded_w, int& padded_h);
-// Per cell of the same pyramid, the minimum ([0]) and maximum ([1]) RGBA of every layer (an empty pixel
-// gives -1e30 .. 1e30, never uniform).
-std::array<std::vector<std::vector<float>>, 2> colour_pyramid(const LayerStack& layers, int padded_w, int padded_h);
+// Per cell between the table's grid points (grid_x - 1 by grid_y - 1), 1 where at all four corners every
+// band's ray of every sample passes exactly where the achromatic band's does and stays within
+// tolerance_px of it for inverse depths w_far .. w_near; else 0.
+std::vector<float> achromatic_cells(const RayTable& table, double w_near, double w_far, double tolerance_px);
+
+// Per cell of 2^level x 2^level pixels, the minimum ([0]) and maximum ([1]) RGBA of every layer (an empty
+// pixel gives -1e30 .. 1e30, never uniform; cells past the raster's edge 1e30 .. -1e30): the one level of
+// the pyramid the uniform-colour test reads.
+std::array<std::vector<float>, 2> colour_level(const LayerStack& layers, int level);
 
 }  // namespace lensfx::dof

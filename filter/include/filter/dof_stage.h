@@ -44,7 +44,10 @@ struct DofShared;  // the sharp and blurred plates of the current frame, between
 class DofStage final : public Stage {
 public:
     // flare_follows: keep R, G, B sharp for the flare stage and leave the swap to DofComposeStage.
-    DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows);
+    // `working_rgb_to_xyz`: the working space's primaries, which --bands mixes into (as the flare's; null
+    // or empty: Rec. 709).
+    DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows,
+             FlareStage::PrimariesSource working_rgb_to_xyz = nullptr);
     ~DofStage() override;
     std::string_view name() const override { return "dof"; }
     void process(Frame& frame) override;
@@ -77,6 +80,7 @@ Frame read_deep_exr_frame(const std::string& path);
 struct DofStages {
     std::unique_ptr<Stage> blur, compose;
 };
-DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std::shared_ptr<GpuSession> gpu, bool& flare_runs);
+DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std::shared_ptr<GpuSession> gpu, bool& flare_runs,
+                          FlareStage::PrimariesSource working_rgb_to_xyz = nullptr);
 
 }  // namespace lensfx::filter

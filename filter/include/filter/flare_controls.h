@@ -9,11 +9,13 @@
 #include <string_view>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 
 #include <detect/image_view.h>
 #include <filter/frame.h>
-#include <filter/option_checks.h>
+
+namespace CLI {
+class App;
+}
 
 namespace lensfx::filter {
 

@@ -4,9 +4,12 @@
 
 #include <string>
 
-#include <CLI/CLI.hpp>
 
 #include <gpu/acceleration.h>
+
+namespace CLI {
+class App;
+}
 
 namespace lensfx::filter {
 

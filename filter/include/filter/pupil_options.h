@@ -4,10 +4,13 @@
 
 #include <string>
 
-#include <CLI/CLI.hpp>
 
 #include <optics/imperfections.h>
 #include <optics/starburst.h>
+
+namespace CLI {
+class App;
+}
 
 namespace lensfx::filter {
 

@@ -32,6 +32,8 @@ Mat3 inverse(const Mat3& m) {
             c02 * s, (m[1] * m[6] - m[0] * m[7]) * s, (m[0] * m[4] - m[1] * m[3]) * s};
 }
 
+optics::Mat3 as_rows(const Mat3& m) { return {{{m[0], m[1], m[2]}, {m[3], m[4], m[5]}, {m[6], m[7], m[8]}}}; }
+
 std::array<double, 3> apply_matrix(const Mat3& m, const std::array<double, 3>& v) {
     return {m[0] * v[0] + m[1] * v[1] + m[2] * v[2], m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
             m[6] * v[0] + m[7] * v[1] + m[8] * v[2]};

@@ -42,9 +42,12 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
 // optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'
 // area) is left out, as is all that lands on the light's own pixels (its cells holding any of its light,
 // interpolated between cell centres): the source does not bloom, the spikes reaching beyond it remain.
-// Only the region the pattern and the footprint reach is drawn and convolved.
-void add_extended_starburst(const optics::Starburst& sb, double f_number, double cx, double cy,
-                            const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                            double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height);
+// Only the region the pattern and the footprint reach is drawn and convolved. As for a point light, the
+// texture gives up its tail's share and the tail (optics::draw_starburst_tail, lengthened by
+// length_scale, --starburst-scale) runs to the frame edge, spread over the footprint too: the spikes of a
+// source are as wide as the source, and a longer scale lengthens them without widening them.
+void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
+                            const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+                            const detect::Shape& shape, const optics::SensorImage& image);
 
 }  // namespace lensfx::flare

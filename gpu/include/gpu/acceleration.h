@@ -4,6 +4,7 @@
 // Also the bounds table itself, cached in memory and on disk per lens, zoom, f-number and aperture.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <numbers>
@@ -81,10 +82,13 @@ struct GhostPlan {
     bool draw = false;
     int grid = 0;    // cells per side
     int reduce = 1;  // 1 full resolution, 2, 4, 8 or 16: drawn at 1/reduce of the image size and upsampled
+    bool rim = true;    // a ghost drawn at 1/4 or less: its rim drawn sharp at 4x its level (the renderer's rim pass)
+    bool splat = true;  // its sub-pixel triangles splatted (else only the rasterised ones are drawn)
 };
 // What scene culling decided of one ghost (scene_cull): drawn as the level of detail plans it, left out, or
-// drawn at the coarsest detail (kMinGrid cells, the most reduced level its size allows) because its peak
-// alone is under what the frame can show where it lands.
+// drawn at the coarsest detail because its peak alone is under what the frame can show where it lands: its
+// total light matters there, not its shape (kMinGrid cells, the most reduced level its size allows, no rim
+// pass, no splats).
 enum class SceneVerdict : unsigned char { Draw, Cull, Faint };
 // base_grid: the --grid option. pixel_mm: the sensor width of one pixel. per_ghost_power disables the
 // reduced drawing (the per-ghost read-back happens on the full-size target). total_power: what the level
@@ -94,33 +98,37 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
                                    int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0,
                                    const std::vector<SceneVerdict>& verdicts = {});
 
-// What a frame can show of a flare added to it, cell by cell (scene culling, issue 17): in each cell of
-// `cell` x `cell` pixels, the smallest addition (in the frame's units) that counts as visible there. Built by
-// the flare stage from the plate (filter/visibility.h); null in GpuFlareOptions: no scene culling.
+// What a frame can show of a flare added to it, cell by cell and channel by channel (scene culling, issue 17):
+// in each cell of `cell` x `cell` pixels, the smallest addition to R, G and B (in the frame's units) that
+// counts as visible there. Built by the flare stage from the plate (filter/visibility.h); null in
+// GpuFlareOptions: no scene culling.
 struct VisibilityMap {
     int width = 0;   // the frame (display window), pixels
     int height = 0;
     int cell = 32;   // pixels per cell side
     int cols = 0;    // cells across and down
     int rows = 0;
-    std::vector<float> visible;  // per cell, row 0 at the top: the least visible addition there (> 0)
-    double budget = 1.0;         // --visibility V: the culled ghosts together add at most V x visible in any cell
-    std::vector<double> used;    // per cell: what culled ghosts have spent of the budget (scene_cull fills it),
-                                 // shared by every render of the frame
+    std::vector<float> visible;  // per cell (row 0 at the top) R, G, B: the least visible addition there (> 0)
+    double budget = 1.0;         // --visibility V: the culled ghosts together add at most V x visible to any
+                                 // channel of any cell
+    std::vector<double> used;    // per cell and channel (as `visible`): what culled ghosts have spent of the
+                                 // budget (scene_cull fills it), shared by every render of the frame
 };
 
 // One ghost of one light and pass as scene culling sees it: its box on the image (pixels, upright, row 0 at
-// the top; x1 <= x0: not known) and the largest value it adds to any channel there (frame units).
+// the top; x1 <= x0: not known) and the largest value it adds to each of R, G, B there (frame units; a
+// spectral pass adds to one channel, or to several with their own factors).
 struct CullItem {
     double x0 = 0.0, y0 = 0.0, x1 = 0.0, y1 = 0.0;
-    double peak = 0.0;
+    std::array<double, 3> peak{};
 };
-// Which items to leave out: the faintest first (by peak over the least visible value under their box), as
-// long as every cell's sum of culled peak / visible stays within the budget, so all the culled ghosts
-// together change no cell by more than budget x visible. Items wholly off the image cost nothing; items
-// whose box or peak is not known (x1 <= x0, peak <= 0 or not finite) are drawn. Items not culled whose peak
-// alone is under the least visible value under their box are Faint. What the culled items spend is added to
-// map.used, so several calls (an extended light's groups, then the point lights) share one budget.
+// Which items to leave out: the faintest first (by the largest of their channels' peak over the least
+// visible value of that channel under their box), as long as every cell's sum of culled peak / visible stays
+// within the budget in each channel, so all the culled ghosts together change no channel of any cell by more
+// than budget x visible. Items wholly off the image cost nothing; items whose box or peak is not known
+// (x1 <= x0, no channel's peak > 0, or any not finite) are drawn. Items not culled whose peak alone is under
+// the least visible value under their box in every channel are Faint. What the culled items spend is added
+// to map.used, so several calls (an extended light's groups, then the point lights) share one budget.
 std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map);
 
 // Entrance-pupil rectangles of every ghost over a grid of field angles (and a sensor size) (light in the x-z plane, at

@@ -51,7 +51,7 @@ LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::spa
 
 // One ghost of one light and pass as scene culling sees it (its sensor box turned to the light's azimuth,
 // moved by its style, grown by the splats' and reduced levels' spread and spread_px; its peak times the
-// largest factor a channel adds it with).
+// factor each channel adds it with).
 CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
                    const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
                    double spread_px);

@@ -57,9 +57,10 @@ double ghost_table_bytes(const System& system, std::size_t passes);
 // ghosts when all of them do not fit).
 void check_ghost_tables(const System& system, std::size_t passes, const MemoryBudget& budget);
 
-// The ghosts drawn of a lens under a memory budget: all of them when their data fits half the budget,
-// else the brightest by power along the axis that fit (a lens of hundreds of surfaces), with the share of
-// the power left out. Throws MemoryLimitError when not one fits.
+// The ghosts drawn of a lens under a memory budget: all of them when their data fits half the budget
+// and they number at most kMaxLensGhosts (gpu/ghost_cap.h), else the brightest by power along the axis
+// that fit and are within that count (a lens of hundreds of surfaces), with the share of the power left
+// out. Throws MemoryLimitError when not one fits.
 struct GhostFit {
     std::vector<Ghost> ghosts;
     std::size_t total = 0;        // ghosts before fitting

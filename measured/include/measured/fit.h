@@ -29,6 +29,7 @@ struct FitOptions {
     int key_iterations = 120;        // gradient-descent passes at a ghost's key frame
     int track_iterations = 30;        // at the frames tracked from it (seeded by the neighbour's fit)
     int max_ghosts = 16;
+    int glows = 2;                   // wide soft glows fitted to what the ghosts leave (faint ghosts wider than the frame)
     double min_snr = 6.0;            // a ghost's level on the axis against the noise (after smoothing)
     double light_radius = 0.02;      // around the light's own image nothing is a ghost: fraction of the width
     int min_frames = 3;              // a ghost seen in fewer frames is dropped

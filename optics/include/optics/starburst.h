@@ -55,15 +55,28 @@ struct Starburst {
 
 Starburst make_starburst(const Aperture& aperture, const StarburstOptions& options = {});
 
-// Adds a starburst of the given total power per channel (image units x mm^2) centred at (cx, cy) (pixels,
-// continuous, (0,0) the top-left corner) to an RGB float image of width x height whose pixels span
-// pixel_w_mm x pixel_h_mm on the sensor, for a lens at f-number N. Each output pixel integrates the
-// texture over its footprint (box filter), so energy is kept at any scale. Texels closer to the centre
-// than core_radius_texels are left out: for a light already in the image, its recorded pixels hold the
-// pattern's core, and only the spikes and rings around it are new.
-void splat_starburst(const Starburst& starburst, double f_number, double cx, double cy,
-                     const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                     float* rgb, int width, int height, double core_radius_texels = 0.0);
+// An RGB float image on the sensor that a pattern is added into: width x height pixels (rows from the top,
+// 3 floats a pixel), each pixel_w_mm x pixel_h_mm of the sensor.
+struct SensorImage {
+    float* rgb = nullptr;
+    int width = 0, height = 0;
+    double pixel_w_mm = 0.0, pixel_h_mm = 0.0;
+};
+
+// Where a light's starburst goes: its centre (pixels, continuous, (0,0) the top-left corner), the lens's
+// f-number N (the pattern's scale) and the radius (texels) of the core left out.
+struct StarburstPlacement {
+    double cx = 0.0, cy = 0.0;
+    double f_number = 0.0;
+    double core_radius_texels = 0.0;
+};
+
+// Adds a starburst of the given total power per channel (image units x mm^2) placed as `at` says to `image`.
+// Each output pixel integrates the texture over its footprint (box filter), so energy is kept at any scale.
+// Texels closer to the centre than at.core_radius_texels are left out: for a light already in the image, its
+// recorded pixels hold the pattern's core, and only the spikes and rings around it are new.
+void splat_starburst(const Starburst& starburst, const StarburstPlacement& at, const std::array<double, 3>& power,
+                     const SensorImage& image);
 
 // The pattern beyond the texture (which reaches some 60 wavelength x f-number): Fraunhofer's asymptotic
 // tail of the iris's edges. Each straight blade edge puts half its share of the light into a spike along
@@ -71,7 +84,8 @@ void splat_starburst(const Starburst& starburst, double f_number, double cx, dou
 // directions of its normals (a round iris: a faint halo all round). Whatever the shape, the light outside
 // radius r is P R / (pi^2 A) x wavelength x N / r (P, A: the iris's perimeter and area, R its radius;
 // 0.234 / rho for a hexagon, rho = r / (wavelength N)), so a spike's energy per unit length falls as 1 / r^2.
-// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length.
+// Its width across is the edge's own diffraction, 2 wavelength N / (edge length / R), whatever the length,
+// each channel at its own wavelength (the red widest), as its energy outside r is.
 // length_scale (--starburst-scale) lengthens the tail only: the energy outside r becomes that of r / scale.
 struct StarburstTail {
     std::array<double, 3> share{};   // of the light, per channel, in the tail (drawn or beyond the frame)
@@ -80,9 +94,16 @@ struct StarburstTail {
 // The texture (at the lens's own f-number) and its tail, together carrying `power` per channel: the
 // texture gets power x (1 - tail share). Arguments as splat_starburst's; the tail is drawn to the frame
 // edge, starting where the texture fades out.
-StarburstTail draw_starburst(const Starburst& starburst, const Aperture& aperture, double f_number, double length_scale,
-                             double cx, double cy, const std::array<double, 3>& power, double pixel_w_mm,
-                             double pixel_h_mm, float* rgb, int width, int height, double core_radius_texels = 0.0);
+StarburstTail draw_starburst(const Starburst& starburst, const Aperture& aperture, double length_scale,
+                             const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image);
+
+// The tail's share of the light per channel for this lens and length scale (what the texture gives up).
+StarburstTail starburst_tail_share(const Starburst& starburst, const Aperture& aperture, double f_number, double length_scale);
+
+// The tail alone of a light of `power` per channel (its whole power), drawn to the frame edge from where
+// the texture fades out; arguments as draw_starburst's.
+void draw_starburst_tail(const Starburst& starburst, const Aperture& aperture, double length_scale,
+                         const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image);
 
 // Energy of the iris's pattern outside radius rho (in wavelength x f-number), asymptotically: P R / (pi^2 A rho).
 double starburst_tail_coefficient(const Aperture& aperture);

@@ -17,6 +17,8 @@ using Mat3 = std::array<double, 9>;
 Mat3 multiply(const Mat3& a, const Mat3& b);
 Mat3 inverse(const Mat3& m);  // throws std::invalid_argument when singular
 std::array<double, 3> apply_matrix(const Mat3& m, const std::array<double, 3>& v);
+// The same matrix as the optics core's rows (optics::Mat3: the renderers' and the starburst's primaries).
+optics::Mat3 as_rows(const Mat3& m);
 
 // CIE 1931 xy chromaticities of an RGB space's primaries and white point, in the order of the OpenEXR
 // `chromaticities` attribute: red x, y, green x, y, blue x, y, white x, y.

@@ -1,0 +1,44 @@
+// Operations on RGB float images, shaped like OpenImageIO's ImageBufAlgo: a view of an image's pixels placed in
+// a shared pixel space (its data window's origin), a region type, and op(dst, src, region). The flare is drawn
+// over the display window and added to a frame whose data window may differ; these say that once.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+
+namespace lensfx::filter {
+
+// A rectangle of pixels [x0, x1) x [y0, y1) (rows from the top), as OIIO's ROI without channels or depth.
+struct Region {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    bool empty() const { return x1 <= x0 || y1 <= y0; }
+    int width() const { return x1 - x0; }
+    int height() const { return y1 - y0; }
+};
+// What two regions share (empty when nothing).
+inline Region intersection(const Region& a, const Region& b) {
+    return {std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
+}
+
+// Top-down RGB float pixels, 3 floats a pixel, whose first pixel sits at (x, y) of the pixel space.
+template <typename Float>
+struct BasicRgbView {
+    Float* rgb = nullptr;
+    int x = 0, y = 0;
+    int width = 0, height = 0;
+    Region region() const { return {x, y, x + width, y + height}; }
+    Float* at(int px, int py) const {
+        return rgb + (static_cast<std::size_t>(py - y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(px - x)) * 3;
+    }
+};
+using RgbView = BasicRgbView<float>;
+using ConstRgbView = BasicRgbView<const float>;
+
+// The smallest region holding every pixel with a non-zero channel (empty when all are zero), as OIIO's
+// nonzero_region.
+Region nonzero_region(const ConstRgbView& image);
+
+// dst += src over `region` (clipped to both views), each sum held within float range (added_within_float).
+void add(const RgbView& dst, const ConstRgbView& src, const Region& region);
+
+}  // namespace lensfx::filter
