@@ -1,7 +1,7 @@
 // bench_flare: for each lens preset, the number of ghosts, milliseconds per flare on the GPU at the
 // default grid (RGB and one wavelength) and for the dense CPU reference, and the GPU image's error
 // against the reference (total power, worst ghost over 1% of the total, 8x8-block relative L1), and its
-// structure error: the gradient-domain relative L1 (gpu::gradient_error) of the default RGB render against
+// structure error: the gradient-domain relative L1 (flare::gradient_error) of the default RGB render against
 // one at grid --structure-grid (512) with every acceleration off (0: not computed).
 //   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
 //               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1] [--structure-grid N]
@@ -25,7 +25,7 @@
 #include <fmt/core.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
@@ -103,7 +103,7 @@ int main(int argc, char** argv) try {
         try {
             const lensfx::optics::Lens lens = lensfx::optics::load_lens(name);
             const lensfx::optics::System system = lensfx::optics::realize(lens, 0.0, fstop);
-            lensfx::gpu::FlareView view;
+            lensfx::flare::FlareView view;
             view.angle_x_deg = ax;
             view.angle_y_deg = ay;
             view.width = width;
@@ -112,14 +112,14 @@ int main(int argc, char** argv) try {
             lensfx::gpu::GpuFlareOptions options;
             options.grid = grid;
             options.full_target_bytes = full_target_bytes;
-            const lensfx::gpu::FlareImage rgb_image = renderer.render(system, view, options);  // also the warm-up
+            const lensfx::flare::FlareImage rgb_image = renderer.render(system, view, options);  // also the warm-up
             double structure = -1.0;
             if (structure_grid > 0) {
                 lensfx::gpu::GpuFlareOptions dense;
                 dense.grid = structure_grid;
                 dense.accel.bounding = lensfx::gpu::Bounding::None;
                 dense.accel.adaptive = dense.accel.lod = dense.accel.reduced = false;
-                structure = lensfx::gpu::gradient_error(rgb_image, renderer.render(system, view, dense));
+                structure = lensfx::flare::gradient_error(rgb_image, renderer.render(system, view, dense));
             }
             double rgb_ms = 1e300;
             double rgb_cpu_ms = 1e300;
@@ -144,14 +144,14 @@ int main(int argc, char** argv) try {
                 continue;
             }
             options.per_ghost_power = true;
-            const lensfx::gpu::FlareImage gpu_image = renderer.render(system, view, options);
-            lensfx::gpu::ReferenceOptions ref_options;
+            const lensfx::flare::FlareImage gpu_image = renderer.render(system, view, options);
+            lensfx::flare::ReferenceOptions ref_options;
             ref_options.rays = rays;
             ref_options.ghost_bounds = ref_bounds;
             const auto start = Clock::now();
-            const lensfx::gpu::FlareImage reference = lensfx::gpu::render_reference(system, view, ref_options);
+            const lensfx::flare::FlareImage reference = lensfx::flare::render_reference(system, view, ref_options);
             const double ref_ms = ms_since(start);
-            const lensfx::gpu::FlareError error = lensfx::gpu::compare_flare(gpu_image, reference, view);
+            const lensfx::flare::FlareError error = lensfx::flare::compare_flare(gpu_image, reference, view);
             fmt::print("{:<24} {:>6.2f} {:>6} {:>11.1f} {:>11.1f} {:>12.1f} {:>8.2f} {:>8.2f} {:>8} {:>8.2f} {:>8.3f}\n",
                        name, lensfx::optics::paraxial(system).f_number, ghosts, rgb_ms, one_ms, ref_ms,
                        100 * error.total, 100 * error.worst_ghost,

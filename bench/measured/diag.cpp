@@ -13,8 +13,8 @@
 
 #include <fmt/core.h>
 
+#include <flare/flare.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
 #include <gpu/flare_renderer.h>
 #include <measured/fit.h>
 #include <measured/predict.h>
@@ -26,8 +26,8 @@ namespace {
 using namespace lensfx;
 constexpr int kW = 240, kH = 160;
 
-gpu::FlareView view_at(double ax, double ay) {
-    gpu::FlareView v;
+flare::FlareView view_at(double ax, double ay) {
+    flare::FlareView v;
     v.angle_x_deg = ax, v.angle_y_deg = ay, v.sensor_width_mm = 72.0, v.sensor_height_mm = 48.0, v.width = kW, v.height = kH;
     return v;
 }
@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
         gpu::GpuFlareOptions go;
         go.per_ghost_power = true;
         const auto image = renderer.render(system, view_at(ax, ay), go);
-        std::vector<gpu::GhostPower> ghosts = image.ghosts;
+        std::vector<flare::GhostPower> ghosts = image.ghosts;
         std::sort(ghosts.begin(), ghosts.end(), [](const auto& a, const auto& b) { return a.power[1] > b.power[1]; });
         double total = 0.0;
         for (const auto& g : ghosts) total += g.power[1];
@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
         fmt::print("{}\n", line);
         std::vector<std::vector<float>> singles;
         for (std::size_t k = 0; k < std::min<std::size_t>(6, ghosts.size()); ++k) {
-            gpu::FlareView v = view_at(ax, ay);
+            flare::FlareView v = view_at(ax, ay);
             v.only_ghosts = {{ghosts[k].first, ghosts[k].second}};
             singles.push_back(renderer.render(system, v, {}).rgb);
             const auto& img = singles.back();

@@ -13,7 +13,7 @@
 #include <fmt/core.h>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/measured_renderer.h>
 #include <measured/fit.h>
@@ -26,8 +26,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-lensfx::gpu::FlareView view_at(double angle, int w, int h) {
-    lensfx::gpu::FlareView v;
+lensfx::flare::FlareView view_at(double angle, int w, int h) {
+    lensfx::flare::FlareView v;
     v.angle_x_deg = angle, v.sensor_width_mm = 72.0, v.sensor_height_mm = 48.0, v.width = w, v.height = h;
     return v;
 }
@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
     double physical_ms = 0.0, full_ms = 0.0, gpu_ms = 0.0, cpu_ms = 0.0, diff = 0.0, total = 0.0;
     const std::vector<double> angles{3.0, 7.5, 11.0, 15.5};
     for (double a : angles) {
-        const gpu::FlareView view = view_at(a, 960, 640);
+        const flare::FlareView view = view_at(a, 960, 640);
         physical.render(system, view, {});  // warm the lens's tables for this angle's ghosts
         t = Clock::now();
         physical.render(system, view, {});

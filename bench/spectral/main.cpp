@@ -17,7 +17,7 @@
 #include <fmt/core.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
@@ -40,7 +40,7 @@ struct Errors {
     double l1 = 0.0, shape_l1 = 0.0, edges = 0.0;
 };
 
-Errors compare(const gpu::FlareImage& a, const gpu::FlareImage& ref, const gpu::FlareView& view) {
+Errors compare(const flare::FlareImage& a, const flare::FlareImage& ref, const flare::FlareView& view) {
     Errors e;
     const auto pa = a.total_power(view), pr = ref.total_power(view);
     for (std::size_t c = 0; c < 3; ++c) {
@@ -83,14 +83,14 @@ int main(int argc, char** argv) try {
     gpu::FlareRenderer renderer(context);
     gpu::GpuFlareOptions options;
     options.grid = grid;
-    gpu::FlareView view;
+    flare::FlareView view;
     view.angle_x_deg = ax;
     view.angle_y_deg = ay;
     view.width = width;
     view.height = height;
-    const auto render = [&](const gpu::FlareView& v, bool filter, double& ms) {
+    const auto render = [&](const flare::FlareView& v, bool filter, double& ms) {
         const auto t0 = Clock::now();
-        gpu::FlareImage image = filter ? gpu::render_band_filtered(system, v, [&](const gpu::FlareView& one) {
+        flare::FlareImage image = filter ? gpu::render_band_filtered(system, v, [&](const flare::FlareView& one) {
             return renderer.render(system, one, options);
         })
                                        : renderer.render(system, v, options);
@@ -100,27 +100,27 @@ int main(int argc, char** argv) try {
     fmt::print("# {} light ({}, {}) deg, {}x{}, grid {}, {} ({})\n", system.name, ax, ay, width, height, grid,
                context.info().gl_renderer, gpu::platform_name(context.info().platform));
     double ms = 0.0;
-    gpu::FlareView rv = view;
+    flare::FlareView rv = view;
     rv.bands = reference_bands;
-    const gpu::FlareImage reference = render(rv, false, ms);
+    const flare::FlareImage reference = render(rv, false, ms);
     fmt::print("{:<22} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}\n", "quality", "ms", "power R", "power G", "power B", "L1",
                "shape L1", "edges");
     fmt::print("{:<22} {:>10.0f} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9.4f}\n", fmt::format("{} bands (reference)", reference_bands),
                ms, "-", "-", "-", "-", "-", reference.edge_measure());
-    const auto row = [&](const std::string& name, const gpu::FlareView& v, bool filter) {
-        const gpu::FlareImage image = render(v, filter, ms);
+    const auto row = [&](const std::string& name, const flare::FlareView& v, bool filter) {
+        const flare::FlareImage image = render(v, filter, ms);
         const Errors e = compare(image, reference, view);
         fmt::print("{:<22} {:>10.0f} {:>+9.4f} {:>+9.4f} {:>+9.4f} {:>9.4f} {:>9.4f} {:>9.4f}\n", name, ms, e.power[0], e.power[1],
                    e.power[2], e.l1, e.shape_l1, e.edges);
         std::fflush(stdout);
     };
     for (int b : bands) {
-        gpu::FlareView v = view;
+        flare::FlareView v = view;
         v.bands = b;
         row(b == 0 ? "RGB" : fmt::format("{} bands", b), v, false);
     }
     for (int b : filtered) {
-        gpu::FlareView v = view;
+        flare::FlareView v = view;
         v.bands = b;
         row(fmt::format("{} bands filtered", b), v, true);
     }

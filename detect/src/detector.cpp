@@ -209,189 +209,226 @@ ImageView view_of(const cv::Mat& rgb) {
 
 Detection Detector::detect(const cv::Mat& rgb) { return detect(view_of(rgb)); }
 
-Detection Detector::detect(const ImageView& image) {
+namespace {
+
+void check_input(const ImageView& image) {
     if (image.data == nullptr || image.width <= 0 || image.height <= 0)
         throw std::invalid_argument(fmt::format("detector input: empty image ({}x{})", image.width, image.height));
     if (image.channels < 3)
         throw std::invalid_argument(fmt::format("detector input: {} channels, need R, G, B", image.channels));
+}
 
-    const int W = image.width, H = image.height, f = options_.downsample;
-    const int PW = (W + f - 1) / f, PH = (H + f - 1) / f;
-    luminance_.create(H, W, CV_32F);
-    pooled_.create(PH, PW, CV_32F);
-    pooled_.setTo(0.0);
-    std::fill(fine_histogram_.begin(), fine_histogram_.end(), 0u);
-
-    Detection result;
-    FrameStats& st = result.stats;
-    st.width = W;
-    st.height = H;
-
-    // Pass 1: sanitised luminance, block maxima, histogram, frame flux.
+// Pass 1: the sanitised luminance of every pixel, the maximum of each block x block block (the pooled
+// search map), the fine histogram, and the frame's flux, invalid pixels and maximum into `stats`.
+void measure_luminance(const ImageView& image, int block, cv::Mat& luminance, cv::Mat& pooled,
+                       std::vector<unsigned>& histogram, FrameStats& stats) {
+    const int width = image.width, height = image.height;
+    luminance.create(height, width, CV_32F);
+    pooled.create((height + block - 1) / block, (width + block - 1) / block, CV_32F);
+    pooled.setTo(0.0);
+    std::fill(histogram.begin(), histogram.end(), 0u);
     double total = 0.0;
     int invalid = 0;
     const float wr = static_cast<float>(kRec709Luma[0]), wg = static_cast<float>(kRec709Luma[1]),
                 wb = static_cast<float>(kRec709Luma[2]);
-    for (int y = 0; y < H; ++y) {
+    for (int y = 0; y < height; ++y) {
         const float* src = image.row(y);
-        float* lum = luminance_.ptr<float>(y);
-        float* pool = pooled_.ptr<float>(y / f);
+        float* lum = luminance.ptr<float>(y);
+        float* pool = pooled.ptr<float>(y / block);
         double row_sum = 0.0;
-        for (int x = 0, block = 0; x < W; ++block) {  // f pixels per block of the pooled map
-            const int end = std::min(W, x + f);
-            float m = pool[block];
+        for (int x = 0, b = 0; x < width; ++b) {  // `block` pixels per block of the pooled map
+            const int end = std::min(width, x + block);
+            float m = pool[b];
             for (; x < end; ++x) {
                 const float* p = src + static_cast<std::ptrdiff_t>(x) * image.channels;
-                const float r = sane(p[0]), g = sane(p[1]), b = sane(p[2]);
+                const float r = sane(p[0]), g = sane(p[1]), bl = sane(p[2]);
                 invalid += (invalid_value(p[0]) || invalid_value(p[1]) || invalid_value(p[2])) ? 1 : 0;
-                const float l = wr * r + wg * g + wb * b;
+                const float l = wr * r + wg * g + wb * bl;
                 lum[x] = l;
                 row_sum += static_cast<double>(l);
                 m = std::max(m, l);
-                ++fine_histogram_[std::bit_cast<std::uint32_t>(l) >> kFineShift];
+                ++histogram[std::bit_cast<std::uint32_t>(l) >> kFineShift];
             }
-            pool[block] = m;
+            pool[b] = m;
         }
         total += row_sum;
     }
-    st.total_luminous_flux = total;
-    st.invalid_pixels = invalid;
-    cv::minMaxLoc(pooled_, nullptr, &st.max_luminance);  // the block maxima hold the frame's maximum
+    stats.total_luminous_flux = total;
+    stats.invalid_pixels = invalid;
+    cv::minMaxLoc(pooled, nullptr, &stats.max_luminance);  // the block maxima hold the frame's maximum
+}
 
-    // Median from the fine histogram (1/16 stop resolution), and the per-stop histogram for cut detection.
-    const std::uint64_t n = static_cast<std::uint64_t>(W) * static_cast<std::uint64_t>(H);
-    {
-        std::uint64_t acc = 0;
-        for (int i = 0; i < kFineBins; ++i) {
-            acc += fine_histogram_[static_cast<std::size_t>(i)];
-            if (2 * acc >= n) {
-                const auto bits = (static_cast<std::uint32_t>(i) << kFineShift) | (1u << (kFineShift - 1));
-                st.median_luminance = i == 0 ? 0.0 : static_cast<double>(std::bit_cast<float>(bits));
-                break;
-            }
-        }
-        st.histogram.assign(kStopMax - kStopMin + 1, 0.0f);
-        for (int i = 0; i < kFineBins; ++i) {
-            const auto c = fine_histogram_[static_cast<std::size_t>(i)];
-            if (c == 0) continue;
-            const int stop = (i >> 4) - 127;  // floor(log2 l)
-            const int bin = stop < kStopMin ? 0 : std::min(stop, kStopMax - 1) - kStopMin + 1;
-            st.histogram[static_cast<std::size_t>(bin)] += static_cast<float>(static_cast<double>(c) / static_cast<double>(n));
+// The median from the fine histogram (1/16 stop resolution), and the per-stop histogram for cut detection.
+void luminance_distribution(const std::vector<unsigned>& histogram, std::uint64_t pixels, FrameStats& stats) {
+    std::uint64_t acc = 0;
+    for (int i = 0; i < kFineBins; ++i) {
+        acc += histogram[static_cast<std::size_t>(i)];
+        if (2 * acc >= pixels) {
+            const auto bits = (static_cast<std::uint32_t>(i) << kFineShift) | (1u << (kFineShift - 1));
+            stats.median_luminance = i == 0 ? 0.0 : static_cast<double>(std::bit_cast<float>(bits));
+            break;
         }
     }
+    stats.histogram.assign(kStopMax - kStopMin + 1, 0.0f);
+    for (int i = 0; i < kFineBins; ++i) {
+        const auto c = histogram[static_cast<std::size_t>(i)];
+        if (c == 0) continue;
+        const int stop = (i >> 4) - 127;  // floor(log2 l)
+        const int bin = stop < kStopMin ? 0 : std::min(stop, kStopMax - 1) - kStopMin + 1;
+        stats.histogram[static_cast<std::size_t>(bin)] += static_cast<float>(static_cast<double>(c) / static_cast<double>(pixels));
+    }
+}
 
-    st.threshold = options_.threshold.resolve(st.median_luminance, options_.min_threshold);
-    st.low_threshold = st.threshold * std::exp2(-options_.hysteresis_ev);
-    const double low = st.low_threshold;
-    const float low_f = static_cast<float>(low);
+// The pixels of one full-resolution region at or above `low`, as components (index 0: the background).
+std::vector<Accum> region_components(const ImageView& image, const cv::Mat& luminance, const cv::Rect& roi, double low,
+                                     Components& scratch) {
+    const cv::Mat lroi = luminance(roi);
+    cv::compare(lroi, cv::Scalar(static_cast<double>(static_cast<float>(low))), scratch.mask, cv::CMP_GE);
+    const int count = cv::connectedComponentsWithStats(scratch.mask, scratch.labels, scratch.stats, scratch.centroids, 8, CV_32S);
+    std::vector<Accum> local(static_cast<std::size_t>(count));
+    for (int yy = 0; yy < roi.height; ++yy) {
+        const int* lab = scratch.labels.ptr<int>(yy);
+        const float* lum = lroi.ptr<float>(yy);
+        const int y = roi.y + yy;
+        const float* src = image.row(y);
+        for (int xx = 0; xx < roi.width; ++xx) {
+            if (lab[xx] == 0) continue;
+            const int x = roi.x + xx;
+            local[static_cast<std::size_t>(lab[xx])].add_pixel(x, y, static_cast<double>(lum[xx]), low,
+                                                               src + static_cast<std::ptrdiff_t>(x) * image.channels);
+        }
+    }
+    return local;
+}
 
-    // Pass 2: components of the pooled map; each one's blocks are searched at full resolution. A pixel above
-    // the threshold lies in a block whose maximum is above it, and 8-connected pixels lie in 8-connected
-    // blocks, so every full-resolution component lies inside one coarse component's bounding box; it is
-    // counted by the coarse component that owns the block of its peak, so overlapping boxes count it once.
-    cv::compare(pooled_, cv::Scalar(static_cast<double>(low_f)), coarse_mask_, cv::CMP_GE);
-    const int ncoarse = cv::connectedComponentsWithStats(coarse_mask_, coarse_labels_, coarse_stats_, coarse_centroids_, 8, CV_32S);
+// Pass 2: components of the pooled map; each one's blocks are searched at full resolution. A pixel above
+// the threshold lies in a block whose maximum is above it, and 8-connected pixels lie in 8-connected
+// blocks, so every full-resolution component lies inside one coarse component's bounding box; it is
+// counted by the coarse component that owns the block of its peak, so overlapping boxes count it once.
+std::vector<Accum> find_components(const ImageView& image, const cv::Mat& luminance, const cv::Mat& pooled, int block,
+                                   double low, Components& coarse, Components& fine) {
+    cv::compare(pooled, cv::Scalar(static_cast<double>(static_cast<float>(low))), coarse.mask, cv::CMP_GE);
+    const int ncoarse = cv::connectedComponentsWithStats(coarse.mask, coarse.labels, coarse.stats, coarse.centroids, 8, CV_32S);
     std::vector<Accum> comps;
-    std::vector<Accum> local;
     for (int k = 1; k < ncoarse; ++k) {
-        const int bx = coarse_stats_.at<int>(k, cv::CC_STAT_LEFT), by = coarse_stats_.at<int>(k, cv::CC_STAT_TOP);
-        const int bw = coarse_stats_.at<int>(k, cv::CC_STAT_WIDTH), bh = coarse_stats_.at<int>(k, cv::CC_STAT_HEIGHT);
-        const cv::Rect roi(bx * f, by * f, std::min(bw * f, W - bx * f), std::min(bh * f, H - by * f));
-        const cv::Mat lroi = luminance_(roi);
-        cv::compare(lroi, cv::Scalar(static_cast<double>(low_f)), roi_mask_, cv::CMP_GE);
-        const int nl = cv::connectedComponentsWithStats(roi_mask_, roi_labels_, roi_stats_, roi_centroids_, 8, CV_32S);
-        local.assign(static_cast<std::size_t>(nl), Accum{});
-        for (int yy = 0; yy < roi.height; ++yy) {
-            const int* lab = roi_labels_.ptr<int>(yy);
-            const float* lum = lroi.ptr<float>(yy);
-            const int y = roi.y + yy;
-            const float* src = image.row(y);
-            for (int xx = 0; xx < roi.width; ++xx) {
-                if (lab[xx] == 0) continue;
-                const int x = roi.x + xx;
-                local[static_cast<std::size_t>(lab[xx])].add_pixel(x, y, static_cast<double>(lum[xx]), low,
-                                                                   src + static_cast<std::ptrdiff_t>(x) * image.channels);
-            }
-        }
-        for (int j = 1; j < nl; ++j) {
-            const Accum& a = local[static_cast<std::size_t>(j)];
-            if (coarse_labels_.at<int>(a.peak_y / f, a.peak_x / f) == k) comps.push_back(a);
+        const int bx = coarse.stats.at<int>(k, cv::CC_STAT_LEFT), by = coarse.stats.at<int>(k, cv::CC_STAT_TOP);
+        const int bw = coarse.stats.at<int>(k, cv::CC_STAT_WIDTH), bh = coarse.stats.at<int>(k, cv::CC_STAT_HEIGHT);
+        const cv::Rect roi(bx * block, by * block, std::min(bw * block, image.width - bx * block),
+                           std::min(bh * block, image.height - by * block));
+        const std::vector<Accum> local = region_components(image, luminance, roi, low, fine);
+        for (std::size_t j = 1; j < local.size(); ++j) {
+            const Accum& a = local[j];
+            if (coarse.labels.at<int>(a.peak_y / block, a.peak_x / block) == k) comps.push_back(a);
         }
     }
-    st.components = static_cast<int>(comps.size());
+    return comps;
+}
 
-    // Many components (city lights): cluster on a grid first, so merging and the budget stay cheap.
-    if (static_cast<int>(comps.size()) > options_.cluster_above) {
-        const double cell = options_.cluster_cell > 0.0 ? options_.cluster_cell : std::max(W, H) / 32.0;
-        comps = cluster_on_grid(comps, cell, W, H);
-        st.clustered = true;
+// Many components (city lights) are clustered on a grid first, so merging and the budget stay cheap; then
+// components closer than the merge radius become one.
+std::vector<Accum> group_components(std::vector<Accum> comps, const DetectorOptions& options, int width, int height,
+                                    FrameStats& stats) {
+    if (static_cast<int>(comps.size()) > options.cluster_above) {
+        const double cell = options.cluster_cell > 0.0 ? options.cluster_cell : std::max(width, height) / 32.0;
+        comps = cluster_on_grid(comps, cell, width, height);
+        stats.clustered = true;
     }
-    comps = merge_by_radius(comps, options_.merge_radius);
+    return merge_by_radius(comps, options.merge_radius);
+}
 
-    // Visibility and budget.
+double centroid_x(const Accum& a) { return a.wx / a.w; }
+double centroid_y(const Accum& a) { return a.wy / a.w; }
+
+// The visible components (at least options.visibility of the frame's flux), brightest first (ties: top to
+// bottom, left to right), at most options.max_lights of them; what is dropped is counted in `stats`.
+std::vector<Accum> visible_within_budget(const std::vector<Accum>& comps, const DetectorOptions& options, FrameStats& stats) {
     std::vector<Accum> kept;
     for (const auto& a : comps) {
-        if (a.luminous() < options_.visibility * total || !(a.w > 0.0)) {
-            ++st.dropped_invisible;
+        if (a.luminous() < options.visibility * stats.total_luminous_flux || !(a.w > 0.0)) {
+            ++stats.dropped_invisible;
             continue;
         }
         kept.push_back(a);
     }
-    auto cx_of = [](const Accum& a) { return a.wx / a.w; };
-    auto cy_of = [](const Accum& a) { return a.wy / a.w; };
-    std::sort(kept.begin(), kept.end(), [&](const Accum& a, const Accum& b) {
+    std::sort(kept.begin(), kept.end(), [](const Accum& a, const Accum& b) {
         if (a.luminous() != b.luminous()) return a.luminous() > b.luminous();
-        if (cy_of(a) != cy_of(b)) return cy_of(a) < cy_of(b);
-        return cx_of(a) < cx_of(b);
+        if (centroid_y(a) != centroid_y(b)) return centroid_y(a) < centroid_y(b);
+        return centroid_x(a) < centroid_x(b);
     });
-    if (static_cast<int>(kept.size()) > options_.max_lights) {
-        st.dropped_budget = static_cast<int>(kept.size()) - options_.max_lights;
-        kept.resize(static_cast<std::size_t>(options_.max_lights));
+    if (static_cast<int>(kept.size()) > options.max_lights) {
+        stats.dropped_budget = static_cast<int>(kept.size()) - options.max_lights;
+        kept.resize(static_cast<std::size_t>(options.max_lights));
     }
+    return kept;
+}
 
-    // Sources, with the shape of the extended ones.
-    for (const auto& a : kept) {
-        Source s;
-        s.x = cx_of(a) + image.x_offset;
-        s.y = cy_of(a) + image.y_offset;
-        s.flux = a.rgb;
-        s.luminous_flux = a.luminous();
-        s.peak = a.peak;
-        s.peak_channel = a.peak_channel;
-        s.pixel_count = a.count;
-        s.members = a.members;
-        s.bbox = {a.x0 + image.x_offset, a.y0 + image.y_offset, a.x1 + image.x_offset, a.y1 + image.y_offset};
-        s.extent = extent_of(a);
-        const bool at_clip = options_.clip_level > 0.0 && a.peak_channel >= options_.clip_level;
-        const bool flat_top = a.near_peak >= 4 && a.near_peak * 20 >= a.count;
-        s.clipped = at_clip || flat_top;
-
-        const int bw = a.x1 - a.x0, bh = a.y1 - a.y0;
-        if (std::max(bw, bh) > options_.shape_min_size) {
-            const int cell = std::max(1, (std::max(bw, bh) + options_.shape_cells - 1) / options_.shape_cells);
-            Shape sh;
-            sh.cell = cell;
-            sh.width = (bw + cell - 1) / cell;
-            sh.height = (bh + cell - 1) / cell;
-            sh.weights.assign(static_cast<std::size_t>(sh.width) * static_cast<std::size_t>(sh.height), 0.0f);
-            std::vector<double> acc(sh.weights.size(), 0.0);
-            double sum = 0.0;
-            for (int y = a.y0; y < a.y1; ++y) {
-                const float* lum = luminance_.ptr<float>(y);
-                const std::size_t row = static_cast<std::size_t>((y - a.y0) / cell) * static_cast<std::size_t>(sh.width);
-                for (int x = a.x0; x < a.x1; ++x) {
-                    if (lum[x] < low_f) continue;
-                    acc[row + static_cast<std::size_t>((x - a.x0) / cell)] += static_cast<double>(lum[x]);
-                    sum += static_cast<double>(lum[x]);
-                }
-            }
-            for (std::size_t i = 0; i < acc.size(); ++i) sh.weights[i] = static_cast<float>(acc[i] / sum);
-            sh.origin_x = (a.x0 + image.x_offset) - s.x;
-            sh.origin_y = (a.y0 + image.y_offset) - s.y;
-            s.shape = std::move(sh);
+// The shape of an extended source: its luminance at or above `low`, summed into cells of at most
+// `max_cells` per side and normalised, placed relative to the source's centroid (x, y).
+Shape shape_of(const Accum& a, const cv::Mat& luminance, float low, int max_cells, const ImageView& image, double x, double y) {
+    const int bw = a.x1 - a.x0, bh = a.y1 - a.y0;
+    const int cell = std::max(1, (std::max(bw, bh) + max_cells - 1) / max_cells);
+    Shape sh;
+    sh.cell = cell;
+    sh.width = (bw + cell - 1) / cell;
+    sh.height = (bh + cell - 1) / cell;
+    sh.weights.assign(static_cast<std::size_t>(sh.width) * static_cast<std::size_t>(sh.height), 0.0f);
+    std::vector<double> acc(sh.weights.size(), 0.0);
+    double sum = 0.0;
+    for (int py = a.y0; py < a.y1; ++py) {
+        const float* lum = luminance.ptr<float>(py);
+        const std::size_t row = static_cast<std::size_t>((py - a.y0) / cell) * static_cast<std::size_t>(sh.width);
+        for (int px = a.x0; px < a.x1; ++px) {
+            if (lum[px] < low) continue;
+            acc[row + static_cast<std::size_t>((px - a.x0) / cell)] += static_cast<double>(lum[px]);
+            sum += static_cast<double>(lum[px]);
         }
-        result.sources.push_back(std::move(s));
     }
+    for (std::size_t i = 0; i < acc.size(); ++i) sh.weights[i] = static_cast<float>(acc[i] / sum);
+    sh.origin_x = (a.x0 + image.x_offset) - x;
+    sh.origin_y = (a.y0 + image.y_offset) - y;
+    return sh;
+}
+
+// A kept component as a source in the image's coordinates, with its shape when it is wider or taller than
+// options.shape_min_size.
+Source source_of(const Accum& a, const ImageView& image, const cv::Mat& luminance, float low, const DetectorOptions& options) {
+    Source s;
+    s.x = centroid_x(a) + image.x_offset;
+    s.y = centroid_y(a) + image.y_offset;
+    s.flux = a.rgb;
+    s.luminous_flux = a.luminous();
+    s.peak = a.peak;
+    s.peak_channel = a.peak_channel;
+    s.pixel_count = a.count;
+    s.members = a.members;
+    s.bbox = {a.x0 + image.x_offset, a.y0 + image.y_offset, a.x1 + image.x_offset, a.y1 + image.y_offset};
+    s.extent = extent_of(a);
+    const bool at_clip = options.clip_level > 0.0 && a.peak_channel >= options.clip_level;
+    const bool flat_top = a.near_peak >= 4 && a.near_peak * 20 >= a.count;
+    s.clipped = at_clip || flat_top;
+    if (std::max(a.x1 - a.x0, a.y1 - a.y0) > options.shape_min_size)
+        s.shape = shape_of(a, luminance, low, options.shape_cells, image, s.x, s.y);
+    return s;
+}
+
+}  // namespace
+
+Detection Detector::detect(const ImageView& image) {
+    check_input(image);
+    Detection result;
+    FrameStats& st = result.stats;
+    st.width = image.width;
+    st.height = image.height;
+    measure_luminance(image, options_.downsample, luminance_, pooled_, fine_histogram_, st);
+    luminance_distribution(fine_histogram_, static_cast<std::uint64_t>(image.width) * static_cast<std::uint64_t>(image.height), st);
+    st.threshold = options_.threshold.resolve(st.median_luminance, options_.min_threshold);
+    st.low_threshold = st.threshold * std::exp2(-options_.hysteresis_ev);
+
+    std::vector<Accum> comps = find_components(image, luminance_, pooled_, options_.downsample, st.low_threshold, coarse_, fine_);
+    st.components = static_cast<int>(comps.size());
+    comps = group_components(std::move(comps), options_, image.width, image.height, st);
+    for (const Accum& a : visible_within_budget(comps, options_, st))
+        result.sources.push_back(source_of(a, image, luminance_, static_cast<float>(st.low_threshold), options_));
     release_large_buffers();
     return result;
 }
@@ -401,9 +438,9 @@ void Detector::release_large_buffers() {
     // held while the flare is drawn (issue 14's memory target).
     constexpr std::size_t kKeepPixels = std::size_t{4096} * 4096;
     if (luminance_.total() > kKeepPixels) luminance_.release();
-    if (roi_labels_.total() > kKeepPixels) {
-        roi_mask_.release();
-        roi_labels_.release();
+    if (fine_.labels.total() > kKeepPixels) {
+        fine_.mask.release();
+        fine_.labels.release();
     }
 }
 

@@ -1,19 +1,16 @@
 // The ray table's disk cache (see ray_cache.h).
 #include <dof/ray_cache.h>
 
-#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <thread>
 
 #include <fmt/core.h>
-#include <gpu/acceleration.h>
+#include <flare/cache.h>
 
 namespace lensfx::dof {
 
@@ -59,7 +56,7 @@ bool read_bytes(std::ifstream& in, void* data, std::size_t n, Checksum& sum) {
     return true;
 }
 
-void write_bytes(std::ofstream& out, const void* data, std::size_t n, Checksum& sum) {
+void write_bytes(std::ostream& out, const void* data, std::size_t n, Checksum& sum) {
     out.write(static_cast<const char*>(data), static_cast<std::streamsize>(n));
     sum.add(data, n);
 }
@@ -76,17 +73,12 @@ bool all_finite(const RayTable& t) {
     return true;
 }
 
-// A temporary name beside path, unique to this process and thread.
-std::string temporary_beside(const std::string& path) {
-    return fmt::format("{}.{}.{:x}.tmp", path, static_cast<long>(::getpid()), std::hash<std::thread::id>{}(std::this_thread::get_id()));
-}
-
 }  // namespace
 
 std::string ray_table_key(const Camera& c, int samples, int grid) {
     std::string key = fmt::format("lensfx dof rays v3 system {:016x} focus {:.17g} sensor {:.17g} raster {}x{} display {:.17g} "
                                   "centre {:.17g},{:.17g} tilt {:.17g},{:.17g} samples {} grid {}",
-                                  gpu::system_hash(c.system), c.focus_m, c.sensor_width_mm, c.width, c.height, c.display_width,
+                                  flare::system_hash(c.system), c.focus_m, c.sensor_width_mm, c.width, c.height, c.display_width,
                                   c.centre_x, c.centre_y, c.tilt_x_deg, c.tilt_y_deg, samples, grid);
     key += fmt::format(" surface {:.17g}", c.focus_power);
     for (const FocusPoint& p : c.focus_points) key += fmt::format(" {:.17g},{:.17g},{:.17g}", p.x, p.y, p.metres);
@@ -96,9 +88,7 @@ std::string ray_table_key(const Camera& c, int samples, int grid) {
 }
 
 std::string ray_table_path(const std::string& dir, const std::string& key) {
-    Checksum h;
-    h.add(key.data(), key.size());
-    return (std::filesystem::path(dir) / fmt::format("dof-rays-{:016x}.bin", h.h)).string();
+    return flare::cache_file(dir, "dof-rays", flare::key_hash(key));
 }
 
 std::optional<RayTable> read_ray_table(const std::string& path, const std::string& key) {
@@ -135,12 +125,7 @@ std::optional<RayTable> read_ray_table(const std::string& path, const std::strin
 }
 
 bool write_ray_table(const std::string& path, const std::string& key, const RayTable& t) {
-    std::error_code ec;
-    std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
-    if (ec) return false;
-    const std::string temporary = temporary_beside(path);
-    {
-        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    return flare::try_write_cache_file(path, [&](std::ostream& out) {
         Checksum sum;
         const std::uint64_t key_size = key.size();
         const Header h{t.grid_x, t.grid_y, t.samples, t.channels, t.achromatic, 0, t.cell_w, t.cell_h, t.focus_w, t.max_slope, t.focus_spread};
@@ -152,15 +137,7 @@ bool write_ray_table(const std::string& path, const std::string& key, const RayT
         write_bytes(out, t.line.data(), t.line.size() * sizeof(t.line[0]), sum);
         write_bytes(out, t.weight.data(), t.weight.size() * sizeof(float), sum);
         out.write(reinterpret_cast<const char*>(&sum.h), sizeof sum.h);
-        out.close();
-        if (!out) {
-            std::filesystem::remove(temporary, ec);
-            return false;
-        }
-    }
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) std::filesystem::remove(temporary, ec);
-    return !ec;
+    });
 }
 
 RayTable cached_ray_table(const Camera& camera, int samples, int grid, const std::string& dir, RayTableSource* source) {

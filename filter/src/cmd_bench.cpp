@@ -21,7 +21,7 @@
 #include <fmt/core.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
@@ -212,7 +212,7 @@ void run_time_vs_error(const BenchArgs& args) {
     if (args.quick) angles.resize(2);
     const auto size = parse_pair_of<int>(args.size, 'x');
     if (!size) throw std::invalid_argument(fmt::format("--size {}: WxH expected", args.size));
-    gpu::FlareView view;
+    flare::FlareView view;
     view.width = (*size)[0];
     view.height = (*size)[1];
 
@@ -225,13 +225,13 @@ void run_time_vs_error(const BenchArgs& args) {
         for (const auto& angle : angles) {
             view.angle_x_deg = angle[0];
             view.angle_y_deg = angle[1];
-            gpu::ReferenceOptions ro;
+            flare::ReferenceOptions ro;
             ro.rays = args.rays;
             ro.threads = args.threads;
             ro.per_ghost_power = false;
             ro.ghost_bounds = true;
             auto start = Clock::now();
-            const gpu::FlareImage reference = gpu::render_reference(system, view, ro);
+            const flare::FlareImage reference = flare::render_reference(system, view, ro);
             const double ref_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
             fmt::print(stderr, "{} ({}, {}): reference {}x{} rays per ghost and wavelength, {:.0f} ms\n", name, angle[0],
                        angle[1], args.rays, args.rays, ref_ms);
@@ -239,7 +239,7 @@ void run_time_vs_error(const BenchArgs& args) {
             // interleaved so that the others' load on the machine spreads over all settings alike.
             std::vector<Setting> list = settings();
             std::vector<double> fastest(list.size(), 1e300);
-            std::vector<gpu::FlareImage> images(list.size());
+            std::vector<flare::FlareImage> images(list.size());
             std::vector<gpu::RenderStats> stats(list.size());
             for (Setting& setting : list) {
                 setting.options.accel.cache_dir = "none";
@@ -254,7 +254,7 @@ void run_time_vs_error(const BenchArgs& args) {
                 }
             }
             for (std::size_t i = 0; i < list.size(); ++i) {
-                const gpu::FlareError error = gpu::compare_flare(images[i], reference, view, kErrorBlock);
+                const flare::FlareError error = flare::compare_flare(images[i], reference, view, kErrorBlock);
                 rows.push_back({name, angle, list[i].name, fastest[i], error.block_l1, error.total});
                 fmt::print(stderr, "  {:<16} {:8.1f} ms  rel_l1 {:.4f}  power {:.4f}  ghosts drawn {} skipped {} reduced {}\n",
                            list[i].name, fastest[i], error.block_l1, error.total, stats[i].ghosts_drawn,

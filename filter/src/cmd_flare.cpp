@@ -25,7 +25,8 @@
 #include <gpu/acceleration.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/direct_power.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <measured/model_file.h>
 #include <optics/lens_file.h>
@@ -80,7 +81,7 @@ std::pair<double, double> parse_pair(const std::string& text, char sep, const ch
     return {(*ab)[0], (*ab)[1]};
 }
 
-void write_exr(const gpu::FlareImage& image, const std::string& path) {
+void write_exr(const flare::FlareImage& image, const std::string& path) {
     WriteOptions options;
     options.compression = "zip";
     write_image(image_frame(image.width, image.height, 3, PixelType::float32, image.rgb.data()), path, options);
@@ -88,7 +89,7 @@ void write_exr(const gpu::FlareImage& image, const std::string& path) {
 
 // Ghosts are some 1e-3 .. 1e-6 of the light: without --preview-exposure the exposure puts the 99.5th
 // percentile of the lit pixels' brightest channel at scene value 1.
-void write_preview(const gpu::FlareImage& image, const std::string& path, std::optional<double> exposure_ev) {
+void write_preview(const flare::FlareImage& image, const std::string& path, std::optional<double> exposure_ev) {
     std::vector<float> rgb = image.rgb;
     double ev = 0.0;
     if (exposure_ev) {
@@ -118,8 +119,8 @@ void write_preview(const gpu::FlareImage& image, const std::string& path, std::o
 }
 
 // The light's direction, the sensor and the image size of the command line.
-gpu::FlareView flare_view(const FlareArgs& args) {
-    gpu::FlareView view;
+flare::FlareView flare_view(const FlareArgs& args) {
+    flare::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
     const auto [sensor_w, sensor_h] = parse_sensor(args.sensor);  // as the filter's
     view.sensor_width_mm = sensor_w;
@@ -151,14 +152,14 @@ gpu::FlareView flare_view(const FlareArgs& args) {
 }
 
 // --background and --noise: a synthetic capture's black level and Gaussian sensor noise (seeded).
-void add_sensor_noise(gpu::FlareImage& image, const FlareArgs& args) {
+void add_sensor_noise(flare::FlareImage& image, const FlareArgs& args) {
     if (args.background == 0.0 && args.noise == 0.0) return;
     std::mt19937_64 random(args.seed);
     std::normal_distribution<double> normal(0.0, 1.0);
     for (float& v : image.rgb) v = static_cast<float>(static_cast<double>(v) + args.background + args.noise * normal(random));
 }
 
-void write_outputs(gpu::FlareImage& image, const FlareArgs& args) {
+void write_outputs(flare::FlareImage& image, const FlareArgs& args) {
     add_sensor_noise(image, args);
     if (!args.output.empty()) write_exr(image, args.output);
     if (!args.preview.empty()) write_preview(image, args.preview, args.preview_exposure);
@@ -166,12 +167,12 @@ void write_outputs(gpu::FlareImage& image, const FlareArgs& args) {
 
 // A measured lens (kind = "measured"): its fitted ghosts, scaled from its capture by paper equation 2.
 void run_measured_flare(const FlareArgs& args) {
-    const gpu::FlareView view = flare_view(args);
+    const flare::FlareView view = flare_view(args);
     measured::Capture target = measured::read_measured(args.lens).capture;
     if (args.fstop) target.f_number = *args.fstop;
     if (args.iso) target.iso = *args.iso;
     if (args.shutter) target.exposure_s = *args.shutter;
-    gpu::FlareImage image = render_measured_flare(args.lens, view, target, args.reference, args.gpu);
+    flare::FlareImage image = render_measured_flare(args.lens, view, target, args.reference, args.gpu);
     for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
     write_outputs(image, args);
 }
@@ -180,7 +181,7 @@ void run_flare(const FlareArgs& args) {
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
     const optics::System system = realize_lens(args).system;
-    gpu::FlareView view = flare_view(args);
+    flare::FlareView view = flare_view(args);
     const MemoryBudget memory = memory_budget_option(args.memory_limit);
     // The image, the GL targets at full and reduced sizes and a band of read-back rows.
     memory.check(bytes_of(view.width, view.height, 3 * sizeof(float) + 16.0 * (1.0 + 1.0 / 3)),
@@ -200,19 +201,19 @@ void run_flare(const FlareArgs& args) {
     parts.ghosts = parts.ghosts && args.ghost_gain > 0.0;  // as in the filter: a gain of 0 renders nothing
     parts.starburst = parts.starburst && args.starburst_gain > 0.0;
     const auto start = std::chrono::steady_clock::now();
-    gpu::FlareImage image;
+    flare::FlareImage image;
     if (!parts.ghosts) {
         image.width = view.width;
         image.height = view.height;
         image.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
     } else if (args.reference) {
-        gpu::ReferenceOptions options;
+        flare::ReferenceOptions options;
         options.rays = args.rays;
         options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
         options.per_ghost_power = args.list;
         image = args.band_filter
-                    ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return gpu::render_reference(system, one, options); })
-                    : gpu::render_reference(system, view, options);
+                    ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return flare::render_reference(system, one, options); })
+                    : flare::render_reference(system, view, options);
     } else {
         const gpu::Context context(gpu::parse_platform(args.gpu));
         gpu::FlareRenderer renderer(context);
@@ -225,12 +226,12 @@ void run_flare(const FlareArgs& args) {
         if (!args.flare_look.empty())
             options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
         image = args.band_filter
-                    ? gpu::render_band_filtered(system, view, [&](const gpu::FlareView& one) { return renderer.render(system, one, options); })
+                    ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return renderer.render(system, one, options); })
                     : renderer.render(system, view, options);
     }
     if (parts.ghosts && args.ghost_gain != 1.0) {
         for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
-        for (gpu::GhostPower& g : image.ghosts)
+        for (flare::GhostPower& g : image.ghosts)
             for (double& p : g.power) p *= args.ghost_gain;
     }
     if (parts.starburst) {
@@ -242,7 +243,7 @@ void run_flare(const FlareArgs& args) {
         const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
         const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
         const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
-        std::array<double, 3> energy = filter::direct_power(system, view.angle_x_deg, view.angle_y_deg);
+        std::array<double, 3> energy = flare::direct_power(system, view.angle_x_deg, view.angle_y_deg);
         for (double& e : energy) e *= args.starburst_gain;
         const optics::StarburstPlacement at{(xs / view.sensor_width_mm + 0.5) * view.width,
                                             (0.5 - ys / view.sensor_height_mm) * view.height, paraxial.f_number, 0.0};
@@ -259,7 +260,7 @@ void run_flare(const FlareArgs& args) {
                                   : fmt::format("gpu grid {}", args.grid),
                    ms);
         fmt::print("# surfaces (1-based)   power R         power G         power B        (mm^2 per unit irradiance)\n");
-        for (const gpu::GhostPower& g : image.ghosts) {
+        for (const flare::GhostPower& g : image.ghosts) {
             fmt::print("{:>4},{:<4}            {:<15.6e} {:<15.6e} {:<15.6e}\n", g.second + 1, g.first + 1,
                        g.power[0], g.power[1], g.power[2]);
         }

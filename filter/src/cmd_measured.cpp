@@ -20,7 +20,7 @@
 #include <filter/output_files.h>
 #include <filter/sequence.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/measured_renderer.h>
 #include <measured/fit.h>
@@ -156,7 +156,7 @@ public:
         }
     }
     double focal_mm() const { return focal_mm_; }
-    std::vector<float> render(const gpu::FlareView& view) {
+    std::vector<float> render(const flare::FlareView& view) {
         if (measured_) {
             std::vector<float> rgb(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
             measured_renderer_->render_add(*measured_, measured_view(view), {1.0, 1.0, 1.0}, rgb.data());
@@ -222,7 +222,7 @@ void run_predict(const PredictArgs& a) {
     const auto [w, h] = size_of(a.size);
     const auto [sw, sh] = sensor_of(a.sensor, w, h);
     AnyLensRenderer renderer(a.lens, a.gpu);
-    gpu::FlareView view;
+    flare::FlareView view;
     view.width = w, view.height = h, view.sensor_width_mm = sw, view.sensor_height_mm = sh;
     std::vector<measured::FlareEstimate> estimates;
     const std::vector<float> scene{static_cast<float>(a.scene_level)};
@@ -275,7 +275,7 @@ std::vector<double> parse_angles(const std::string& text, const char* option) {
     return angles;
 }
 
-measured::MeasuredView measured_view(const gpu::FlareView& view) {
+measured::MeasuredView measured_view(const flare::FlareView& view) {
     measured::MeasuredView m;
     m.angle_x_deg = view.angle_x_deg, m.angle_y_deg = view.angle_y_deg;
     m.sensor_width_mm = view.sensor_width_mm, m.sensor_height_mm = view.sensor_height_mm;
@@ -283,11 +283,11 @@ measured::MeasuredView measured_view(const gpu::FlareView& view) {
     return m;
 }
 
-gpu::FlareImage render_measured_flare(const std::string& path, const gpu::FlareView& view, const measured::Capture& target, bool reference,
+flare::FlareImage render_measured_flare(const std::string& path, const flare::FlareView& view, const measured::Capture& target, bool reference,
                                       const std::string& gpu_platform) {
     const measured::MeasuredLens lens = measured::read_measured(path);
     const double scale = measured::brightness_scale(lens.capture, target);
-    gpu::FlareImage image;
+    flare::FlareImage image;
     image.width = view.width, image.height = view.height;
     image.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
     if (reference) {

@@ -9,7 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <measured/model.h>
 #include <optics/memory_budget.h>
 
@@ -56,9 +56,9 @@ void register_predict_command(CLI::App& app);
 std::vector<double> parse_angles(const std::string& text, const char* option);
 // A measured preset's ghosts for one light of the view, scaled by paper equation 2 from its capture to
 // `target` (f-number, ISO, exposure): on the GPU, or by the CPU reference.
-gpu::FlareImage render_measured_flare(const std::string& path, const gpu::FlareView& view, const measured::Capture& target, bool reference,
+flare::FlareImage render_measured_flare(const std::string& path, const flare::FlareView& view, const measured::Capture& target, bool reference,
                                       const std::string& gpu_platform);
-measured::MeasuredView measured_view(const gpu::FlareView& view);
+measured::MeasuredView measured_view(const flare::FlareView& view);
 
 // --memory-limit's value: parse_memory_limit(text), or default_memory_budget() when it was not given.
 inline MemoryBudget memory_budget_option(const std::string& text) {

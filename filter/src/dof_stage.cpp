@@ -14,8 +14,8 @@
 #include <dof/renderer.h>
 #include <filter/colour/matrix.h>
 #include <filter/option_checks.h>
-#include <gpu/acceleration.h>
-#include <gpu/flare.h>
+#include <flare/cache.h>
+#include <flare/flare.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
@@ -193,8 +193,7 @@ struct DofStage::State {
 constexpr int kRayGrid = 17;
 
 std::string DofStage::State::cache_dir() const {
-    if (settings.cache_dir == "none") return {};
-    return settings.cache_dir.empty() ? gpu::default_cache_dir() : settings.cache_dir;
+    return flare::cache_dir_of(settings.cache_dir);
 }
 
 dof::Camera DofStage::State::camera_for(const Frame& frame) const {
@@ -222,7 +221,7 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     if (settings.bands != 0) {  // mixed into the working space's R, G, B, as the flare's bands
         const auto rgb_to_xyz = primaries ? primaries() : std::nullopt;
         const optics::Mat3 xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
-        for (const gpu::SpectralPass& p : gpu::spectral_passes(settings.bands, xyz_to_rgb)) c.bands.push_back({p.wavelength_nm, p.weight});
+        for (const flare::SpectralPass& p : flare::spectral_passes(settings.bands, xyz_to_rgb)) c.bands.push_back({p.wavelength_nm, p.weight});
     }
     return c;
 }
@@ -266,7 +265,7 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
         s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images, settings.memory);
     }
     if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame
-    if (settings.bands != 0) gpu::spectral_passes(settings.bands);     // and a bad band count
+    if (settings.bands != 0) flare::spectral_passes(settings.bands);     // and a bad band count
     for (const std::string& p : settings.focus_points) parse_focus_point(p);
     s.settings = std::move(settings);
     s.gpu = gpu ? std::move(gpu) : std::make_shared<GpuSession>();

@@ -9,7 +9,7 @@
 #include <fmt/core.h>
 
 #include <filter/option_checks.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <optics/coating.h>
 #include <optics/lens_file.h>
 
@@ -66,7 +66,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     add_flare_control_options(app, s.controls, group);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
-        ->capture_default_str()->group(group)->check(CLI::Range(0, gpu::kMaxBands));
+        ->capture_default_str()->group(group)->check(CLI::Range(0, flare::kMaxBands));
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
     app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
         ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());

@@ -1,6 +1,5 @@
 // The flare stage: lights -> directions and strengths -> GPU ghost images -> added to the frame.
 #include <filter/flare_stage.h>
-#include <filter/footprint.h>
 
 #include <algorithm>
 #include <chrono>
@@ -23,10 +22,14 @@
 #include <detect/threshold.h>
 #include <detect/track_file.h>
 #include <detect/tracker.h>
+#include <flare/cache.h>
+#include <flare/direct_power.h>
+#include <flare/footprint.h>
+#include <flare/starburst_cache.h>
 #include <gpu/band_filter.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/measured_renderer.h>
 #include <measured/model_file.h>
@@ -50,143 +53,16 @@
 
 namespace lensfx::filter {
 
+using flare::FootprintGroup;
+using flare::add_extended_starburst;
+using flare::convolve_footprint;
+using flare::footprint_groups;
+
 namespace {
 
 constexpr double kDegrees = 180.0 / std::numbers::pi;
 
 }  // namespace
-
-std::array<double, 2> FlareGeometry::angles_at(double x, double y) const {
-    const double xs = (x / width - 0.5) * sensor_width_mm;
-    const double ys = (0.5 - y / height) * sensor_height_mm;
-    return {std::atan(xs / focal_mm) * kDegrees, std::atan(ys / focal_mm) * kDegrees};
-}
-
-double FlareGeometry::pixel_area_mm2() const {
-    return (sensor_width_mm / width) * (sensor_height_mm / height);
-}
-
-std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays,
-                                   const std::vector<gpu::SpectralPass>& passes) {
-    std::array<double, 3> power{};
-    gpu::FlareView view;
-    view.angle_x_deg = ax_deg;
-    view.angle_y_deg = ay_deg;
-    const std::vector<optics::Step> path = optics::direct_path(system);
-    for (const gpu::SpectralPass& pass : passes.empty() ? view.passes() : passes) {
-        const optics::TraceSystem traced(system, pass.wavelength_nm);
-        const gpu::PupilRect square = gpu::entrance_square(traced, view);
-        const double dx = (square.x1 - square.x0) / rays;
-        const double dy = (square.y1 - square.y0) / rays;
-        double sum = 0.0;
-        for (int iy = 0; iy < rays; ++iy) {
-            for (int ix = 0; ix < rays; ++ix) {
-                const optics::Ray ray = optics::collimated_ray(ax_deg, ay_deg, square.x0 + dx * (ix + 0.5),
-                                                               square.y0 + dy * (iy + 0.5), 0.0);
-                const optics::TraceResult r = optics::trace(traced, ray, path);
-                if (gpu::ray_passes(r, system.aperture)) sum += r.transmission * std::abs(ray.direction.z);
-            }
-        }
-        for (std::size_t c = 0; c < 3; ++c) power[c] += pass.weight[c] * sum * dx * dy;
-    }
-    return power;
-}
-
-DirectPowerTable::DirectPowerTable(const optics::System& system, double max_field_deg, int samples, int rays,
-                                   std::vector<gpu::SpectralPass> passes)
-    : system_(system), passes_(std::move(passes)), rays_(rays), max_field_deg_(max_field_deg),
-      power_(static_cast<std::size_t>(std::max(samples, 0))), known_(static_cast<std::size_t>(std::max(samples, 0)), 0) {
-    if (samples < 2 || rays < 1 || !(max_field_deg > 0.0))
-        throw std::invalid_argument(fmt::format("direct power table: {} samples of {} rays up to {} degrees", samples,
-                                                rays, max_field_deg));
-}
-
-const std::array<double, 3>& DirectPowerTable::sample(int i) const {
-    const auto k = static_cast<std::size_t>(std::clamp(i, 0, static_cast<int>(power_.size()) - 1));
-    if (!known_[k]) {
-        power_[k] = direct_power(system_, max_field_deg_ * static_cast<double>(k) / static_cast<double>(power_.size() - 1), 0.0, rays_,
-                                 passes_);
-        known_[k] = 1;
-    }
-    return power_[k];
-}
-
-int DirectPowerTable::traced() const { return static_cast<int>(std::count(known_.begin(), known_.end(), 1)); }
-
-std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
-    const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
-    const int n = static_cast<int>(power_.size());
-    const double u = std::clamp(field / max_field_deg_, 0.0, 1.0) * (n - 1);
-    const int i = std::min(static_cast<int>(u), n - 2);
-    const double t = u - i;
-    // Catmull-Rom through the samples around u (ends repeated); a power is never negative.
-    const auto p0 = sample(i - 1), p1 = sample(i), p2 = sample(i + 1), p3 = sample(i + 2);
-    std::array<double, 3> out{};
-    for (std::size_t c = 0; c < 3; ++c) {
-        const double v = 0.5 * (2.0 * p1[c] + (-p0[c] + p2[c]) * t + (2.0 * p0[c] - 5.0 * p1[c] + 4.0 * p2[c] - p3[c]) * t * t +
-                                (-p0[c] + 3.0 * p1[c] - 3.0 * p2[c] + p3[c]) * t * t * t);
-        out[c] = std::max(0.0, v);
-    }
-    return out;
-}
-
-namespace {
-
-// Best effort: written aside and renamed, so a reader in another process never sees half a file; a cache
-// that cannot be written is skipped.
-void write_cache_file(const std::filesystem::path& path, const std::function<void(std::ofstream&)>& write) {
-    std::error_code ec;
-    std::filesystem::create_directories(path.parent_path(), ec);
-    if (ec) return;
-    TempFile tmp(path.string());  // removed on failure and on a signal; a dead run's by the next write
-    {
-        std::ofstream out(tmp.path(), std::ios::binary);
-        write(out);
-        out.close();
-        if (!out) return;
-    }
-    try {
-        tmp.commit();
-    } catch (const std::exception&) {
-        return;
-    }
-    remove_stale_temporaries(path.parent_path().string());
-}
-
-}  // namespace
-
-void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
-    write_cache_file(path, [&](std::ofstream& out) {
-        const auto key_size = static_cast<std::uint64_t>(key.size());
-        const auto n = static_cast<std::uint64_t>(power_.size());
-        out.write(reinterpret_cast<const char*>(&key_size), sizeof(key_size));
-        out.write(key.data(), static_cast<std::streamsize>(key.size()));
-        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
-        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
-        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
-    });
-}
-
-bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
-    std::ifstream in(path, std::ios::binary);
-    std::uint64_t key_size = 0, n = 0;
-    if (!in.read(reinterpret_cast<char*>(&key_size), sizeof(key_size)) || key_size != key.size()) return false;
-    std::string stored(key.size(), '\0');
-    if (!in.read(stored.data(), static_cast<std::streamsize>(stored.size())) || stored != key) return false;
-    if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n != power_.size()) return false;
-    std::vector<char> known(power_.size());
-    std::vector<std::array<double, 3>> power(power_.size());
-    if (!in.read(known.data(), static_cast<std::streamsize>(known.size())) ||
-        !in.read(reinterpret_cast<char*>(power.data()), static_cast<std::streamsize>(power.size() * sizeof(power[0]))) ||
-        in.peek() != std::char_traits<char>::eof())
-        return false;
-    for (std::size_t k = 0; k < known.size(); ++k)
-        if (known[k] && !known_[k] && std::isfinite(power[k][0]) && std::isfinite(power[k][1]) && std::isfinite(power[k][2])) {
-            power_[k] = power[k];
-            known_[k] = 1;
-        }
-    return true;
-}
 
 double min_light_fade(double relative, double min_light) {
     if (!(min_light > 0.0)) return 1.0;
@@ -194,78 +70,11 @@ double min_light_fade(double relative, double min_light) {
     return t * t * (3.0 - 2.0 * t);
 }
 
-std::string cache_directory() { return gpu::default_cache_dir(); }
-
 namespace {
-
-constexpr char kStarburstMagic[] = "lensfx-starburst-1";
-
-// One file per iris and texture setting; the values are in the name, so a changed iris never reads a
-// stale texture.
-std::filesystem::path starburst_file(const optics::Aperture& a, const optics::StarburstOptions& o, const std::string& dir) {
-    std::string key = fmt::format("b{} r{:.17g} c{:.17g} s{} p{} {:g} {:g} {:g} {:g}", a.blades, a.rotation_deg, a.blade_curvature,
-                                  o.size, o.pupil_samples, o.first_nm, o.last_nm, o.step_nm, o.smoothing);
-    for (const auto& row : o.xyz_to_rgb) key += fmt::format(" {:.17g} {:.17g} {:.17g}", row[0], row[1], row[2]);
-    const optics::PupilImperfections& d = o.dirt;
-    key += fmt::format(" dust {:.17g} {:.17g} {:.17g} scratches {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} seed {}", d.dust_density,
-                       d.dust_radius, d.dust_opacity, d.scratches, d.scratch_length, d.scratch_width, d.scratch_angle_deg,
-                       d.scratch_spread_deg, d.scratch_opacity, d.seed);
-    if (!o.image.empty()) {
-        key += fmt::format(" image {}x{} ", o.image.width, o.image.height);
-        key.append(reinterpret_cast<const char*>(o.image.value.data()), o.image.value.size() * sizeof(float));
-    }
-    return std::filesystem::path(dir) / fmt::format("starburst-{:016x}.bin", std::hash<std::string>{}(key));
-}
-
-std::optional<optics::Starburst> read_starburst(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return std::nullopt;
-    char magic[sizeof(kStarburstMagic)] = {};
-    optics::Starburst sb;
-    std::int32_t size = 0;
-    in.read(magic, sizeof(magic));
-    in.read(reinterpret_cast<char*>(&size), sizeof(size));
-    in.read(reinterpret_cast<char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
-    if (!in || std::string(magic, sizeof(magic) - 1) != kStarburstMagic || size < 16 || size > 8192 ||
-        !(sb.texel_per_fnumber_mm > 0.0))
-        return std::nullopt;
-    sb.size = size;
-    sb.rgb.resize(static_cast<std::size_t>(size) * static_cast<std::size_t>(size) * 3);
-    in.read(reinterpret_cast<char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
-    if (!in || in.peek() != std::char_traits<char>::eof()) return std::nullopt;
-    return sb;
-}
-
-void write_starburst(const std::filesystem::path& path, const optics::Starburst& sb) {
-    write_cache_file(path, [&](std::ofstream& out) {
-        const std::int32_t size = sb.size;
-        out.write(kStarburstMagic, sizeof(kStarburstMagic));
-        out.write(reinterpret_cast<const char*>(&size), sizeof(size));
-        out.write(reinterpret_cast<const char*>(&sb.texel_per_fnumber_mm), sizeof(sb.texel_per_fnumber_mm));
-        out.write(reinterpret_cast<const char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
-    });
-}
 
 using Clock = std::chrono::steady_clock;
 
 }  // namespace
-
-optics::Starburst cached_starburst(const optics::Aperture& aperture, const optics::StarburstOptions& options,
-                                   const std::string& cache_dir) {
-    if (cache_dir.empty()) return optics::make_starburst(aperture, options);
-    const std::filesystem::path path = starburst_file(aperture, options, cache_dir);
-    if (auto cached = read_starburst(path)) return std::move(*cached);
-    optics::Starburst sb = optics::make_starburst(aperture, options);
-    write_starburst(path, sb);
-    return sb;
-}
-
-std::string passes_key(const std::vector<gpu::SpectralPass>& passes) {
-    std::string key = "passes";
-    for (const gpu::SpectralPass& p : passes)
-        key += fmt::format(" {:.17g}:{:.17g},{:.17g},{:.17g}", p.wavelength_nm, p.weight[0], p.weight[1], p.weight[2]);
-    return key;
-}
 
 // The largest strength a light is given: with the ghosts' own peak values and many lights summed it
 // stays far inside float range, so a huge --gain or flux saturates the frame instead of making it NaN.
@@ -420,9 +229,9 @@ struct FlareStage::State {
     gpu::GpuFlareOptions render_options;         // grid, ringing, accelerations, --flare-look styles
     PrimariesSource primaries_source;
     std::optional<optics::Mat3> xyz_to_rgb;       // the working space's, fixed at the first light
-    std::vector<gpu::SpectralPass> passes;        // with those primaries
+    std::vector<flare::SpectralPass> passes;        // with those primaries
     std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
-    DirectPowerTable direct;                     // made at the first light, over the frame's corners
+    flare::DirectPowerTable direct;                     // made at the first light, over the frame's corners
     std::string direct_key;                      // what the table depends on (its cache file's name)
     std::filesystem::path direct_file;
     std::string lens_text;                       // the lens as TOML: part of the table's key
@@ -472,7 +281,7 @@ struct FlareStage::State {
         if (!settings.flare_look.empty() && !measured_lens)
             render_options.styles =
                 optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
-        if (settings.bands != 0) gpu::spectral_passes(settings.bands);  // checks the band count
+        if (settings.bands != 0) flare::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
         if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
@@ -650,10 +459,10 @@ struct FlareStage::State {
         if (direct.empty()) {
             const auto [cx, cy] = geo.angles_at(0.0, 0.0);
             const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
-            direct = DirectPowerTable(system, std::min(89.0, 1.02 * corner), 12, 96, passes);
-            direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens_text, direct.max_field_deg(), passes_key(passes));
-            if (const std::string dir = cache_directory(); !dir.empty()) {
-                direct_file = std::filesystem::path(dir) / fmt::format("direct-{:016x}.bin", std::hash<std::string>{}(direct_key));
+            direct = flare::DirectPowerTable(system, std::min(89.0, 1.02 * corner), 12, 96, passes);
+            direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens_text, direct.max_field_deg(), flare::passes_key(passes));
+            if (const std::string dir = flare::cache_dir_of(settings.accel.cache_dir); !dir.empty()) {
+                direct_file = flare::cache_file(dir, "direct", flare::key_hash(direct_key));
                 direct.load(direct_file, direct_key);
             }
         }
@@ -687,7 +496,7 @@ struct FlareStage::State {
         if (!starburst) {
             optics::StarburstOptions options = starburst_options;
             options.xyz_to_rgb = *xyz_to_rgb;
-            starburst = cached_starburst(system.aperture, options, cache_directory());
+            starburst = flare::cached_starburst(system.aperture, options, flare::cache_dir_of(settings.accel.cache_dir));
         }
         const double gains = boost(light, is_extended(light));
         std::array<double, 3> energy{};

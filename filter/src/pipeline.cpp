@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <condition_variable>
 #include <mutex>
 #include <new>
@@ -302,18 +303,164 @@ private:
     bool printed_ = false;
 };
 
-}  // namespace
+// Where the frames come from: a stream on stdin (frame i is the stream's (i+1)-th, read until it ends) or
+// the files of the input pattern (the plan's frame numbers).
+struct FrameSource {
+    const PipelineOptions& o;
+    const Plan& plan;
 
-RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stages) {
-    const auto start = Clock::now();
-    RunReport report;
-    report.input = o.input;
-    report.output = o.output;
-    report.options_toml = o.options_toml;
-    report.threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    set_oiio_threads(report.threads);
-    set_exr_threads(report.threads);
+    bool has(std::uint64_t i) const { return plan.stream_in || i < plan.numbers.size(); }
+    FrameRecord record(std::uint64_t i) const {
+        FrameRecord r;
+        r.index = i;
+        r.number = plan.stream_in ? static_cast<std::int64_t>(i) + 1 : plan.numbers[i];
+        r.input = plan.stream_in ? "-" : plan.input_path(r.number);
+        r.output = plan.output_path(r.number);
+        return r;
+    }
+    // The frame a record names; nothing at the end of a stream. Throws on a bad frame.
+    std::optional<Frame> read(const FrameRecord& record) const {
+        if (!plan.stream_in) return read_image(record.input, plan.in_order, o.memory);
+        std::optional<Frame> frame = plan.in_format == StreamFormat::raw ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height, o.memory)
+                                     : plan.in_format == StreamFormat::exr ? read_exr_stream(stdin)
+                                                                           : read_pfm(stdin, plan.in_order == PfmOrder::top_first, o.memory);
+        if (frame) frame->source.assign(1, '-');  // (not = "-": GCC 12 warns of a false -Wrestrict there)
+        return frame;
+    }
+};
 
+// The reader's wait for memory, expecting the size of the frame before; then what the frame holds.
+class ReadBudget {
+public:
+    ReadBudget(FrameBytes& held, bool wants_rgb) : held_(held), wants_rgb_(wants_rgb) {}
+    bool hold(Item& item) {
+        std::optional<FrameBytes::Hold> hold = held_.acquire(expected_);
+        if (hold) item.held = std::move(*hold);
+        return hold.has_value();
+    }
+    void account(Item& item) {
+        if (!item.frame) return;
+        expected_ = frame_bytes(*item.frame, wants_rgb_);
+        item.held.resize(expected_);
+    }
+
+private:
+    FrameBytes& held_;
+    bool wants_rgb_;
+    std::size_t expected_ = 0;
+};
+
+// The reader thread: every frame of the source into the queue, a bad one as an item without a frame (the
+// last, in a stream: it cannot be resynchronised).
+void read_frames(const FrameSource& source, ReadBudget& budget, BoundedQueue<Item>& queue) {
+    for (std::uint64_t i = 0; source.has(i); ++i) {
+        Item item;
+        item.record = source.record(i);
+        if (!budget.hold(item)) break;
+        const auto t0 = Clock::now();
+        try {
+            item.frame = source.read(item.record);
+            if (!item.frame) break;  // the stream ended
+        } catch (const std::exception& e) {
+            item.frame.reset();
+            item.record.error = one_line(error_text(e));
+            item.fatal = source.plan.stream_in;
+        }
+        budget.account(item);
+        item.record.read_ms = ms_since(t0);
+        if (item.frame) {
+            item.frame->index = i;
+            item.frame->number = item.record.number;
+        }
+        const bool stop = item.fatal;
+        if (!queue.push(std::move(item)) || stop) break;
+    }
+    queue.close();
+}
+
+// One frame to stdout (the plan's stream format) or to its file; throws on failure.
+void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame, const FrameRecord& rec, std::size_t done) {
+    if (plan.stream_out) {
+        if (plan.out_format == StreamFormat::raw) {
+            write_raw(stdout, frame, *o.pix_fmt, o.memory);
+        } else if (plan.out_format == StreamFormat::exr) {
+            write_exr_stream(stdout, frame, o.write);
+        } else {
+            write_pfm(stdout, frame, plan.out_order == PfmOrder::top_first, o.memory);
+        }
+        if (std::fflush(stdout) != 0) throw std::runtime_error("write failed");
+        return;
+    }
+    if (!plan.out_pattern.is_sequence && done > 0) {
+        throw std::runtime_error("the output has no frame-number token but the input has more than one frame");
+    }
+    if (const auto id = file_id(rec.output); id && plan.input_ids.count(*id)) {
+        throw std::runtime_error("refusing to overwrite an input file");
+    }
+    WriteOptions w = o.write;
+    w.pfm_order = plan.out_order;
+    w.memory = o.memory;
+    write_image(frame, rec.output, w);
+}
+
+// The writer thread: each processed frame written in order, a skipped one reported; the first failure
+// to write stops the run (`fail`).
+void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress, BoundedQueue<Item>& queue, RunReport& report,
+                  const std::function<void(std::string)>& fail) {
+    ProgressLine progress(show_progress, plan.stream_in ? 0 : plan.numbers.size());
+    std::size_t done = 0;
+    while (auto item = queue.pop()) {
+        FrameRecord& rec = item->record;
+        if (!item->frame) {
+            if (!o.quiet) fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error);
+            report.frames.push_back(std::move(rec));
+            continue;
+        }
+        const auto t0 = Clock::now();
+        try {
+            write_frame(o, plan, *item->frame, rec, done);
+        } catch (const std::exception& e) {
+            fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, error_text(e)));
+            break;
+        }
+        rec.write_ms = ms_since(t0);
+        rec.written = true;
+        report.frames.push_back(std::move(rec));
+        progress.update(++done);
+    }
+    progress.finish();
+}
+
+// Every stage on one frame, with their times and figures in its record; R, G, B as float meanwhile when a
+// stage wants them. Throws when the frame's display window differs from the first frame's.
+void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_rgb, std::optional<ImageSpec>& first,
+                   FrameRecord& rec) {
+    if (!first) {
+        first = frame.spec;
+    } else if (!same_display_window(*first, frame.spec)) {
+        throw std::runtime_error(fmt::format("frame size {}x{} differs from the first frame's {}x{}",
+                                             frame.spec.full_width, frame.spec.full_height,
+                                             first->full_width, first->full_height));
+    }
+    const bool load = wants_rgb && frame.has_rgb();
+    if (load) {
+        load_rgb(frame);
+        release_rgb_pixels(frame);  // an RGB-only frame is held once, as float, until store_rgb
+    }
+    for (Stage* stage : stages) {
+        const auto ts = Clock::now();
+        stage->process(frame);
+        rec.stage_ms.emplace_back(std::string(stage->name()), ms_since(ts));
+        for (const auto& [part, ms] : stage->part_times())
+            rec.stage_ms.emplace_back(fmt::format("{}.{}", stage->name(), part), ms);
+        for (const auto& [figure, value] : stage->frame_figures())
+            rec.figures.emplace_back(fmt::format("{}.{}", stage->name(), figure), value);
+    }
+    if (load) store_rgb_and_drop(frame);
+}
+
+// The plan, checked, with the formats of the streams: the input's read from stdin.
+Plan prepared_plan(const PipelineOptions& o) {
     Plan plan = make_plan(o);
     refuse_overwrite(o.report_path, "--report", o.input, o.output);
     if (!plan.stream_out) remove_stale_temporaries(fs::path(plan.out_pattern.prefix).parent_path().string());
@@ -323,11 +470,77 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
         throw std::runtime_error(fmt::format("stdin: frame 1: {}", e.what()));
     }
     plan.out_format = output_stream_format(o, plan);
-    const bool sequence = plan.stream_in || plan.numbers.size() > 1;
-    const bool show_progress = !o.quiet && (o.progress == Progress::on ||
-                                            (o.progress == Progress::automatic && sequence && ::isatty(STDERR_FILENO)));
+    return plan;
+}
+
+bool any_wants_rgb(const std::vector<Stage*>& stages) {
     bool wants_rgb = false;
     for (const Stage* s : stages) wants_rgb = wants_rgb || s->wants_rgb();
+    return wants_rgb;
+}
+
+// The main thread's part: every frame read through the stages into the write queue. A bad frame stops
+// the run (`stop`, with the line saying why) unless --skip-bad-frames lets it be skipped.
+void process_frames(const PipelineOptions& o, const std::vector<Stage*>& stages, bool wants_rgb, BoundedQueue<Item>& read_queue,
+                    BoundedQueue<Item>& write_queue, const std::function<void(std::string)>& stop) {
+    std::optional<ImageSpec> first;
+    while (auto item = read_queue.pop()) {
+        FrameRecord& rec = item->record;
+        if (item->frame) {
+            const auto t0 = Clock::now();
+            try {
+                process_frame(*item->frame, stages, wants_rgb, first, rec);
+            } catch (const std::exception& e) {
+                item->frame.reset();
+                rec.error = one_line(error_text(e));
+            }
+            rec.process_ms = ms_since(t0);
+        }
+        if (!item->frame && (item->fatal || !o.skip_bad_frames)) {
+            stop(fmt::format("{}: frame {}: {}", rec.input == "-" ? "stdin" : rec.input, rec.number, rec.error));
+            break;
+        }
+        if (!write_queue.push(std::move(*item))) break;
+    }
+}
+
+// The report's fields known before the first frame; sets the readers' and writers' thread counts.
+RunReport started_report(const PipelineOptions& o) {
+    RunReport report;
+    report.input = o.input;
+    report.output = o.output;
+    report.options_toml = o.options_toml;
+    report.threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    set_oiio_threads(report.threads);
+    set_exr_threads(report.threads);
+    return report;
+}
+
+// Whether the progress line is drawn: asked for, or a sequence on a terminal.
+bool progress_shown(const PipelineOptions& o, const Plan& plan) {
+    const bool sequence = plan.stream_in || plan.numbers.size() > 1;
+    return !o.quiet && (o.progress == Progress::on || (o.progress == Progress::automatic && sequence && ::isatty(STDERR_FILENO)));
+}
+
+// The run's time and outcome; the report file written when asked for; throws the failure, if there was one.
+void finish_report(RunReport& report, const PipelineOptions& o, const Plan& plan, std::string error, Clock::time_point start) {
+    report.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    report.error = std::move(error);
+    if (report.error.empty() && plan.stream_in && report.frames.empty() && !o.allow_empty) {
+        report.error = "stdin: no frames read (an empty stream: did the program before lensfx fail?); --allow-empty accepts it";
+    }
+    if (!o.report_path.empty()) write_report(report, o.report_path);
+    if (!report.error.empty()) throw std::runtime_error(report.error);
+}
+
+}  // namespace
+
+RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stages) {
+    const auto start = Clock::now();
+    RunReport report = started_report(o);
+    const Plan plan = prepared_plan(o);
+    const bool show_progress = progress_shown(o, plan);
+    const bool wants_rgb = any_wants_rgb(stages);
 
     FrameBytes frame_bytes_held(o.memory.limit);  // before the queues: their items release into it
     BoundedQueue<Item> read_queue(o.queue_depth), write_queue(o.queue_depth);
@@ -338,174 +551,21 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
         read_queue.cancel();
         write_queue.cancel();
     };
-    // The reader's wait for memory, expecting the size of the frame before; then what the frame holds.
-    std::size_t expected_bytes = 0;
-    auto hold_memory = [&](Item& item) {
-        std::optional<FrameBytes::Hold> hold = frame_bytes_held.acquire(expected_bytes);
-        if (hold) item.held = std::move(*hold);
-        return hold.has_value();
-    };
-    auto account = [&](Item& item) {
-        if (!item.frame) return;
-        expected_bytes = frame_bytes(*item.frame, wants_rgb);
-        item.held.resize(expected_bytes);
-    };
+    ReadBudget budget(frame_bytes_held, wants_rgb);
+    std::thread reader([&] { read_frames(FrameSource{o, plan}, budget, read_queue); });
+    std::thread writer([&] { write_frames(o, plan, show_progress, write_queue, report, fail); });
 
-    std::thread reader([&] {
-        if (plan.stream_in) {
-            for (std::size_t i = 0;; ++i) {
-                Item item;
-                item.record.index = i;
-                item.record.number = static_cast<std::int64_t>(i) + 1;
-                item.record.input = "-";
-                item.record.output = plan.output_path(item.record.number);
-                if (!hold_memory(item)) break;
-                const auto t0 = Clock::now();
-                try {
-                    item.frame = plan.in_format == StreamFormat::raw   ? read_raw(stdin, *o.pix_fmt, o.raw_width, o.raw_height, o.memory)
-                                 : plan.in_format == StreamFormat::exr ? read_exr_stream(stdin)
-                                                                       : read_pfm(stdin, plan.in_order == PfmOrder::top_first, o.memory);
-                    if (!item.frame) break;
-                    item.frame->source = "-";
-                } catch (const std::exception& e) {
-                    item.frame.reset();
-                    item.record.error = one_line(error_text(e));
-                    item.fatal = true;
-                }
-                account(item);
-                item.record.read_ms = ms_since(t0);
-                if (item.frame) {
-                    item.frame->index = i;
-                    item.frame->number = item.record.number;
-                }
-                const bool stop = item.fatal;
-                if (!read_queue.push(std::move(item)) || stop) break;
-            }
-        } else {
-            for (std::uint64_t i = 0; i < plan.numbers.size(); ++i) {
-                Item item;
-                item.record.index = i;
-                item.record.number = plan.numbers[i];
-                item.record.input = plan.input_path(item.record.number);
-                item.record.output = plan.output_path(item.record.number);
-                if (!hold_memory(item)) break;
-                const auto t0 = Clock::now();
-                try {
-                    item.frame = read_image(item.record.input, plan.in_order, o.memory);
-                    item.frame->index = i;
-                    item.frame->number = item.record.number;
-                } catch (const std::exception& e) {
-                    item.frame.reset();
-                    item.record.error = one_line(error_text(e));
-                }
-                account(item);
-                item.record.read_ms = ms_since(t0);
-                if (!read_queue.push(std::move(item))) break;
-            }
-        }
-        read_queue.close();
+    process_frames(o, stages, wants_rgb, read_queue, write_queue, [&](std::string message) {
+        // The frames before this one are complete: let the writer finish them, read nothing more.
+        failure.set(std::move(message));
+        frame_bytes_held.cancel();
+        read_queue.cancel();
     });
-
-    std::thread writer([&] {
-        ProgressLine progress(show_progress, plan.stream_in ? 0 : plan.numbers.size());
-        std::size_t done = 0;
-        while (auto item = write_queue.pop()) {
-            FrameRecord& rec = item->record;
-            if (!item->frame) {
-                if (!o.quiet) fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error);
-                report.frames.push_back(std::move(rec));
-                continue;
-            }
-            const auto t0 = Clock::now();
-            try {
-                if (plan.stream_out) {
-                    if (plan.out_format == StreamFormat::raw) {
-                        write_raw(stdout, *item->frame, *o.pix_fmt, o.memory);
-                    } else if (plan.out_format == StreamFormat::exr) {
-                        write_exr_stream(stdout, *item->frame, o.write);
-                    } else {
-                        write_pfm(stdout, *item->frame, plan.out_order == PfmOrder::top_first, o.memory);
-                    }
-                    if (std::fflush(stdout) != 0) throw std::runtime_error("write failed");
-                } else {
-                    if (!plan.out_pattern.is_sequence && done > 0) {
-                        throw std::runtime_error("the output has no frame-number token but the input has more than one frame");
-                    }
-                    if (const auto id = file_id(rec.output); id && plan.input_ids.count(*id)) {
-                        throw std::runtime_error("refusing to overwrite an input file");
-                    }
-                    WriteOptions w = o.write;
-                    w.pfm_order = plan.out_order;
-                    w.memory = o.memory;
-                    write_image(*item->frame, rec.output, w);
-                }
-            } catch (const std::exception& e) {
-                fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, error_text(e)));
-                break;
-            }
-            rec.write_ms = ms_since(t0);
-            rec.written = true;
-            report.frames.push_back(std::move(rec));
-            progress.update(++done);
-        }
-        progress.finish();
-    });
-
-    std::optional<ImageSpec> first;
-    while (auto item = read_queue.pop()) {
-        FrameRecord& rec = item->record;
-        if (item->frame) {
-            const auto t0 = Clock::now();
-            Frame& frame = *item->frame;
-            try {
-                if (!first) {
-                    first = frame.spec;
-                } else if (!same_display_window(*first, frame.spec)) {
-                    throw std::runtime_error(fmt::format("frame size {}x{} differs from the first frame's {}x{}",
-                                                         frame.spec.full_width, frame.spec.full_height,
-                                                         first->full_width, first->full_height));
-                }
-                const bool load = wants_rgb && frame.has_rgb();
-                if (load) {
-                    load_rgb(frame);
-                    release_rgb_pixels(frame);  // an RGB-only frame is held once, as float, until store_rgb
-                }
-                for (Stage* stage : stages) {
-                    const auto ts = Clock::now();
-                    stage->process(frame);
-                    rec.stage_ms.emplace_back(std::string(stage->name()), ms_since(ts));
-                    for (const auto& [part, ms] : stage->part_times())
-                        rec.stage_ms.emplace_back(fmt::format("{}.{}", stage->name(), part), ms);
-                    for (const auto& [figure, value] : stage->frame_figures())
-                        rec.figures.emplace_back(fmt::format("{}.{}", stage->name(), figure), value);
-                }
-                if (load) store_rgb_and_drop(frame);
-            } catch (const std::exception& e) {
-                item->frame.reset();
-                rec.error = one_line(error_text(e));
-            }
-            rec.process_ms = ms_since(t0);
-        }
-        if (!item->frame && (item->fatal || !o.skip_bad_frames)) {
-            // The frames before this one are complete: let the writer finish them, read nothing more.
-            failure.set(fmt::format("{}: frame {}: {}", rec.input == "-" ? "stdin" : rec.input, rec.number, rec.error));
-            frame_bytes_held.cancel();
-            read_queue.cancel();
-            break;
-        }
-        if (!write_queue.push(std::move(*item))) break;
-    }
     write_queue.close();
     reader.join();
     writer.join();
 
-    report.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    report.error = failure.get();
-    if (report.error.empty() && plan.stream_in && report.frames.empty() && !o.allow_empty) {
-        report.error = "stdin: no frames read (an empty stream: did the program before lensfx fail?); --allow-empty accepts it";
-    }
-    if (!o.report_path.empty()) write_report(report, o.report_path);
-    if (!report.error.empty()) throw std::runtime_error(report.error);
+    finish_report(report, o, plan, failure.get(), start);
     return report;
 }
 

@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include <flare/cache.h>
 #include <fmt/core.h>
 
 namespace lensfx::gpu {
@@ -31,13 +32,6 @@ const char* to_string(Bounding bounding) {
         case Bounding::None: return "none";
     }
     return "?";
-}
-
-std::string default_cache_dir() {
-    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir && *dir) return std::string(dir) == "none" ? std::string() : dir;
-    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/lensfx";
-    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/lensfx";
-    return {};
 }
 
 namespace {
@@ -246,71 +240,6 @@ std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, Visibil
     return verdicts;
 }
 
-namespace {
-
-struct Fnv {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    void bytes(const void* data, std::size_t n) {
-        const auto* p = static_cast<const unsigned char*>(data);
-        for (std::size_t i = 0; i < n; ++i) {
-            h ^= p[i];
-            h *= 0x100000001b3ull;
-        }
-    }
-    void num(double v) { bytes(&v, sizeof v); }
-    void num(std::int64_t v) { bytes(&v, sizeof v); }
-    void text(const std::string& s) {
-        num(static_cast<std::int64_t>(s.size()));
-        bytes(s.data(), s.size());
-    }
-    void glass(const optics::Glass& g) {
-        text(g.name);
-        num(static_cast<std::int64_t>(g.formula));
-        num(static_cast<std::int64_t>(g.coefficients.size()));
-        for (double c : g.coefficients) num(c);
-        num(g.nd);
-        num(g.vd);
-    }
-};
-
-}  // namespace
-
-std::uint64_t system_hash(const System& system) {
-    Fnv f;
-    f.text("lensfx bounds v2");
-    f.text(system.name);
-    f.num(static_cast<std::int64_t>(system.interfaces.size()));
-    for (const System::Interface& s : system.interfaces) {
-        f.num(s.radius_mm);
-        f.num(s.z_mm);
-        f.num(s.semi_diameter_mm);
-        f.glass(s.before);
-        f.glass(s.after);
-        f.num(static_cast<std::int64_t>(s.coating.kind));
-        f.num(s.coating.design_wavelength_nm);
-        f.num(s.coating.layer_index);
-        f.num(s.coating.thickness_offset);
-        f.num(static_cast<std::int64_t>(s.coating.layers.size()));
-        for (const optics::Coating::Layer& layer : s.coating.layers) {
-            f.glass(layer.material);
-            f.num(layer.thickness_nm);
-        }
-        f.num(static_cast<std::int64_t>(s.coating.design));
-        f.num(static_cast<std::int64_t>(s.coating.layer_errors.size()));
-        for (double e : s.coating.layer_errors) f.num(e);
-        f.num(static_cast<std::int64_t>(s.is_stop));
-        f.num(s.conic);
-        f.num(static_cast<std::int64_t>(s.aspheric.size()));
-        for (double a : s.aspheric) f.num(a);
-    }
-    f.num(static_cast<std::int64_t>(system.stop));
-    f.num(system.sensor_z_mm);
-    f.num(static_cast<std::int64_t>(system.aperture.blades));
-    f.num(system.aperture.rotation_deg);
-    f.num(system.aperture.blade_curvature);
-    return f.h;
-}
-
 FieldDirection field_direction(const FlareView& view) {
     const double k = std::numbers::pi / 180.0;
     const double tx = std::tan(view.angle_x_deg * k);
@@ -324,7 +253,7 @@ BoundsTable::BoundsTable(std::uint64_t key, int passes, int ghosts, std::string 
 
 std::string BoundsTable::path() const {
     if (dir_.empty() || dir_ == "none") return {};
-    return fmt::format("{}/bounds-{:016x}.bin", dir_, key_);
+    return flare::cache_file(dir_, "bounds", key_);
 }
 
 const std::vector<std::vector<GhostEstimate>>* BoundsTable::entry(int index) const {
@@ -387,12 +316,7 @@ int BoundsTable::load() {
 void BoundsTable::save() const {
     const std::string file = path();
     if (file.empty()) return;
-    std::error_code ec;
-    std::filesystem::create_directories(dir_, ec);
-    if (ec) throw std::runtime_error(fmt::format("{}: cannot create the cache directory: {}", dir_, ec.message()));
-    const std::string temporary = fmt::format("{}.{}.tmp", file, static_cast<const void*>(this));
-    {
-        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    flare::write_cache_file(file, [&](std::ostream& out) {
         const std::int32_t shape[3] = {passes_, ghosts_, static_cast<std::int32_t>(entries_.size())};
         out.write(kMagic, sizeof kMagic);
         out.write(reinterpret_cast<const char*>(&key_), sizeof key_);
@@ -409,10 +333,7 @@ void BoundsTable::save() const {
                 }
             }
         }
-        if (!out) throw std::runtime_error(fmt::format("{}: cannot write the bounds cache", temporary));
-    }
-    std::filesystem::rename(temporary, file, ec);
-    if (ec) throw std::runtime_error(fmt::format("{}: cannot write the bounds cache: {}", file, ec.message()));
+    });
 }
 
 std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) const {

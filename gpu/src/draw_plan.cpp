@@ -1,7 +1,6 @@
 // The CPU steps of FlareRenderer::draw: selection, totals, scene culling, pass plans, batches, bands, keys.
 #include <gpu/draw_plan.h>
 
-#include <bit>
 #include <cmath>
 
 #include <gpu/flare_renderer.h>
@@ -146,21 +145,20 @@ FullBands full_target_bands(int width, int height, double max_bytes, bool whole)
     return b;
 }
 
-namespace {
-constexpr std::uint64_t kFnvPrime = 0x100000001b3ull;
-}  // namespace
-
 std::uint64_t ghosts_key(const System& system, const std::vector<Ghost>& ghosts) {
-    std::uint64_t key = system_hash(system);
-    for (const Ghost& ghost : ghosts)
-        key = (key ^ (static_cast<std::uint64_t>(ghost.first) * 4096u + static_cast<std::uint64_t>(ghost.second))) * kFnvPrime;
-    return key;
+    flare::KeyHash key{system_hash(system)};
+    for (const Ghost& ghost : ghosts) {
+        key.num(static_cast<std::int64_t>(ghost.first));
+        key.num(static_cast<std::int64_t>(ghost.second));
+    }
+    return key.h;
 }
 
 std::uint64_t bounds_table_key(std::uint64_t ghosts_key, const std::vector<SpectralPass>& passes, double sensor_radius_mm) {
-    std::uint64_t key = ghosts_key;
-    for (const SpectralPass& pass : passes) key = (key ^ std::bit_cast<std::uint64_t>(pass.wavelength_nm)) * kFnvPrime;
-    return (key ^ std::bit_cast<std::uint64_t>(sensor_radius_mm)) * kFnvPrime;
+    flare::KeyHash key{ghosts_key};
+    for (const SpectralPass& pass : passes) key.num(pass.wavelength_nm);
+    key.num(sensor_radius_mm);
+    return key.h;
 }
 
 }  // namespace lensfx::gpu

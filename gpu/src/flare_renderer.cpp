@@ -743,7 +743,7 @@ BoundsTable& FlareRenderer::Drawing::bounds_table(const FlareView& lit, const Fi
     const std::uint64_t table_key = bounds_table_key(key_, passes_, sensor_radius_);
     auto it = s_.bounds_tables.find(table_key);
     if (it == s_.bounds_tables.end()) {
-        const std::string dir = options_.accel.cache_dir.empty() ? default_cache_dir() : options_.accel.cache_dir;
+        const std::string dir = flare::cache_dir_of(options_.accel.cache_dir);
         it = s_.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes_.size()),
                                                             static_cast<int>(ghosts_.size()), dir)).first;
         s_.stats.table_loaded = it->second.load();

@@ -9,7 +9,7 @@
 
 #include <dof/deep_exr.h>
 #include <dof/reference.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <optics/tracer.h>
 
 #include "dof_scenes.h"
@@ -215,7 +215,7 @@ TEST(DofReference, SpectralBandsMixEachBandsBlurByTheColourMatchingWeights) {
     cam.system.aperture.blades = 0;
     const LayerStack scene = point_scene(n, 2.0, n / 2, n / 2, 1000.0f);
     std::vector<Band> bands;
-    for (const gpu::SpectralPass& p : gpu::spectral_passes(7)) bands.push_back({p.wavelength_nm, p.weight});
+    for (const flare::SpectralPass& p : flare::spectral_passes(7)) bands.push_back({p.wavelength_nm, p.weight});
     std::vector<double> mixed(3 * static_cast<std::size_t>(n * n), 0.0);
     for (const Band& b : bands) {
         Camera one = cam;

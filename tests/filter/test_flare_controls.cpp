@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filter/flare_stage.h>
+#include <flare/direct_power.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
@@ -139,7 +140,7 @@ TEST(FlareControls, StarburstGainMeansTheSameInTheFilterAndInLensfxFlare) {
     const Image f1 = read(dir / "f1.exr"), f4 = read(dir / "f4.exr");
     const double pixel_area = (36.0 / 960.0) * (24.0 / 640.0);
     const optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, 8.0);
-    const auto direct = filter::direct_power(system, 0.0, 0.0);
+    const auto direct = flare::direct_power(system, 0.0, 0.0);
     EXPECT_NEAR(f1.sum(1) * pixel_area / direct[1], 1.0, 0.02) << "starburst-gain 1: the light's energy through the lens";
     EXPECT_NEAR(f4.sum(1) / f1.sum(1), 0.25, 1e-5);
 

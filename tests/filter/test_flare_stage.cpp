@@ -69,44 +69,6 @@ TEST(FlareStage, PartsParse) {
     EXPECT_THROW(filter::parse_parts("ghosts,glow"), std::invalid_argument);
 }
 
-TEST(FlareStage, PixelToAngleFollowsTheFocalLengthAndSensor) {
-    filter::FlareGeometry g;
-    g.focal_mm = 50.0;
-    g.sensor_width_mm = 36.0;
-    g.sensor_height_mm = 24.0;
-    g.width = 1500;
-    g.height = 1000;
-    const auto centre = g.angles_at(750.0, 500.0);
-    EXPECT_NEAR(centre[0], 0.0, 1e-12);
-    EXPECT_NEAR(centre[1], 0.0, 1e-12);
-    const auto corner = g.angles_at(1500.0, 0.0);  // top right: right of and above the axis
-    EXPECT_NEAR(corner[0], std::atan(18.0 / 50.0) * 180.0 / std::numbers::pi, 1e-9);
-    EXPECT_NEAR(corner[1], std::atan(12.0 / 50.0) * 180.0 / std::numbers::pi, 1e-9);
-    EXPECT_NEAR(g.pixel_area_mm2(), 0.024 * 0.024, 1e-15);
-}
-
-TEST(FlareStage, DirectPowerIsThePupilAreaTimesTransmission) {
-    optics::System system = optics::realize(optics::load_lens("mld-double-gauss"), 0.0, 4.0);
-    system.aperture.blades = 0;  // a round iris, so the pupil is the paraxial circle
-    const double epd = optics::paraxial(system).entrance_pupil_diameter_mm;
-    const double area = std::numbers::pi * epd * epd / 4.0;
-    const auto on_axis = filter::direct_power(system, 0.0, 0.0, 128);
-    for (double p : on_axis) {
-        EXPECT_GT(p, 0.85 * area);  // coated interfaces lose a few percent
-        EXPECT_LT(p, 1.01 * area);
-    }
-    // Off axis the pupil is seen obliquely and vignetted: less power, never more.
-    const auto off_axis = filter::direct_power(system, 15.0, 5.0, 128);
-    for (std::size_t c = 0; c < 3; ++c) EXPECT_LT(off_axis[c], on_axis[c]);
-    // Far outside the field nothing reaches the sensor.
-    for (double p : filter::direct_power(system, 80.0, 0.0, 64)) EXPECT_EQ(p, 0.0);
-    // Six straight blades with their corners on the stop circle pass a hexagon: 3 sqrt(3) / (2 pi) of it.
-    system.aperture.blades = 6;
-    const auto hexagon = filter::direct_power(system, 0.0, 0.0, 128);
-    for (std::size_t c = 0; c < 3; ++c)
-        EXPECT_NEAR(hexagon[c] / on_axis[c], 3.0 * std::sqrt(3.0) / (2.0 * std::numbers::pi), 0.01);
-}
-
 TEST(FlareStage, AddsGhostsAtPhysicalStrengthAndIsDeterministic) {
     const fs::path dir = temp_dir("e2e");
     write_frame(dir / "in.exr", 230.3, 60.6, 20000.0f);

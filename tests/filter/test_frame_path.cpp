@@ -361,26 +361,3 @@ TEST(FramePath, MovingLightDoesNotFlickerAndThreadsDoNotMatter) {
         EXPECT_LT(std::abs(ratio[i] - ratio[i - 1]) / mean, 0.01) << "flicker between frames " << i << " and " << i + 1;
 }
 
-TEST(FramePath, DirectPowerTableIsWithinOnePercentOfADenseTrace) {
-    // Across a full-frame 36 x 24 mm field (a 50 mm lens: corners at 23 degrees), at azimuths off the
-    // table's axis, for a round and a bladed iris.
-    for (const char* name : {"mld-double-gauss", "brendel-tessar"}) {
-        for (int blades : {0, 6}) {
-            optics::System system = optics::realize(optics::load_lens(name), 0.0, std::nullopt);
-            system.aperture.blades = blades;
-            const double focal = optics::paraxial(system).efl_mm;
-            const double corner = std::atan(std::hypot(18.0, 12.0) / focal) * 180.0 / 3.14159265358979323846;
-            const filter::DirectPowerTable table(system, corner * 1.02);
-            const double on_axis = filter::direct_power(system, 0.0, 0.0, 256)[1];
-            for (const auto& [fx, fy] : std::vector<std::pair<double, double>>{{0.1, 0.05}, {0.45, 0.3}, {-0.8, 0.6}, {0.95, -0.97}, {0.3, -0.9}}) {
-                const double ax = std::atan(fx * 18.0 / focal) * 180.0 / 3.14159265358979323846;
-                const double ay = std::atan(fy * 12.0 / focal) * 180.0 / 3.14159265358979323846;
-                const auto dense = filter::direct_power(system, ax, ay, 256);
-                const auto fast = table.at(ax, ay);
-                for (std::size_t c = 0; c < 3; ++c)
-                    EXPECT_NEAR(fast[c], dense[c], 0.01 * std::max(dense[c], 0.05 * on_axis))
-                        << name << " blades " << blades << " at (" << ax << ", " << ay << ") channel " << c;
-            }
-        }
-    }
-}

@@ -18,7 +18,7 @@
 
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/ghosts.h>
 #include <optics/lens_file.h>
@@ -26,6 +26,8 @@
 
 namespace lensfx::gpu {
 namespace {
+
+using namespace lensfx::flare;  // the view, the reference and the comparisons the GPU image is held to
 
 std::filesystem::path fresh_dir(const std::string& name) {
     const auto dir = std::filesystem::temp_directory_path() /

@@ -14,7 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
@@ -22,6 +22,8 @@
 
 namespace lensfx::gpu {
 namespace {
+
+using namespace lensfx::flare;  // the view, the reference and the comparisons the GPU image is held to
 
 struct Case {
     const char* lens;

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/coating.h>
 #include <optics/lens_file.h>

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/ghost_cap.h>
 #include <optics/ghosts.h>

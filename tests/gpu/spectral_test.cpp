@@ -12,13 +12,15 @@
 
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
 namespace lensfx::gpu {
 namespace {
+
+using namespace lensfx::flare;  // the view, the reference and the comparisons the GPU image is held to
 
 FlareView test_view(int bands) {
     FlareView view;

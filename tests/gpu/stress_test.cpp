@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <measured/accuracy.h>
 #include <measured/fit.h>
@@ -24,8 +24,8 @@ constexpr int kImageWidth = 240, kImageHeight = 160;
 constexpr double kSensorW = 72.0, kSensorH = 48.0;
 constexpr double kBackground = 1e-4, kNoise = 2e-5;
 
-inline gpu::FlareView view_at(double ax, double ay, int width = kImageWidth, int height = kImageHeight) {
-    gpu::FlareView v;
+inline flare::FlareView view_at(double ax, double ay, int width = kImageWidth, int height = kImageHeight) {
+    flare::FlareView v;
     v.angle_x_deg = ax, v.angle_y_deg = ay;
     v.sensor_width_mm = kSensorW, v.sensor_height_mm = kSensorH;
     v.width = width, v.height = height;

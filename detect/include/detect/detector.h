@@ -31,6 +31,11 @@ struct DetectorOptions {
     void validate() const;
 };
 
+// The scratch of one connected-components labelling (cv::connectedComponentsWithStats), reused per frame.
+struct Components {
+    cv::Mat mask, labels, stats, centroids;
+};
+
 // Holds the options and the scratch buffers reused from frame to frame (one detector per thread).
 class Detector {
 public:
@@ -48,8 +53,8 @@ private:
     DetectorOptions options_;
     cv::Mat luminance_;  // CV_32F, sanitised full-resolution luminance
     cv::Mat pooled_;     // CV_32F, block maxima
-    cv::Mat coarse_mask_, coarse_labels_, coarse_stats_, coarse_centroids_;
-    cv::Mat roi_mask_, roi_labels_, roi_stats_, roi_centroids_;
+    Components coarse_;  // of the pooled map
+    Components fine_;    // of one coarse component's region at full resolution
     std::vector<unsigned> fine_histogram_;
 };
 

@@ -39,7 +39,7 @@ struct Camera {
     std::vector<FocusPoint> focus_points;
     double focus_power = 2.0;
     std::array<double, 3> wavelengths_nm = kRgbWavelengths_nm;  // per channel (all equal: no chromatic blur)
-    // Spectral bands (--bands, gpu::spectral_passes: CIE 1931 weights, each channel's summing to 1); empty:
+    // Spectral bands (--bands, flare::spectral_passes: CIE 1931 weights, each channel's summing to 1); empty:
     // one band per channel at wavelengths_nm.
     std::vector<Band> bands;
 

@@ -1,7 +1,8 @@
 // The lens blur's ray table kept on disk, so a sequence (and every farm chunk or later run with the same
 // lens, zoom, f-number, focus, sensor, raster and table size) traces it once: <dir>/dof-rays-<key>.bin.
 // The key is a hash of everything the table depends on; the file repeats the whole key text and ends in a
-// checksum, so a foreign, truncated or corrupted file is rejected and rebuilt. Written aside and renamed.
+// checksum, so a foreign, truncated or corrupted file is rejected and rebuilt. Named, hashed and written
+// atomically by the disk cache (flare/cache.h).
 #pragma once
 #include <optional>
 #include <string>

@@ -21,7 +21,7 @@ struct AccelerationSettings {
     int max_ghosts = 0;
     bool no_reduced = false;
     bool aperture_culling = false;
-    std::string cache_dir;  // empty: gpu::default_cache_dir()
+    std::string cache_dir;  // every disk cache's folder: empty = flare::default_cache_dir(), "none" = no disk cache
 
     gpu::Acceleration acceleration() const;
 };

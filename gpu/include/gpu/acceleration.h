@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include <gpu/flare.h>
+#include <gpu/flare_model.h>
 
 namespace lensfx::gpu {
 
@@ -35,7 +35,7 @@ struct Acceleration {
     // behind the stop, second in front), mostly blocked when the iris is small. Off by default: the level
     // of detail already skips them when they are dim, and wide open they are not.
     bool aperture_culling = false;
-    std::string cache_dir;         // bounds table files; empty = default_cache_dir(), "none" = memory only
+    std::string cache_dir;         // bounds table files: as --cache-dir (flare::cache_dir_of)
 };
 
 // Documented errors: switching one acceleration off changes a 480x320 image of the test lenses
@@ -53,10 +53,6 @@ inline constexpr double kTableL1 = 0.006, kTablePower = 0.001;
 inline constexpr double kAdaptiveL1 = 0.012, kAdaptivePower = 0.012;
 inline constexpr double kLodL1 = 0.003, kLodPower = 0.002;
 inline constexpr double kReducedL1 = 0.003, kReducedPower = 0.001;
-
-// Where computed tables and textures are kept: $LENSFX_CACHE_DIR ("none": empty), else
-// $XDG_CACHE_HOME/lensfx, else $HOME/.cache/lensfx, else empty (no disk cache).
-std::string default_cache_dir();
 
 // What a coarse pass learns of one ghost at one wavelength and light direction.
 struct GhostEstimate {
@@ -135,15 +131,11 @@ struct CullItem {
 // to map.used, so several calls (an extended light's groups, then the point lights) share one budget.
 std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map);
 
-// A stable 64-bit hash (FNV-1a) of everything about a system that changes its ghosts' bounds: every
-// interface (shape, position, media, coatings), the stop, the sensor and the iris.
-std::uint64_t system_hash(const System& system);
-
 // Entrance-pupil rectangles of every ghost over a grid of field angles (and a sensor size) (light in the x-z plane, at
 // multiples of step_deg), for a round iris of the stop radius (which contains any bladed iris): by the
 // lens's rotational symmetry a light at field angle theta and azimuth phi sees the rectangle of theta
 // turned by phi. Entries are computed on demand (by the caller's coarse pass), kept in memory and
-// written to <dir>/bounds-<key>.bin.
+// written to <dir>/bounds-<key>.bin through the disk cache (flare/cache.h).
 class BoundsTable {
 public:
     static constexpr double step_deg = 0.5;

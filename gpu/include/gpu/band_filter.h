@@ -5,7 +5,7 @@
 
 #include <functional>
 
-#include <gpu/flare.h>
+#include <gpu/flare_model.h>
 
 namespace lensfx::gpu {
 

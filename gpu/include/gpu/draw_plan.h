@@ -13,7 +13,7 @@
 #include <vector>
 
 #include <gpu/acceleration.h>
-#include <gpu/flare.h>
+#include <gpu/flare_model.h>
 #include <optics/flare_look.h>
 
 namespace lensfx::gpu {
@@ -110,7 +110,7 @@ struct FullBands {
 FullBands full_target_bands(int width, int height, double max_bytes, bool whole);
 
 // The key of a lens's ghost selection (its sequences are built once per key and wavelength): system_hash
-// mixed with every ghost's two interfaces (FNV-1a step).
+// mixed with every ghost's two interfaces (flare::KeyHash, the disk cache's one key hash).
 std::uint64_t ghosts_key(const System& system, const std::vector<Ghost>& ghosts);
 // The bounds table's key: the ghosts' key, the wavelengths and the radius round the sensor.
 std::uint64_t bounds_table_key(std::uint64_t ghosts_key, const std::vector<SpectralPass>& passes, double sensor_radius_mm);

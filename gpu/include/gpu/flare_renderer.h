@@ -13,7 +13,7 @@
 
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
-#include <gpu/flare.h>
+#include <gpu/flare_model.h>
 #include <optics/flare_look.h>
 #include <optics/memory_budget.h>
 

@@ -15,7 +15,7 @@
 #include <optics/starburst.h>
 #include <optics/tracer.h>
 
-namespace lensfx::gpu {
+namespace lensfx::flare {
 
 using optics::Aperture;
 using optics::Ghost;
@@ -44,13 +44,25 @@ struct SpectralPass {
 // negative (spectral colours lie outside most gamuts). Throws std::invalid_argument on a bad band count.
 std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_rgb = optics::kXyzToRec709);
 
-struct FlareView {
-    double angle_x_deg = 0.0;  // light ax degrees right of the view axis (DESIGN.md)
-    double angle_y_deg = 0.0;  // ay degrees above it
+// The frame as the lens sees it: the sensor's size, its pixels (the upright photograph, row 0 at the top)
+// and the rectilinear mapping of pixels to field angles through focal_mm.
+struct SensorView {
     double sensor_width_mm = 36.0;
     double sensor_height_mm = 24.0;
     int width = 360;   // pixels
     int height = 240;
+    double focal_mm = 0.0;  // from the lens (paraxial EFL) or --fov; only angles_at needs it
+
+    double pixel_area_mm2() const { return (sensor_width_mm / width) * (sensor_height_mm / height); }
+    // Field angles (ax right, ay up, degrees) of a light imaged at pixel position (x, y) (pixel centres at
+    // +0.5; row 0 at the top).
+    std::array<double, 2> angles_at(double x, double y) const;
+};
+
+// What a flare image is drawn for: the sensor view, the light's direction and the wavelengths.
+struct FlareView : SensorView {
+    double angle_x_deg = 0.0;  // light ax degrees right of the view axis (DESIGN.md)
+    double angle_y_deg = 0.0;  // ay degrees above it
     // Empty: RGB mode (kRgbWavelengths_nm), or `bands` spectral bands. One value: that wavelength into
     // every channel.
     std::optional<double> wavelength_nm;
@@ -59,7 +71,6 @@ struct FlareView {
     // Only these ghosts (Ghost::first, Ghost::second as System interface indices); empty = all.
     std::vector<std::pair<int, int>> only_ghosts;
 
-    double pixel_area_mm2() const { return (sensor_width_mm / width) * (sensor_height_mm / height); }
     // What to render: three one-channel passes in RGB mode, spectral_passes(bands, xyz_to_rgb) in
     // spectral mode, one pass into every channel for a single wavelength. Throws on a bad band count or
     // on both a wavelength and bands.
@@ -152,4 +163,4 @@ FlareError compare_flare(const FlareImage& image, const FlareImage& reference, c
 // where block sums hide them. 0 when the reference has no gradient.
 double gradient_error(const FlareImage& image, const FlareImage& reference);
 
-}  // namespace lensfx::gpu
+}  // namespace lensfx::flare

@@ -1,5 +1,5 @@
 // Extended sources: footprint groups and the footprint convolution.
-#include <filter/footprint.h>
+#include <flare/footprint.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace lensfx::filter {
+namespace lensfx::flare {
 
 namespace {
 
@@ -268,4 +268,4 @@ std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& g
     return out;
 }
 
-}  // namespace lensfx::filter
+}  // namespace lensfx::flare

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include <gpu/flare.h>
+#include <flare/flare.h>
 
-namespace lensfx::gpu {
+namespace lensfx::flare {
 namespace {
 
 TEST(SpectralPasses, RgbModeIsThreeOneChannelWavelengths) {
@@ -79,4 +79,4 @@ TEST(SpectralPasses, BadBandCountsAreRefused) {
 }
 
 }  // namespace
-}  // namespace lensfx::gpu
+}  // namespace lensfx::flare

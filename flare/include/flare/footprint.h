@@ -11,7 +11,7 @@
 #include <optics/ghosts.h>
 #include <optics/starburst.h>
 
-namespace lensfx::filter {
+namespace lensfx::flare {
 
 // A group of an extended light's ghosts drawn together.
 struct FootprintGroup {
@@ -50,4 +50,4 @@ void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture&
                             const optics::StarburstPlacement& at, const std::array<double, 3>& power,
                             const detect::Shape& shape, const optics::SensorImage& image);
 
-}  // namespace lensfx::filter
+}  // namespace lensfx::flare

@@ -1,5 +1,5 @@
 // Shared flare definitions (view, image, iris SDF, ghost pupil bounds) and the dense CPU reference.
-#include <gpu/flare.h>
+#include <flare/flare.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -11,7 +11,7 @@
 #include <fmt/core.h>
 #include <optics/paraxial.h>
 
-namespace lensfx::gpu {
+namespace lensfx::flare {
 
 using optics::Coating;
 using optics::Ray;
@@ -47,6 +47,13 @@ std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_
         for (SpectralPass& p : passes) p.weight[c] /= sum[c];
     }
     return passes;
+}
+
+std::array<double, 2> SensorView::angles_at(double x, double y) const {
+    constexpr double kDegrees = 180.0 / std::numbers::pi;
+    const double xs = (x / width - 0.5) * sensor_width_mm;
+    const double ys = (0.5 - y / height) * sensor_height_mm;
+    return {std::atan(xs / focal_mm) * kDegrees, std::atan(ys / focal_mm) * kDegrees};
 }
 
 std::vector<SpectralPass> FlareView::passes() const {
@@ -334,4 +341,4 @@ double gradient_error(const FlareImage& image, const FlareImage& reference) {
     return total > 0.0 ? difference / total : 0.0;
 }
 
-}  // namespace lensfx::gpu
+}  // namespace lensfx::flare

@@ -1,0 +1,151 @@
+// The disk cache's folder rule, key hash and atomic writer (cache.h).
+#include <flare/cache.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <system_error>
+#include <thread>
+
+#include <fmt/core.h>
+
+namespace lensfx::flare {
+
+std::string default_cache_dir() {
+    if (const char* dir = std::getenv("LENSFX_CACHE_DIR"); dir && *dir) return std::string(dir) == "none" ? std::string() : dir;
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/lensfx";
+    if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/lensfx";
+    return {};
+}
+
+std::string cache_dir_of(const std::string& option) {
+    if (option == "none") return {};
+    return option.empty() ? default_cache_dir() : option;
+}
+
+void KeyHash::bytes(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) {
+        h ^= p[i];
+        h *= 0x100000001b3ull;
+    }
+}
+
+void KeyHash::text(const std::string& s) {
+    num(static_cast<std::int64_t>(s.size()));
+    bytes(s.data(), s.size());
+}
+
+std::uint64_t key_hash(std::string_view key) {
+    KeyHash h;
+    h.bytes(key.data(), key.size());
+    return h.h;
+}
+
+namespace {
+
+void add_glass(KeyHash& f, const optics::Glass& g) {
+    f.text(g.name);
+    f.num(static_cast<std::int64_t>(g.formula));
+    f.num(static_cast<std::int64_t>(g.coefficients.size()));
+    for (double c : g.coefficients) f.num(c);
+    f.num(g.nd);
+    f.num(g.vd);
+}
+
+// A temporary name beside path, unique to this process and thread.
+std::string temporary_beside(const std::string& path) {
+    return fmt::format("{}.{}.{:x}.tmp", path, static_cast<long>(::getpid()), std::hash<std::thread::id>{}(std::this_thread::get_id()));
+}
+
+}  // namespace
+
+std::uint64_t system_hash(const optics::System& system) {
+    KeyHash f;
+    f.text("lensfx bounds v2");
+    f.text(system.name);
+    f.num(static_cast<std::int64_t>(system.interfaces.size()));
+    for (const optics::System::Interface& s : system.interfaces) {
+        f.num(s.radius_mm);
+        f.num(s.z_mm);
+        f.num(s.semi_diameter_mm);
+        add_glass(f, s.before);
+        add_glass(f, s.after);
+        f.num(static_cast<std::int64_t>(s.coating.kind));
+        f.num(s.coating.design_wavelength_nm);
+        f.num(s.coating.layer_index);
+        f.num(s.coating.thickness_offset);
+        f.num(static_cast<std::int64_t>(s.coating.layers.size()));
+        for (const optics::Coating::Layer& layer : s.coating.layers) {
+            add_glass(f, layer.material);
+            f.num(layer.thickness_nm);
+        }
+        f.num(static_cast<std::int64_t>(s.coating.design));
+        f.num(static_cast<std::int64_t>(s.coating.layer_errors.size()));
+        for (double e : s.coating.layer_errors) f.num(e);
+        f.num(static_cast<std::int64_t>(s.is_stop));
+        f.num(s.conic);
+        f.num(static_cast<std::int64_t>(s.aspheric.size()));
+        for (double a : s.aspheric) f.num(a);
+    }
+    f.num(static_cast<std::int64_t>(system.stop));
+    f.num(system.sensor_z_mm);
+    f.num(static_cast<std::int64_t>(system.aperture.blades));
+    f.num(system.aperture.rotation_deg);
+    f.num(system.aperture.blade_curvature);
+    return f.h;
+}
+
+std::string cache_file(const std::string& dir, std::string_view kind, std::uint64_t hash) {
+    return (std::filesystem::path(dir) / fmt::format("{}-{:016x}.bin", kind, hash)).string();
+}
+
+void write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write) {
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty()) std::filesystem::create_directories(folder, ec);
+    if (ec) throw std::runtime_error(fmt::format("{}: cannot create the cache directory: {}", folder.string(), ec.message()));
+    const std::string temporary = temporary_beside(path);
+    {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        if (out) write(out);
+        out.close();
+        if (!out) {
+            std::filesystem::remove(temporary, ec);
+            throw std::runtime_error(fmt::format("{}: cannot write the cache file", temporary));
+        }
+    }
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) {
+        std::error_code ignored;
+        std::filesystem::remove(temporary, ignored);
+        throw std::runtime_error(fmt::format("{}: cannot write the cache file: {}", path, ec.message()));
+    }
+}
+
+bool try_write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write) {
+    try {
+        write_cache_file(path, write);
+        return true;
+    } catch (const std::exception&) {
+        return false;
+    }
+}
+
+void write_key(std::ostream& out, std::string_view key) {
+    const auto size = static_cast<std::uint64_t>(key.size());
+    out.write(reinterpret_cast<const char*>(&size), sizeof size);
+    out.write(key.data(), static_cast<std::streamsize>(key.size()));
+}
+
+bool read_key(std::istream& in, std::string_view key) {
+    std::uint64_t size = 0;
+    if (!in.read(reinterpret_cast<char*>(&size), sizeof size) || size != key.size()) return false;
+    std::string stored(key.size(), '\0');
+    return in.read(stored.data(), static_cast<std::streamsize>(stored.size())) && stored == key;
+}
+
+}  // namespace lensfx::flare

@@ -1,0 +1,124 @@
+// Direct power: the lens's direct path traced over the entrance square, and its table over the field.
+#include <flare/direct_power.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/core.h>
+#include <flare/cache.h>
+#include <optics/ghosts.h>
+#include <optics/tracer.h>
+
+namespace lensfx::flare {
+
+namespace {
+
+constexpr double kDegrees = 180.0 / std::numbers::pi;
+
+}  // namespace
+
+std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays,
+                                   const std::vector<SpectralPass>& passes) {
+    std::array<double, 3> power{};
+    FlareView view;
+    view.angle_x_deg = ax_deg;
+    view.angle_y_deg = ay_deg;
+    const std::vector<optics::Step> path = optics::direct_path(system);
+    for (const SpectralPass& pass : passes.empty() ? view.passes() : passes) {
+        const optics::TraceSystem traced(system, pass.wavelength_nm);
+        const PupilRect square = entrance_square(traced, view);
+        const double dx = (square.x1 - square.x0) / rays;
+        const double dy = (square.y1 - square.y0) / rays;
+        double sum = 0.0;
+        for (int iy = 0; iy < rays; ++iy) {
+            for (int ix = 0; ix < rays; ++ix) {
+                const optics::Ray ray = optics::collimated_ray(ax_deg, ay_deg, square.x0 + dx * (ix + 0.5),
+                                                               square.y0 + dy * (iy + 0.5), 0.0);
+                const optics::TraceResult r = optics::trace(traced, ray, path);
+                if (ray_passes(r, system.aperture)) sum += r.transmission * std::abs(ray.direction.z);
+            }
+        }
+        for (std::size_t c = 0; c < 3; ++c) power[c] += pass.weight[c] * sum * dx * dy;
+    }
+    return power;
+}
+
+DirectPowerTable::DirectPowerTable(const optics::System& system, double max_field_deg, int samples, int rays,
+                                   std::vector<SpectralPass> passes)
+    : system_(system), passes_(std::move(passes)), rays_(rays), max_field_deg_(max_field_deg),
+      power_(static_cast<std::size_t>(std::max(samples, 0))), known_(static_cast<std::size_t>(std::max(samples, 0)), 0) {
+    if (samples < 2 || rays < 1 || !(max_field_deg > 0.0))
+        throw std::invalid_argument(fmt::format("direct power table: {} samples of {} rays up to {} degrees", samples,
+                                                rays, max_field_deg));
+}
+
+const std::array<double, 3>& DirectPowerTable::sample(int i) const {
+    const auto k = static_cast<std::size_t>(std::clamp(i, 0, static_cast<int>(power_.size()) - 1));
+    if (!known_[k]) {
+        power_[k] = direct_power(system_, max_field_deg_ * static_cast<double>(k) / static_cast<double>(power_.size() - 1), 0.0, rays_,
+                                 passes_);
+        known_[k] = 1;
+    }
+    return power_[k];
+}
+
+int DirectPowerTable::traced() const { return static_cast<int>(std::count(known_.begin(), known_.end(), 1)); }
+
+std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
+    const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
+    const int n = static_cast<int>(power_.size());
+    const double u = std::clamp(field / max_field_deg_, 0.0, 1.0) * (n - 1);
+    const int i = std::min(static_cast<int>(u), n - 2);
+    const double t = u - i;
+    // Catmull-Rom through the samples around u (ends repeated); a power is never negative.
+    const auto p0 = sample(i - 1), p1 = sample(i), p2 = sample(i + 1), p3 = sample(i + 2);
+    std::array<double, 3> out{};
+    for (std::size_t c = 0; c < 3; ++c) {
+        const double v = 0.5 * (2.0 * p1[c] + (-p0[c] + p2[c]) * t + (2.0 * p0[c] - 5.0 * p1[c] + 4.0 * p2[c] - p3[c]) * t * t +
+                                (-p0[c] + 3.0 * p1[c] - 3.0 * p2[c] + p3[c]) * t * t * t);
+        out[c] = std::max(0.0, v);
+    }
+    return out;
+}
+
+void DirectPowerTable::save(const std::filesystem::path& path, const std::string& key) const {
+    try_write_cache_file(path.string(), [&](std::ostream& out) {
+        const auto n = static_cast<std::uint64_t>(power_.size());
+        write_key(out, key);
+        out.write(reinterpret_cast<const char*>(&n), sizeof(n));
+        out.write(known_.data(), static_cast<std::streamsize>(known_.size()));
+        out.write(reinterpret_cast<const char*>(power_.data()), static_cast<std::streamsize>(power_.size() * sizeof(power_[0])));
+    });
+}
+
+bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
+    std::ifstream in(path, std::ios::binary);
+    std::uint64_t n = 0;
+    if (!read_key(in, key)) return false;
+    if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n != power_.size()) return false;
+    std::vector<char> known(power_.size());
+    std::vector<std::array<double, 3>> power(power_.size());
+    if (!in.read(known.data(), static_cast<std::streamsize>(known.size())) ||
+        !in.read(reinterpret_cast<char*>(power.data()), static_cast<std::streamsize>(power.size() * sizeof(power[0]))) ||
+        in.peek() != std::char_traits<char>::eof())
+        return false;
+    for (std::size_t k = 0; k < known.size(); ++k)
+        if (known[k] && !known_[k] && std::isfinite(power[k][0]) && std::isfinite(power[k][1]) && std::isfinite(power[k][2])) {
+            power_[k] = power[k];
+            known_[k] = 1;
+        }
+    return true;
+}
+
+std::string passes_key(const std::vector<SpectralPass>& passes) {
+    std::string key = "passes";
+    for (const SpectralPass& p : passes)
+        key += fmt::format(" {:.17g}:{:.17g},{:.17g},{:.17g}", p.wavelength_nm, p.weight[0], p.weight[1], p.weight[2]);
+    return key;
+}
+
+}  // namespace lensfx::flare

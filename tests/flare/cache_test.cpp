@@ -1,0 +1,144 @@
+// The disk cache (flare/cache.h): the folder rule, the key hash and the atomic writer, and the two caches
+// the flare model keeps through it (direct-power tables, starburst textures): stored, read, and a damaged,
+// foreign or other-shaped file recomputed.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <stdexcept>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <flare/cache.h>
+#include <flare/direct_power.h>
+#include <flare/starburst_cache.h>
+#include <optics/aperture.h>
+#include <optics/lens_file.h>
+#include <optics/starburst.h>
+#include <optics/system.h>
+
+namespace fs = std::filesystem;
+using namespace lensfx;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+    // Named by the process too: runs of other checkouts at the same time must not share it.
+    const fs::path dir = fs::temp_directory_path() / ("lensfx_cache_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+}  // namespace
+
+TEST(Cache, FolderFollowsTheEnvironmentAndTheOption) {
+    const char* saved = std::getenv("LENSFX_CACHE_DIR");
+    const std::string keep = saved ? saved : "";
+    ::setenv("LENSFX_CACHE_DIR", "/some/where", 1);
+    EXPECT_EQ(flare::default_cache_dir(), "/some/where");
+    ::setenv("LENSFX_CACHE_DIR", "none", 1);
+    EXPECT_EQ(flare::default_cache_dir(), "");
+    ::unsetenv("LENSFX_CACHE_DIR");
+    if (const char* home = std::getenv("HOME"); home && *home) {
+        EXPECT_EQ(flare::default_cache_dir(), (fs::path(home) / ".cache" / "lensfx").string());
+    }
+    EXPECT_EQ(flare::cache_dir_of("/given"), "/given");
+    EXPECT_EQ(flare::cache_dir_of("none"), "");
+    EXPECT_EQ(flare::cache_dir_of(""), flare::default_cache_dir());
+    if (saved) ::setenv("LENSFX_CACHE_DIR", keep.c_str(), 1);
+}
+
+TEST(Cache, FilesAreNamedByKindAndKeyHash) {
+    EXPECT_EQ(flare::key_hash(""), 0xcbf29ce484222325ull) << "FNV-1a's offset basis";
+    EXPECT_NE(flare::key_hash("a"), flare::key_hash("b"));
+    EXPECT_EQ(flare::cache_file("/c", "direct", 0xabcull), "/c/direct-0000000000000abc.bin");
+}
+
+TEST(Cache, WriterReplacesAtomicallyAndLeavesNoTemporary) {
+    const fs::path dir = temp_dir("writer");
+    const std::string path = (dir / "deeper" / "x.bin").string();
+    flare::write_cache_file(path, [](std::ostream& out) { out << "first"; });
+    flare::write_cache_file(path, [](std::ostream& out) { out << "second"; });
+    std::ifstream in(path);
+    std::string text;
+    std::getline(in, text);
+    EXPECT_EQ(text, "second");
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir / "deeper"), fs::directory_iterator{}), 1) << "no temporary left";
+    EXPECT_THROW(flare::write_cache_file("/proc/lensfx-no/x.bin", [](std::ostream&) {}), std::runtime_error);
+    EXPECT_FALSE(flare::try_write_cache_file("/proc/lensfx-no/x.bin", [](std::ostream&) {}));
+}
+
+TEST(Cache, KeyIsReadBackOnlyWhenWhole) {
+    std::stringstream s;
+    flare::write_key(s, "lens 1");
+    EXPECT_TRUE(flare::read_key(s, "lens 1"));
+    std::stringstream other;
+    flare::write_key(other, "lens 2");
+    EXPECT_FALSE(flare::read_key(other, "lens 1"));
+    std::stringstream cut(s.str().substr(0, 10));
+    EXPECT_FALSE(flare::read_key(cut, "lens 1"));
+}
+
+TEST(Cache, StarburstStoresReadsAndRepairs) {
+    const fs::path dir = temp_dir("cache");
+    optics::Aperture hexagon;
+    hexagon.blades = 6;
+    hexagon.rotation_deg = 10.0;
+    const optics::Starburst computed = flare::cached_starburst(hexagon, {}, (dir / "sub").string());
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir / "sub")) files.push_back(e.path());
+    ASSERT_EQ(files.size(), 1u) << "one file per iris, no temporary left";
+    const optics::Starburst read = flare::cached_starburst(hexagon, {}, (dir / "sub").string());
+    EXPECT_EQ(read.size, computed.size);
+    EXPECT_EQ(read.texel_per_fnumber_mm, computed.texel_per_fnumber_mm);
+    EXPECT_EQ(read.rgb, computed.rgb);
+
+    // A damaged (truncated) file is recomputed and rewritten.
+    const auto whole = fs::file_size(files[0]);
+    fs::resize_file(files[0], whole / 2);
+    const optics::Starburst repaired = flare::cached_starburst(hexagon, {}, (dir / "sub").string());
+    EXPECT_EQ(repaired.rgb, computed.rgb);
+    EXPECT_EQ(fs::file_size(files[0]), whole);
+    EXPECT_GT(whole, computed.rgb.size() * sizeof(float)) << "the texture and its key";
+
+    // Other options (dirt on the pupil, other primaries) are other textures, in other files.
+    optics::StarburstOptions dirty;
+    dirty.dirt.scratches = 20;
+    const optics::Starburst scratched = flare::cached_starburst(hexagon, dirty, (dir / "sub").string());
+    EXPECT_NE(scratched.rgb, computed.rgb);
+    optics::StarburstOptions acescg;
+    acescg.xyz_to_rgb[0][0] = 1.6410234;
+    EXPECT_NE(flare::cached_starburst(hexagon, acescg, (dir / "sub").string()).rgb, computed.rgb);
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir / "sub"), fs::directory_iterator{}), 3);
+}
+
+TEST(Cache, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
+    const fs::path dir = temp_dir("direct");
+    const optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, std::nullopt);
+    flare::DirectPowerTable table(system, 20.0, 12, 8);
+    EXPECT_EQ(table.traced(), 0);
+    const auto near_axis = table.at(0.5, 0.2);
+    EXPECT_EQ(table.traced(), 3) << "samples 0, 1 and 2 (the first is repeated below 0)";
+    EXPECT_GT(near_axis[1], 0.0);
+    table.save(dir / "t.bin", "key");
+
+    flare::DirectPowerTable again(system, 20.0, 12, 8);
+    EXPECT_FALSE(again.load(dir / "t.bin", "another key"));
+    EXPECT_EQ(again.traced(), 0);
+    EXPECT_TRUE(again.load(dir / "t.bin", "key"));
+    EXPECT_EQ(again.traced(), 3);
+    EXPECT_EQ(again.at(0.5, 0.2), near_axis);
+    EXPECT_EQ(again.traced(), 3) << "nothing traced for a lookup the file covers";
+    flare::DirectPowerTable other_size(system, 20.0, 10, 8);
+    EXPECT_FALSE(other_size.load(dir / "t.bin", "key"));
+    fs::resize_file(dir / "t.bin", fs::file_size(dir / "t.bin") - 1);
+    flare::DirectPowerTable damaged(system, 20.0, 12, 8);
+    EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));
+}
+
