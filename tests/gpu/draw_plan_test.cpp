@@ -93,13 +93,21 @@ TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
 
 TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const double pixel_mm = 0.01;
-    const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
     const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
     DetailSettings detail;
     detail.base_grid = 32;
     detail.pixel_mm = pixel_mm;
     const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Faint, SceneVerdict::Draw,
                                                 SceneVerdict::Cull, SceneVerdict::Cull};
+    // Ghost 1 sharp (caustics: its peak may lie far above the coarse estimate): faint, but drawn as planned.
+    const PassPlan sharp = plan_pass(e, 0.0, verdicts, selection, detail, 0);
+    EXPECT_EQ(sharp.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(sharp.plans[1].grid, 64);
+    EXPECT_TRUE(sharp.plans[1].rim && sharp.plans[1].splat);
+    EXPECT_EQ(sharp.faint, 0);
+    // Ghost 1 smooth: drawn at the coarsest detail, with the pass's other faint ghosts.
+    e[1].area_cv = 0.2;
     const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0}));
     EXPECT_EQ(plan.batched, (std::vector<std::size_t>{1}));  // faint: drawn with the pass's other faint ghosts
