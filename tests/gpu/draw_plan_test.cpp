@@ -100,11 +100,13 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     detail.pixel_mm = pixel_mm;
     const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Faint, SceneVerdict::Draw,
                                                 SceneVerdict::Cull, SceneVerdict::Cull};
-    // Ghost 1 sharp (caustics: its peak may lie far above the coarse estimate): faint, but drawn as planned.
+    // Ghost 1 sharp (caustics: its peak may lie far above the coarse estimate): faint, but it keeps its splats
+    // and a sharp ghost's level, so it is drawn alone.
     const PassPlan sharp = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(sharp.todo, (std::vector<std::size_t>{0, 1}));
-    EXPECT_EQ(sharp.plans[1].grid, 64);
-    EXPECT_TRUE(sharp.plans[1].rim && sharp.plans[1].splat);
+    EXPECT_LE(sharp.plans[1].grid, 16);
+    EXPECT_EQ(sharp.plans[1].reduce, 1);
+    EXPECT_TRUE(!sharp.plans[1].rim && sharp.plans[1].splat);
     EXPECT_EQ(sharp.faint, 0);
     // Ghost 1 smooth: drawn at the coarsest detail, with the pass's other faint ghosts.
     e[1].area_cv = 0.2;
