@@ -53,8 +53,8 @@ std::optional<Scene> forest_crop(int w, int h) {
     const std::string dir = std::string(LENSFX_SHARED_DIR) + "/data/hdr/v2/LowResLeftView/";
     if (!std::filesystem::exists(dir + "Leaves.exr")) return std::nullopt;
     std::vector<dof::DeepImage> parts;
-    for (const char* f : {"Balls.exr", "Leaves.exr", "Trunks.exr"}) parts.push_back(dof::read_deep_exr(dir + f));
-    const dof::DeepImage all = dof::merge_deep(parts);
+    for (const char* f : {"Balls.exr", "Leaves.exr", "Trunks.exr"}) parts.push_back(dof::read_deep_exr(dir + f, default_memory_budget()));
+    const dof::DeepImage all = dof::merge_deep(parts, default_memory_budget());
     const dof::DeepImage crop = dof::reframe(all, all.full_width / 2 - w / 2, all.full_height / 2 - h / 2, w, h);
     return Scene{"forest", dof::layers_from_deep(crop, 0.01), 0.0};  // depth read as centimetres
 }

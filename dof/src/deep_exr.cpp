@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -24,6 +26,38 @@ struct ChannelRead {
     float DeepSample::*field;
 };
 
+// A window's side from its inclusive bounds, in 64 bits (a hostile header's bounds near the int limits
+// would overflow). Throws when it is empty, inverted or beyond an int.
+int window_side(int min, int max, const char* window) {
+    const std::int64_t side = std::int64_t{max} - min + 1;
+    if (side < 1 || side > std::numeric_limits<int>::max())
+        throw std::runtime_error(fmt::format("{} {}..{} is empty or too large", window, min, max));
+    return static_cast<int>(side);
+}
+
+// Bytes a pixel of the data window takes while it is read: its count, its offset and one sample pointer a
+// channel.
+double table_bytes_per_pixel(std::size_t channels) {
+    return static_cast<double>(sizeof(unsigned int) + sizeof(std::uint32_t) + channels * sizeof(float*));
+}
+
+// Bytes a sample takes while it is read: the DeepSample and one float a channel as OpenEXR fills it.
+double bytes_per_sample(std::size_t channels) { return static_cast<double>(sizeof(DeepSample) + channels * sizeof(float)); }
+
+// The offsets of every pixel's samples (a prefix sum of the counts, one more than pixels). Throws when the
+// counts add up beyond what the 32-bit offsets hold or what the budget allows.
+std::vector<std::uint32_t> sample_offsets(const std::vector<unsigned int>& counts, std::size_t channels, const MemoryBudget& budget) {
+    std::uint64_t total = 0;
+    for (unsigned int c : counts) total += c;
+    if (total > std::numeric_limits<std::uint32_t>::max())
+        throw std::runtime_error(fmt::format("deep image declares {} samples, more than the {} lensfx reads", total,
+                                             std::numeric_limits<std::uint32_t>::max()));
+    budget.check(static_cast<double>(total) * bytes_per_sample(channels), fmt::format("its {} deep samples", total));
+    std::vector<std::uint32_t> offsets(counts.size() + 1, 0);
+    for (std::size_t i = 0; i < counts.size(); ++i) offsets[i + 1] = offsets[i] + counts[i];
+    return offsets;
+}
+
 }  // namespace
 
 bool is_deep_exr(const std::string& path) {
@@ -36,21 +70,25 @@ bool is_deep_exr(const std::string& path) {
     }
 }
 
-DeepImage read_deep_exr(const std::string& path) {
+DeepImage read_deep_exr(const std::string& path, const MemoryBudget& budget) {
     try {
         Imf::DeepScanLineInputFile file(path.c_str());
         const Imf::Header& header = file.header();
         const Imath::Box2i dw = header.dataWindow(), disp = header.displayWindow();
         DeepImage image;
         image.x = dw.min.x, image.y = dw.min.y;
-        image.width = dw.max.x - dw.min.x + 1, image.height = dw.max.y - dw.min.y + 1;
+        image.width = window_side(dw.min.x, dw.max.x, "data window"), image.height = window_side(dw.min.y, dw.max.y, "data window");
         image.full_x = disp.min.x, image.full_y = disp.min.y;
-        image.full_width = disp.max.x - disp.min.x + 1, image.full_height = disp.max.y - disp.min.y + 1;
+        image.full_width = window_side(disp.min.x, disp.max.x, "display window");
+        image.full_height = window_side(disp.min.y, disp.max.y, "display window");
         for (const char* needed : {"R", "G", "B", "A", "Z"})
             if (!header.channels().findChannel(needed))
                 throw std::runtime_error(fmt::format("deep image has no {} channel", needed));
         const bool has_zback = header.channels().findChannel("ZBack") != nullptr;
 
+        const std::size_t channel_count = has_zback ? 6 : 5;
+        budget.check(bytes_of(image.width, image.height, table_bytes_per_pixel(channel_count)),
+                     fmt::format("its {}x{} deep data window's sample tables", image.width, image.height));
         const std::size_t n = static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height);
         std::vector<unsigned int> counts(n);
         Imf::DeepFrameBuffer fb;
@@ -71,9 +109,7 @@ DeepImage read_deep_exr(const std::string& path) {
         file.setFrameBuffer(fb);
         file.readPixelSampleCounts(dw.min.y, dw.max.y);
 
-        image.offsets.resize(n + 1);
-        image.offsets[0] = 0;
-        for (std::size_t i = 0; i < n; ++i) image.offsets[i + 1] = image.offsets[i] + counts[i];
+        image.offsets = sample_offsets(counts, reads.size(), budget);
         image.samples.resize(image.offsets[n]);
         std::vector<std::vector<float>> values(reads.size(), std::vector<float>(image.samples.size() + 1));
         for (std::size_t c = 0; c < reads.size(); ++c)
@@ -109,14 +145,22 @@ DeepImage reframe(const DeepImage& image, int x, int y, int width, int height) {
     return out;
 }
 
-DeepImage merge_deep(const std::vector<DeepImage>& images) {
+DeepImage merge_deep(const std::vector<DeepImage>& images, const MemoryBudget& budget) {
     if (images.empty()) throw std::invalid_argument("no deep images to merge");
     const DeepImage& first = images.front();
+    double samples = 0;
+    for (const DeepImage& im : images) samples += static_cast<double>(im.samples.size());
+    // each image reframed over the display window, then the merged copy
+    budget.check(bytes_of(first.full_width, first.full_height, static_cast<double>((images.size() + 1) * sizeof(std::uint32_t))) +
+                     2 * samples * sizeof(DeepSample),
+                 fmt::format("merging {} deep images over a {}x{} display window", images.size(), first.full_width, first.full_height));
     std::vector<DeepImage> framed;
     for (const DeepImage& im : images) framed.push_back(reframe(im, first.full_x, first.full_y, first.full_width, first.full_height));
-    DeepImage out = framed.front();
+    DeepImage out;  // over the display window, as every framed image
+    out.x = out.full_x = first.full_x, out.y = out.full_y = first.full_y;
+    out.width = out.full_width = first.full_width, out.height = out.full_height = first.full_height;
     const std::size_t n = static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height);
-    out.samples.clear();
+    out.offsets.assign(n + 1, 0);
     for (std::size_t i = 0; i < n; ++i) {
         out.offsets[i] = static_cast<std::uint32_t>(out.samples.size());
         for (const DeepImage& im : framed)

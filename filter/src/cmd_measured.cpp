@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <fmt/core.h>
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include <filter/frame.h>
@@ -101,6 +102,7 @@ struct FitArgs {
     std::string sensor = "36";
     std::optional<double> focal_mm, fov_deg;
     double f_number = 0.0, iso = 100.0, shutter_s = 1.0;
+    bool progress = false;  // --progress: the fit's steps on stderr even when it is not a terminal
     measured::FitOptions options;
 };
 
@@ -118,7 +120,8 @@ void run_fit(FitArgs& a) {
     o.sensor_width_mm = sw, o.sensor_height_mm = sh;
     o.focal_length_mm = focal_of(a.focal_mm, a.fov_deg, sw);
     o.capture = {a.f_number, a.iso, a.shutter_s, 1.0};
-    o.progress = [](const std::string& line) { fmt::print(stderr, "lensfx lens fit: {}\n", line); };
+    if (a.progress || ::isatty(STDERR_FILENO))  // a failure in a pipe or a log stays one line
+        o.progress = [](const std::string& line) { fmt::print(stderr, "lensfx lens fit: {}\n", line); };
     const auto start = std::chrono::steady_clock::now();
     measured::FitResult fit = measured::fit_sweep(frames, o);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -312,6 +315,7 @@ void register_lens_fit_command(CLI::App& lens) {
     cmd->add_option("--shutter", a->shutter_s, "The capture's exposure time in seconds")->capture_default_str()->check(CLI::Range(1e-6, 1e5));
     cmd->add_option("--name", a->name, "The preset's name");
     cmd->add_option("--report", a->report, "JSON report: the fit's residual per frame");
+    cmd->add_flag("--progress", a->progress, "Show the fit's steps even when stderr is not a terminal");
     cmd->add_option("--key-iterations", a->options.key_iterations, "Gradient-descent passes at each ghost's key frame")->capture_default_str()->check(CLI::Range(1, 100000));
     cmd->add_option("--track-iterations", a->options.track_iterations, "Passes at each tracked frame")->capture_default_str()->check(CLI::Range(1, 100000));
     cmd->add_option("--edge-weight", a->options.edge_weight, "Weight of the smoothed Laplacian edge cost against the MSE")->capture_default_str()->check(CLI::Range(0.0, 100.0));

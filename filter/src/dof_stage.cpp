@@ -232,7 +232,7 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     const int x = spec.x + work.x, y = spec.y + work.y;
     if (deep) return dof::layers_from_deep(dof::reframe(*deep, x, y, work.width, work.height), settings.depth_scale);
     if (dof::is_deep_exr(frame.source)) {  // a deep input: its samples are the layers
-        const dof::DeepImage own = dof::read_deep_exr(frame.source);
+        const dof::DeepImage own = dof::read_deep_exr(frame.source, settings.memory);
         return dof::layers_from_deep(dof::reframe(own, x, y, work.width, work.height), settings.depth_scale);
     }
     const int z = channel_index(frame, settings.depth_channel);
@@ -262,8 +262,8 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
     s.system = optics::realize(lens, settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom), settings.fstop);
     if (!settings.deep.empty()) {
         std::vector<dof::DeepImage> images;
-        for (const std::string& f : split_commas(settings.deep)) images.push_back(dof::read_deep_exr(f));
-        s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images);
+        for (const std::string& f : split_commas(settings.deep)) images.push_back(dof::read_deep_exr(f, settings.memory));
+        s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images, settings.memory);
     }
     if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame
     if (settings.bands != 0) gpu::spectral_passes(settings.bands);     // and a bad band count
@@ -346,8 +346,8 @@ void DofComposeStage::process(Frame& frame) {
 
 namespace lensfx::filter {
 
-Frame read_deep_exr_frame(const std::string& path) {
-    const dof::DeepImage deep = dof::read_deep_exr(path);
+Frame read_deep_exr_frame(const std::string& path, const MemoryBudget& budget) {
+    const dof::DeepImage deep = dof::read_deep_exr(path, budget);
     std::vector<float> z;
     const std::vector<float> rgba = dof::flatten_deep(deep, &z);
     Frame frame;
@@ -380,6 +380,7 @@ DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std:
     settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
     settings.cache_dir = flare.accel.cache_dir;
     settings.bands = flare.bands;
+    settings.memory = flare.memory;
     auto blur = std::make_unique<DofStage>(std::move(settings), std::move(gpu), flare_runs, std::move(working_rgb_to_xyz));
     DofStages stages;
     if (flare_runs) stages.compose = std::make_unique<DofComposeStage>(blur->shared());

@@ -317,7 +317,7 @@ std::runtime_error subsampled_channel(const Imf::Header& header, const std::stri
 Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, const MemoryBudget& budget) {
     {
         const Imf::Header& header = file.header(0);
-        if (header.hasType() && Imf::isDeepData(header.type())) return read_deep_exr_frame(path);  // flattened
+        if (header.hasType() && Imf::isDeepData(header.type())) return read_deep_exr_frame(path, budget);  // flattened
         Frame frame;
         frame.source = path;
         frame.format = "openexr";

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -115,10 +116,10 @@ void add_flare_control_options(CLI::App& app, FlareControls& c, const std::strin
         ->group(group)->check(parsed_by([](const std::string& t) { parse_added_light(t); }, "--add-light", "X,Y,VALUE[,RADIUS]"));
 }
 
-std::vector<float> read_matte(const std::string& path, int& width, int& height) {
+MatteImage read_matte(const std::string& path, const MemoryBudget& budget) {
     Frame frame;
     try {
-        frame = read_image(path);
+        frame = read_image(path, PfmOrder::automatic, budget);
     } catch (const std::exception& e) {
         throw std::runtime_error(fmt::format("--matte {}: {}", path, e.what()));
     }
@@ -132,24 +133,23 @@ std::vector<float> read_matte(const std::string& path, int& width, int& height) 
         if (channels.empty()) channels.push_back(0);
     }
     const std::vector<float> data = channels_as_float(frame, channels);
-    width = spec.full_width;
-    height = spec.full_height;
-    std::vector<float> matte(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0.0f);
+    MatteImage m;
+    m.full_width = spec.full_width, m.full_height = spec.full_height;
+    m.x = spec.x - spec.full_x, m.y = spec.y - spec.full_y, m.width = spec.width, m.height = spec.height;
+    m.value.resize(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height));
     const std::size_t n = channels.size();
-    for (int y = 0; y < spec.height; ++y) {
-        const int dy = spec.y + y - spec.full_y;
-        if (dy < 0 || dy >= height) continue;
-        for (int x = 0; x < spec.width; ++x) {
-            const int dx = spec.x + x - spec.full_x;
-            if (dx < 0 || dx >= width) continue;
-            const float* p = &data[(static_cast<std::size_t>(y) * static_cast<std::size_t>(spec.width) + static_cast<std::size_t>(x)) * n];
-            double sum = 0.0;
-            for (std::size_t c = 0; c < n; ++c) sum += clamp01(p[c]);
-            matte[static_cast<std::size_t>(dy) * static_cast<std::size_t>(width) + static_cast<std::size_t>(dx)] =
-                static_cast<float>(sum / static_cast<double>(n));
-        }
+    for (std::size_t i = 0; i < m.value.size(); ++i) {
+        double sum = 0.0;
+        for (std::size_t c = 0; c < n; ++c) sum += clamp01(data[i * n + c]);
+        m.value[i] = static_cast<float>(sum / static_cast<double>(n));
     }
-    return matte;
+    return m;
+}
+
+float MatteImage::at(int dx, int dy) const {
+    const std::int64_t mx = std::int64_t{dx} - x, my = std::int64_t{dy} - y;
+    if (mx < 0 || my < 0 || mx >= width || my >= height) return 0.0f;
+    return value[static_cast<std::size_t>(my) * static_cast<std::size_t>(width) + static_cast<std::size_t>(mx)];
 }
 
 void paint_light(const AddedLight& light, float* rgb, int x0, int y0, int width, int height) {
@@ -163,34 +163,31 @@ void paint_light(const AddedLight& light, float* rgb, int x0, int y0, int width,
         }
 }
 
-DetectionInput::DetectionInput(const FlareControls& controls) : matte_(controls.matte), matte_channel_(controls.matte_channel) {
+DetectionInput::DetectionInput(const FlareControls& controls, const MemoryBudget& budget)
+    : matte_(controls.matte), budget_(budget), matte_channel_(controls.matte_channel) {
     for (const std::string& text : controls.add_lights) lights_.push_back(parse_added_light(text));
     if (matte_.empty()) return;
     matte_is_sequence_ = parse_pattern(matte_).is_sequence;
     if (!matte_is_sequence_) {
-        Matte m;
-        m.value = read_matte(matte_, m.width, m.height);
-        still_ = std::move(m);
+        still_ = read_matte(matte_, budget_);
     }
 }
 
 DetectionInput::Matte DetectionInput::matte_for(const Frame& frame) {
     if (still_) return *still_;
-    Matte m;
-    m.value = read_matte(parse_pattern(matte_).path(frame.number), m.width, m.height);
-    return m;
+    return read_matte(parse_pattern(matte_).path(frame.number), budget_);
 }
 
 // Multiplies the plate's pixels in the buffer by 1 - matte (the buffer's pixel (0, 0) at display (x0, y0)).
 void DetectionInput::apply_matte(const Matte& m, const Frame& frame, int x0, int y0, int width) {
-    if (m.width != frame.spec.full_width || m.height != frame.spec.full_height)
-        throw std::runtime_error(fmt::format("--matte {}: {}x{}, the frame {}x{}", matte_, m.width, m.height,
+    if (m.full_width != frame.spec.full_width || m.full_height != frame.spec.full_height)
+        throw std::runtime_error(fmt::format("--matte {}: {}x{}, the frame {}x{}", matte_, m.full_width, m.full_height,
                                              frame.spec.full_width, frame.spec.full_height));
     const int dx0 = frame.spec.x - frame.spec.full_x, dy0 = frame.spec.y - frame.spec.full_y;
     for (int y = dy0; y < dy0 + frame.spec.height; ++y)
         for (int x = dx0; x < dx0 + frame.spec.width; ++x) {
-            const bool inside = x >= 0 && y >= 0 && x < m.width && y < m.height;
-            const float keep = inside ? 1.0f - m.value[static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width) + static_cast<std::size_t>(x)] : 1.0f;
+            const bool inside = x >= 0 && y >= 0 && x < m.full_width && y < m.full_height;
+            const float keep = inside ? 1.0f - m.at(x, y) : 1.0f;
             float* p = &buffer_[(static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x - x0)) * 3];
             for (int c = 0; c < 3; ++c) p[c] *= keep;
         }

@@ -442,7 +442,7 @@ struct FlareStage::State {
               o.max_lights = settings.max_lights;
               return o;
           }()),
-          detection_input(settings.controls) {
+          detection_input(settings.controls, settings.memory) {
         gpu_session = g ? std::move(g) : std::make_shared<GpuSession>();
         summary.threshold_text = settings.threshold;
         summary.tracks = settings.tracks;

@@ -498,6 +498,8 @@ Lens load_lens(std::string_view name_or_path) {
         }
     }
     if (preset_text(name_or_path)) return load_preset(name_or_path);
+    if (std::filesystem::exists(path, ec))  // a device, folder or pipe: never read (/dev/zero would not end)
+        throw LensFileError(fmt::format("{}: not a regular file (a lens is a file or a preset name)", name_or_path));
     std::string names;
     for (const auto& n : preset_names()) names += (names.empty() ? "" : ", ") + n;
     throw LensFileError(fmt::format("{}: no such lens file or preset (presets: {})", name_or_path, names));

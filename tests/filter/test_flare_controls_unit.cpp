@@ -1,6 +1,7 @@
 // The compositor's controls without the GPU: --add-light parsing and painting, the image the detector sees
 // under a matte and with added lights (the plate untouched), and the end-of-run line.
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filter/flare_controls.h>
 #include <filter/option_checks.h>
@@ -98,6 +100,36 @@ TEST(FlareControls, MatteChannelTakesItsWhiteOutOfWhatTheDetectorSees) {
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find("--matte-channel matte.Y"), std::string::npos) << e.what();
     }
+}
+
+// A matte's display window of 10^12 pixels (a hostile file) costs only its data window: it is read under a
+// 64 MB budget and takes the light of its own pixels out and nothing else.
+TEST(FlareControls, MatteWithAHugeDisplayWindowTakesOnlyItsDataWindowsMemory) {
+    const std::string path = "/tmp/lensfx-test-matte-" + std::to_string(::getpid()) + ".exr";
+    filter::Frame matte = frame_of(3, 2, 8, 6, 1.0f);
+    matte.spec.full_width = matte.spec.full_height = 1 << 20;
+    filter::write_image(matte, path);
+    const filter::MatteImage m = filter::read_matte(path, MemoryBudget{std::size_t{64} << 20});
+    std::remove(path.c_str());
+    EXPECT_EQ(m.full_width, 1 << 20);
+    EXPECT_EQ(m.value.size(), 8u * 6u) << "only the data window is held";
+    EXPECT_EQ(m.at(3, 2), 1.0f);
+    EXPECT_EQ(m.at(10, 7), 1.0f);
+    EXPECT_EQ(m.at(11, 7), 0.0f);
+    EXPECT_EQ(m.at(2, 2), 0.0f);
+    EXPECT_EQ(m.at(-1, 1 << 30), 0.0f);
+}
+
+// The matte's white over part of the plate: the detector sees the plate less the matte's pixels.
+TEST(FlareControls, MatteFileTakesItsWhiteOutOfWhatTheDetectorSees) {
+    const std::string path = "/tmp/lensfx-test-matte-part-" + std::to_string(::getpid()) + ".exr";
+    filter::write_image(frame_of(10, 5, 4, 4, 1.0f), path);
+    filter::FlareControls c;
+    c.matte = path;
+    filter::DetectionInput input(c, MemoryBudget{std::size_t{64} << 20});
+    std::remove(path.c_str());
+    const filter::Frame plate = frame_of(0, 0, 64, 48, 2.0f);
+    EXPECT_DOUBLE_EQ(sum_of(input.view(plate)), 2.0 * (64 * 48 - 16));
 }
 
 TEST(FlareControls, AddedLightOutsideTheDataWindowGrowsTheDetectorsView) {

@@ -390,6 +390,19 @@ TEST(LensFile, DamagedFilesFailCleanly) {
     EXPECT_GT(parsed, 10);
 }
 
+// A path that is there but not a file (a device that never ends, a folder) is named as such, never read
+// and never taken for a missing preset.
+TEST(LensFile, DevicesAndFoldersAreRefusedUnread) {
+    for (const char* path : {"/dev/zero", "/tmp"}) {
+        try {
+            (void)load_lens(path);
+            ADD_FAILURE() << path << " was read as a lens";
+        } catch (const LensFileError& e) {
+            EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+        }
+    }
+}
+
 // ---------------------------------------------------------------- importers
 
 TEST(Importers, PbrtDatWithCrlfDiameterAndStop) {

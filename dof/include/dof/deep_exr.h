@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <dof/layers.h>
+#include <optics/memory_budget.h>
 
 namespace lensfx::dof {
 
@@ -24,14 +25,15 @@ struct DeepImage {
 
 // Whether the file is an EXR whose first part holds deep data.
 bool is_deep_exr(const std::string& path);
-// Reads a deep scanline EXR (R, G, B, A, Z; ZBack optional). Throws std::runtime_error naming the file and
-// what is missing.
-DeepImage read_deep_exr(const std::string& path);
+// Reads a deep scanline EXR (R, G, B, A, Z; ZBack optional). The sample tables are sized against `budget`
+// from the header and the counts before they are made (a hostile header of a few hundred bytes can declare
+// 10^12 samples). Throws std::runtime_error naming the file and what is missing or too big.
+DeepImage read_deep_exr(const std::string& path, const MemoryBudget& budget);
 // The image over another window (x, y, width, height): pixels outside its data window have no samples.
 DeepImage reframe(const DeepImage& image, int x, int y, int width, int height);
 // The samples of several deep images in one (the composite of Balls, Leaves and Trunks), over the first
-// one's display window.
-DeepImage merge_deep(const std::vector<DeepImage>& images);
+// one's display window, whose tables are sized against `budget` first.
+DeepImage merge_deep(const std::vector<DeepImage>& images, const MemoryBudget& budget);
 // Front-to-back "over" of every pixel: RGBA interleaved, the data window, and the nearest depth (Z, 0 where
 // empty) when z_out is given.
 std::vector<float> flatten_deep(const DeepImage& image, std::vector<float>* z_out = nullptr);

@@ -33,6 +33,7 @@ struct DofSettings {
     std::optional<double> fstop, fov_deg;
     std::string cache_dir;             // --cache-dir: the ray table's file (empty: the default, "none": no file)
     int bands = 0;                     // --bands: 0 RGB (650/550/450 nm), else spectral bands (CIE 1931, Rec. 709)
+    MemoryBudget memory;               // --memory-limit: deep inputs are sized against it
 };
 
 // --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --no-chromatic-blur, --tilt, --focus-point,
@@ -75,7 +76,7 @@ private:
 // is set to whether the flare stage should run (--lens given and not --dof-only).
 // A deep EXR as a flat frame (R, G, B, A, Z as float, each pixel's samples composited front to back,
 // Z the nearest sample's): the pipeline's view of a deep input; the lens blur reads its samples again.
-Frame read_deep_exr_frame(const std::string& path);
+Frame read_deep_exr_frame(const std::string& path, const MemoryBudget& budget);
 
 struct DofStages {
     std::unique_ptr<Stage> blur, compose;

@@ -12,6 +12,7 @@
 
 #include <detect/image_view.h>
 #include <filter/frame.h>
+#include <optics/memory_budget.h>
 
 namespace CLI {
 class App;
@@ -50,20 +51,29 @@ void add_flare_control_options(CLI::App& app, FlareControls& controls, const std
 // the matte clamped to [0, 1]) and the added lights painted in (antialiased discs over the result), over
 // the data window grown to hold the discs. The frame itself is never changed. Without a matte or added
 // lights it is the frame's own RGB buffer, at no cost.
+// A matte image: its values over its data window, which lies at (x, y) from its display window's corner.
+struct MatteImage {
+    int full_width = 0, full_height = 0;      // the display window it covers (must be the frame's)
+    int x = 0, y = 0, width = 0, height = 0;  // its data window, relative to the display window
+    std::vector<float> value;                 // over the data window, row 0 at the top, in [0, 1]
+
+    // The value at display-window pixel (dx, dy): 0 outside the data window.
+    [[nodiscard]] float at(int dx, int dy) const;
+};
+
 class DetectionInput {
 public:
-    explicit DetectionInput(const FlareControls& controls);  // parses --add-light, reads a still matte
+    // Parses --add-light and reads a still matte, sized against `budget` (--memory-limit).
+    explicit DetectionInput(const FlareControls& controls, const MemoryBudget& budget = {});
     [[nodiscard]] bool changes_the_plate() const { return !matte_.empty() || !matte_channel_.empty() || !lights_.empty(); }
     // The view for this frame (valid until the next call). Throws naming the matte file or channel.
     detect::ImageView view(const Frame& frame);
 
 private:
-    struct Matte {
-        int width = 0, height = 0;  // the display window it covers (must be the frame's)
-        std::vector<float> value;   // over the display window, row 0 at the top, in [0, 1]
-    };
+    using Matte = MatteImage;
     std::string matte_;           // file or pattern
     bool matte_is_sequence_ = false;
+    MemoryBudget budget_;
     std::optional<Matte> still_;  // a matte without a frame token, read once
     std::string matte_channel_;
     std::vector<AddedLight> lights_;
@@ -74,10 +84,10 @@ private:
     void apply_matte_channel(const Frame& frame, int x0, int y0, int width);
 };
 
-// Reads a matte image over its display window: the mean of its colour channels (or its one channel, or A
-// when it has nothing else), clamped to [0, 1], NaN as 0; outside its data window 0. Sets width and height
-// to its display window's size. Throws naming the file.
-std::vector<float> read_matte(const std::string& path, int& width, int& height);
+// Reads a matte image: the mean of its colour channels (or its one channel, or A when it has nothing
+// else), clamped to [0, 1], NaN as 0, over its data window (outside it the matte is 0, and takes no memory:
+// a hostile display window costs nothing). Sized against `budget`; throws naming the file.
+MatteImage read_matte(const std::string& path, const MemoryBudget& budget);
 
 // Adds `light`, antialiased, over a float RGB buffer of width x height whose pixel (0, 0) lies at
 // display-window position (x0, y0): each pixel becomes mix(pixel, value, covered fraction).
