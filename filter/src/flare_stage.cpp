@@ -564,6 +564,8 @@ struct FlareStage::State {
             }
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
+            // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
+            if (!settings.band_filter && renderer->last_stats().ghosts_drawn == 0) continue;
             if (group.magnification != 0.0) {
                 t = Clock::now();
                 convolve_footprint(group_rgb, view.width, view.height, *light.shape, group.magnification);

@@ -107,6 +107,11 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         }
         const SceneVerdict verdict = g < verdicts.size() ? verdicts[g] : SceneVerdict::Draw;
         if (verdict == SceneVerdict::Cull) continue;
+        const bool faint = verdict == SceneVerdict::Faint;
+        // A faint ghost with caustics (cells too uneven to draw reduced) may peak far above its coarse cells'
+        // estimate in a pixel or two: it keeps its splats and the level a sharp ghost gets (nikon-80-200,
+        // pan1080, --gain 20: a 7-code spike otherwise).
+        const bool smooth_faint = faint && e.area_cv < kReducedMaxCv;
         plan.draw = true;
         int grid = base_grid;
         if (accel.adaptive) {
@@ -127,9 +132,10 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);
         }
-        if (verdict == SceneVerdict::Faint) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
+        if (faint) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
         plan.grid = grid;
-        plan.rim = plan.splat = verdict != SceneVerdict::Faint;
+        plan.rim = !faint;
+        plan.splat = !smooth_faint;
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) {
             const double extent_px = e.extent_mm / pixel_mm;
             if (e.area_cv < kReducedMaxCv) {
@@ -140,7 +146,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             } else {
                 plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
             }
-            if (verdict == SceneVerdict::Faint) plan.reduce = faint_reduce(extent_px);
+            if (smooth_faint) plan.reduce = faint_reduce(extent_px);
         }
     }
     return plans;

@@ -44,6 +44,21 @@ struct StepData {
     float media[4];
 };
 
+// A ghost of a batched draw (shaders::ghost_job_glsl's GhostJob, std430).
+struct GhostJob {
+    std::int32_t steps[4];  // first step, step count, first vertex, stop crossings
+    float rect[4];          // entrance-plane rectangle (mm)
+    float channels[4];      // what it adds to R, G, B
+    float flux[4];          // triangle flux, offset x, offset y (mm), 0
+};
+static_assert(sizeof(GhostJob) == 64);
+
+// A shader's source with the batched draw's job buffer declared after its #version line.
+std::string with_jobs(const std::string& source) {
+    const std::size_t line_end = source.find('\n', source.find("#version"));
+    return source.substr(0, line_end + 1) + shaders::ghost_job_glsl + source.substr(line_end + 1);
+}
+
 // Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
 struct GhostSequences {
     std::vector<StepData> steps;
@@ -56,19 +71,20 @@ struct GhostSequences {
 }  // namespace
 
 struct FlareRenderer::State {
-    Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, shaders::ghost_trace_comp}}};
-    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, shaders::ghost_shade_comp}}};
+    Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_trace_comp)}}};
+    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster",
-                   {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
+                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
                     {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
     Program splat{"ghost_splat",
-                  {{ShaderStage::Type::Vertex, std::string(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
+                  {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
                    {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
     GlObject vao = GlObject::vertex_array();
     GlObject steps = GlObject::buffer();
     GlObject tables = GlObject::buffer();
     GlObject vertices = GlObject::buffer();
     std::size_t vertices_bytes = 0;
+    GlObject jobs = GlObject::buffer();  // a batched draw's GhostJobs
     GlObject iris = GlObject::texture();
     std::optional<Aperture> iris_for;  // the aperture the texture currently holds
     struct Sequences {
@@ -473,6 +489,16 @@ struct PassDraw {
     double cos_angle;
 };
 
+// What one ghost's draw sets besides the level's values: its flux per grid triangle, what it adds to R, G, B,
+// its shift (mm, with a band's) and the half height of what the target spans (mm), and the target's pixels.
+struct GhostDrawValues {
+    double triangle_flux = 0.0;
+    std::array<double, 3> channels{};
+    std::array<double, 2> offset{};
+    double half_height = 0.0;
+    int target_w = 0, target_h = 0;
+};
+
 }  // namespace
 
 // One FlareRenderer::draw as named steps over what they share (the fitted ghosts and their selection, the
@@ -533,7 +559,11 @@ private:
     void draw_pass(std::size_t l, std::size_t p);
     void trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
+    GhostDrawValues draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const;
     void ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
+    void draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd);
+    void draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd);
+    void upload_jobs(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd);
     void add_ghost_power(std::size_t g);
 };
 
@@ -852,7 +882,8 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
         glBindTextureUnit(1, s_.ringing_texture(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
     const GhostSequences& seq = sequences(p).seq;
     const std::vector<GhostEstimate>& estimates = estimates_[l].pass[p];
-    const DetailSettings detail{options_.accel, options_.grid, view_.sensor_width_mm / view_.width, options_.per_ghost_power};
+    const DetailSettings detail{options_.accel, options_.grid, view_.sensor_width_mm / view_.width, options_.per_ghost_power,
+                                options_.batch_faint};
     const PassPlan plan = plan_pass(estimates, pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
                                     selection_, detail, band_);
     s_.stats.ghosts_skipped += plan.skipped;
@@ -867,6 +898,7 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
         trace_batch(batch, pd);
         raster_batch(batch, pd);
     }
+    draw_batched(plan.batched, pd);
 }
 
 // The batch's ray grids traced and shaded into the vertex buffer.
@@ -928,48 +960,141 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
     }
 }
 
+// Ghost g's own draw values into a target at 1/target_reduce of the image (the full-size one in bands).
+GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const {
+    const int ghost_grid = pd.plans[g].grid;
+    const PupilRect& rect = pd.estimates[g].rect;
+    const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
+    const bool full = target_reduce == 1;
+    GhostDrawValues v;
+    v.triangle_flux = 0.5 * cell_area * pd.cos_angle;
+    v.target_w = (view_.width + target_reduce - 1) / target_reduce;
+    v.target_h = full ? bands_.rows_drawn(band_) : (view_.height + target_reduce - 1) / target_reduce;
+    const optics::GhostStyle* style = selection_.style[g];
+    const std::array<double, 3> gain = style ? style->gain : std::array<double, 3>{1.0, 1.0, 1.0};
+    for (std::size_t c = 0; c < 3; ++c) v.channels[c] = pd.pass.weight[c] * gain[c] * pd.light.scale[c];
+    v.offset = style ? style->offset_mm : std::array<double, 2>{};
+    // A band of the full-size image: its rows' span of clip space stretched over the viewport.
+    v.half_height = view_.sensor_height_mm / 2;
+    if (full) {
+        const double top = bands_.drawn_first(band_), bottom = bands_.drawn_end(band_);
+        v.offset[1] -= (1.0 - (top + bottom) / view_.height) * v.half_height;
+        v.half_height *= (bottom - top) / view_.height;
+    }
+    return v;
+}
+
 // One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the pixels
 // of its level (1/reduce of the image); rim_mode 2 draws the same triangles at kRimReduce times that resolution.
 void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const std::size_t g = job.ghost;
-    const int ghost_grid = pd.plans[g].grid;
-    const PupilRect& rect = pd.estimates[g].rect;
-    const double cell_area = (rect.x1 - rect.x0) * (rect.y1 - rect.y0) / (static_cast<double>(ghost_grid) * ghost_grid);
     // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
-    const bool full = target_reduce == 1;
-    const int target_w = (view_.width + target_reduce - 1) / target_reduce;
-    const int target_h = full ? bands_.rows_drawn(band_) : (view_.height + target_reduce - 1) / target_reduce;
-    const optics::GhostStyle* style = selection_.style[g];
-    const std::array<double, 3> gain = style ? style->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-    std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
-    // A band of the full-size image: its rows' span of clip space stretched over the viewport.
-    double half_height = view_.sensor_height_mm / 2;
-    if (full) {
-        const double top = bands_.drawn_first(band_), bottom = bands_.drawn_end(band_);
-        offset[1] -= (1.0 - (top + bottom) / view_.height) * half_height;
-        half_height *= (bottom - top) / view_.height;
-    }
+    const GhostDrawValues v = draw_values(g, pd, target_reduce);
     for (const Program* program : {&s_.raster, &s_.splat}) {
         glUseProgram(program->get());
-        glUniform1i(program->uniform("grid"), ghost_grid);
+        glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
-        glUniform2f(program->uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(half_height));
-        glUniform1f(program->uniform("triangle_flux"), static_cast<float>(0.5 * cell_area * pd.cos_angle));
+        glUniform2f(program->uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
+        glUniform1f(program->uniform("triangle_flux"), static_cast<float>(v.triangle_flux));
         glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
         glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
-        glUniform2f(program->uniform("viewport"), static_cast<float>(target_w), static_cast<float>(target_h));
+        glUniform2f(program->uniform("viewport"), static_cast<float>(v.target_w), static_cast<float>(v.target_h));
         glUniform1i(program->uniform("iris_sdf"), 0);
         glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
         glUniform1i(program->uniform("stop_crossings"), pd.seq.stop_crossings[g]);
-        glUniform4f(program->uniform("channels"), static_cast<float>(pd.pass.weight[0] * gain[0] * pd.light.scale[0]),
-                    static_cast<float>(pd.pass.weight[1] * gain[1] * pd.light.scale[1]),
-                    static_cast<float>(pd.pass.weight[2] * gain[2] * pd.light.scale[2]), 0.0f);
-        glUniform2f(program->uniform("offset_mm"), static_cast<float>(offset[0]), static_cast<float>(offset[1]));
+        glUniform4f(program->uniform("channels"), static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]),
+                    static_cast<float>(v.channels[2]), 0.0f);
+        glUniform2f(program->uniform("offset_mm"), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]));
     }
     glUseProgram(s_.raster.get());
     glUniform1i(s_.raster.uniform("rim_mode"), rim_mode);
     glUniform1f(s_.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+}
+
+// The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) by grid and level, each group in
+// chunks that fit the vertex buffer: one trace and one shade dispatch and one instanced draw a chunk, where
+// drawn alone each ghost cost two dispatches, a draw and its uniforms (on llvmpipe some 2 ms of CPU).
+void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd) {
+    std::map<std::pair<int, int>, std::vector<std::size_t>> groups;  // by (grid, reduce)
+    for (std::size_t g : ghosts) groups[{pd.plans[g].grid, pd.plans[g].reduce}].push_back(g);
+    for (const auto& [key, members] : groups) {
+        const auto [grid, reduce] = key;
+        if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
+        const std::size_t side = static_cast<std::size_t>(grid + 1);
+        const std::size_t per_chunk = std::max<std::size_t>(1, s_.vertices_bytes / kVertexBytes / (side * side));
+        for (std::size_t first = 0; first < members.size(); first += per_chunk) {
+            const auto begin = members.begin() + static_cast<std::ptrdiff_t>(first);
+            draw_instanced({begin, begin + static_cast<std::ptrdiff_t>(std::min(per_chunk, members.size() - first))}, grid, reduce, pd);
+        }
+    }
+}
+
+// Ghosts of one grid and level, their vertices one after another from the buffer's start: traced, shaded and
+// drawn as instances, each one's values from its GhostJob.
+void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
+    const auto n = static_cast<GLuint>(ghosts.size());
+    const auto rays = static_cast<long long>(grid + 1) * (grid + 1);
+    if (band_ == 0) {
+        s_.stats.ghosts_drawn += static_cast<int>(n);
+        s_.stats.rays += rays * n;
+        s_.stats.ghosts_reduced += reduce > 1 ? static_cast<int>(n) : 0;
+    }
+    upload_jobs(ghosts, grid, reduce, pd);
+    const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.vertices.get());
+    glUseProgram(s_.trace.get());
+    glUniform1i(s_.trace.uniform("batched"), 1);
+    glUniform1i(s_.trace.uniform("grid"), grid);
+    glUniform2f(s_.trace.uniform("rect_rotation"), static_cast<float>(std::cos(pd.rotation)), static_cast<float>(std::sin(pd.rotation)));
+    glUniform3f(s_.trace.uniform("direction"), static_cast<float>(pd.direction.x), static_cast<float>(pd.direction.y),
+                static_cast<float>(pd.direction.z));
+    glUniform1i(s_.trace.uniform("table_size"), kTableSize);
+    glDispatchCompute(groups, groups, n);
+    glUniform1i(s_.trace.uniform("batched"), 0);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glUseProgram(s_.shade.get());
+    glUniform1i(s_.shade.uniform("batched"), 1);
+    glUniform1i(s_.shade.uniform("grid"), grid);
+    glUniform1f(s_.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    glUniform2f(s_.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
+    glUniform1i(s_.shade.uniform("ringing"), options_.ringing ? 1 : 0);
+    glUniform1i(s_.shade.uniform("iris_sdf"), 0);
+    glUniform1f(s_.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
+    glDispatchCompute(groups, groups, n);
+    glUniform1i(s_.shade.uniform("batched"), 0);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    bind_level(reduce);
+    const GhostDrawValues v = draw_values(ghosts.front(), pd, reduce);  // the level's values are every ghost's
+    glUseProgram(s_.raster.get());
+    glUniform1i(s_.raster.uniform("batched"), 1);
+    glUniform1i(s_.raster.uniform("grid"), grid);
+    glUniform2f(s_.raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
+    glUniform1f(s_.raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
+    glUniform1f(s_.raster.uniform("splat_area"), static_cast<float>(kSplatArea));
+    glUniform1i(s_.raster.uniform("iris_sdf"), 0);
+    glUniform1f(s_.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
+    glUniform1i(s_.raster.uniform("rim_mode"), 0);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
+    glUniform1i(s_.raster.uniform("batched"), 0);
+    check_gl(fmt::format("drawing {} faint ghosts at {} nm", n, pd.pass.wavelength_nm));
+}
+
+// The jobs of draw_instanced's ghosts into the jobs buffer, bound for the shaders.
+void FlareRenderer::Drawing::upload_jobs(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
+    const auto side = static_cast<std::size_t>(grid + 1);
+    std::vector<GhostJob> jobs;
+    for (std::size_t k = 0; k < ghosts.size(); ++k) {
+        const std::size_t g = ghosts[k];
+        const GhostDrawValues v = draw_values(g, pd, reduce);
+        const PupilRect& r = pd.estimates[g].rect;
+        jobs.push_back({{pd.seq.offset[g], pd.seq.count[g], static_cast<std::int32_t>(k * side * side), pd.seq.stop_crossings[g]},
+                        {static_cast<float>(r.x0), static_cast<float>(r.y0), static_cast<float>(r.x1), static_cast<float>(r.y1)},
+                        {static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]), static_cast<float>(v.channels[2]), 0.0f},
+                        {static_cast<float>(v.triangle_flux), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]), 0.0f}});
+    }
+    glNamedBufferData(s_.jobs.get(), static_cast<GLsizeiptr>(jobs.size() * sizeof(GhostJob)), jobs.data(), GL_STREAM_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, s_.jobs.get());
 }
 
 // Per-ghost power: the full-size target (drawn whole) read back into the CPU sum and ghost g's power, then cleared.

@@ -4,6 +4,20 @@
 
 namespace lensfx::gpu::shaders {
 
+// A ghost of a batched draw (FlareRenderer's faint ghosts of a pass: one trace and one shade dispatch, the
+// work group's z naming the ghost, and one instanced draw): what its own uniforms say when drawn alone.
+// Inserted after each batched shader's #version line (GhostJob in flare_renderer.cpp has the same layout).
+inline constexpr const char* ghost_job_glsl = R"GLSL(
+struct GhostJob {
+    ivec4 steps;    // first step, step count, first vertex, stop crossings
+    vec4 rect;      // entrance-plane rectangle x0, y0, x1, y1 (mm)
+    vec4 channels;  // what it adds to R, G, B
+    vec4 flux;      // triangle flux, offset x, offset y (mm), 0
+};
+layout(std430, binding = 3) readonly buffer Jobs { GhostJob jobs[]; };
+uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the instance), not the uniforms
+)GLSL";
+
 // One invocation per grid vertex. Steps: geom = (vertex z, curvature, conic, semi-diameter),
 // media = (n_in, n_out, kind 0 refract / 1 reflect / 2 stop + 4 x its factor table, forward 1 / backward 0).
 // Output per vertex:
@@ -36,8 +50,12 @@ float factor(int table, float cos_i) {
 void main() {
     uvec2 id = gl_GlobalInvocationID.xy;
     if (id.x > uint(grid) || id.y > uint(grid)) return;
+    int first_step = batched ? jobs[gl_WorkGroupID.z].steps.x : step_offset;
+    int steps_n = batched ? jobs[gl_WorkGroupID.z].steps.y : step_count;
+    uint first_vertex = batched ? uint(jobs[gl_WorkGroupID.z].steps.z) : vertex_offset;
+    vec4 box = batched ? jobs[gl_WorkGroupID.z].rect : rect;
     vec2 f = vec2(id) / float(grid);
-    vec2 q = mix(rect.xy, rect.zw, f);
+    vec2 q = mix(box.xy, box.zw, f);
     vec3 o = vec3(rect_rotation.x * q.x - rect_rotation.y * q.y, rect_rotation.y * q.x + rect_rotation.x * q.y, 0.0);
     vec3 d = direction;
     float r_rel = 0.0;
@@ -45,9 +63,9 @@ void main() {
     vec2 uv[3] = vec2[3](vec2(0.0), vec2(0.0), vec2(0.0));
     int crossings = 0;
     bool ok = true;
-    for (int s = 0; s < step_count; ++s) {
-        vec4 geom = steps[step_offset + s].geom;
-        vec4 media = steps[step_offset + s].media;
+    for (int s = 0; s < steps_n; ++s) {
+        vec4 geom = steps[first_step + s].geom;
+        vec4 media = steps[first_step + s].media;
         vec3 p = o - vec3(0.0, 0.0, geom.x);
         float c = geom.y;
         float k1 = 1.0 + geom.z;
@@ -100,7 +118,7 @@ void main() {
         ok = false;
         sensor = vec2(0.0);
     }
-    uint index = vertex_offset + id.y * uint(grid + 1) + id.x;
+    uint index = first_vertex + id.y * uint(grid + 1) + id.x;
     vertices[3u * index + 0u] = vec4(sensor, r_rel, transmission);
     vertices[3u * index + 1u] = vec4(uv[0], uv[1]);
     vertices[3u * index + 2u] = vec4(uv[2], ok ? 1.0 : 0.0, 0.0);
@@ -131,13 +149,15 @@ uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, ext
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform bool ringing;
+uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
+int crossings = 0;
 
 bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
 
 bool cell_valid(int cx, int cy) {
     if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) return true;  // beyond the grid: no cut of its own
     uint stride = uint(grid + 1);
-    uint a = vertex_offset + uint(cy) * stride + uint(cx);
+    uint a = first + uint(cy) * stride + uint(cx);
     return valid(a) && valid(a + 1u) && valid(a + stride + 1u) && valid(a + stride);
 }
 
@@ -164,7 +184,7 @@ bool near_rim(uvec3 i, int outer) {
     vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3u * i.x].z, vertices[3u * i.y].z, vertices[3u * i.z].z) - 1.0);
     bool outside = all(lessThan(d, vec3(-1.0)));
     vec3 nearest = d;
-    for (int c = 0; c < 3 && c < stop_crossings && !ringing; ++c) {
+    for (int c = 0; c < 3 && c < crossings && !ringing; ++c) {
         vec2 uv[3];
         for (int k = 0; k < 3; ++k) {
             vec4 s = vertices[3u * i[k] + 1u];
@@ -190,6 +210,8 @@ float triangle_area(uint a, uint b, uint c) {
 void main() {
     uvec2 id = gl_GlobalInvocationID.xy;
     if (id.x > uint(grid) || id.y > uint(grid)) return;
+    first = batched ? uint(jobs[gl_WorkGroupID.z].steps.z) : vertex_offset;
+    crossings = batched ? jobs[gl_WorkGroupID.z].steps.w : stop_crossings;
     uint stride = uint(grid + 1);
     float area = 0.0;
     float triangles = 0.0;
@@ -201,7 +223,7 @@ void main() {
         int cx = int(id.x) + around[k].x;
         int cy = int(id.y) + around[k].y;
         if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) continue;
-        uint a = vertex_offset + uint(cy) * stride + uint(cx);
+        uint a = first + uint(cy) * stride + uint(cx);
         uint b = around[k].z == 0 ? a + 1u : a + stride + 1u;
         uint c = around[k].z == 0 ? a + stride + 1u : a + stride;
         if (!(valid(a) && valid(b) && valid(c))) continue;
@@ -210,7 +232,7 @@ void main() {
         area += t;
         triangles += 1.0;
     }
-    uint me = vertex_offset + id.y * stride + id.x;
+    uint me = first + id.y * stride + id.x;
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
     if (!valid(me)) return;
     int bits = 0;
@@ -247,6 +269,15 @@ uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
 uniform float pixel_area;     // mm^2
 uniform float splat_area;     // triangles under this many pixels are splatted, not rasterised
+uniform vec4 channels;        // what the ghost adds to R, G, B
+uniform int stop_crossings;
+
+// The drawn ghost's own values: its uniforms, or in a batched draw its instance's job.
+int ghost_first_vertex() { return batched ? jobs[gl_InstanceID].steps.z : first_vertex; }
+int ghost_stop_crossings() { return batched ? jobs[gl_InstanceID].steps.w : stop_crossings; }
+float ghost_triangle_flux() { return batched ? jobs[gl_InstanceID].flux.x : triangle_flux; }
+vec2 ghost_offset_mm() { return batched ? jobs[gl_InstanceID].flux.yz : offset_mm; }
+vec4 ghost_channels() { return batched ? jobs[gl_InstanceID].channels : channels; }
 
 ivec3 triangle_corners(int tri) {
     int cell = tri / 2;
@@ -254,7 +285,7 @@ ivec3 triangle_corners(int tri) {
     int cx = cell % grid;
     int cy = cell / grid;
     int stride = grid + 1;
-    int a = first_vertex + cy * stride + cx;
+    int a = ghost_first_vertex() + cy * stride + cx;
     return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
 }
 
@@ -270,7 +301,8 @@ float sensor_area(ivec3 i) {
 
 // Upright photograph: the sensor image turned 180 degrees.
 vec4 clip_position(vec2 sensor) {
-    return vec4((offset_mm.x - sensor.x) / half_sensor.x, (offset_mm.y - sensor.y) / half_sensor.y, 0.0, 1.0);
+    vec2 offset = ghost_offset_mm();
+    return vec4((offset.x - sensor.x) / half_sensor.x, (offset.y - sensor.y) / half_sensor.y, 0.0, 1.0);
 }
 )GLSL";
 
@@ -287,6 +319,8 @@ out vec2 v_uv2;
 out float v_irradiance;
 out vec3 v_bary;           // barycentric: 1 at this corner
 flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
+flat out vec4 v_channels;
+flat out int v_stop_crossings;
 uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim (ghost_shade_comp's bits)
 
 void main() {
@@ -300,18 +334,22 @@ void main() {
     bool in_band = (cell_bits & ((tri & 1) == 0 ? 16 : 32)) != 0;
     v_outer = (tri & 1) == 0 ? (((cell_outer & 1) != 0 ? 4 : 0) | ((cell_outer & 2) != 0 ? 1 : 0))
                              : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
+    v_channels = ghost_channels();
+    v_stop_crossings = ghost_stop_crossings();
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     float area = sensor_area(i);
     int me = i[corner];
     vec4 q = vertices[3 * me];
     vec4 s = vertices[3 * me + 1];
     vec4 w = vertices[3 * me + 2];
-    if (!corners_valid(i) || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
+    // A triangle whose corners are all beyond the lens's apertures (r_rel > 1, linear over it) draws nothing.
+    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
+    if (!corners_valid(i) || clipped || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
     } else {
         gl_Position = clip_position(q.xy);
-        v_irradiance = triangle_flux * w.w;  // a triangle's flux x triangles per sensor area at this corner
+        v_irradiance = ghost_triangle_flux() * w.w;  // a triangle's flux x triangles per sensor area at this corner
     }
     v_r_rel = q.z;
     v_transmission = q.w;
@@ -330,7 +368,6 @@ void main() {
 inline constexpr const char* ghost_splat_vert = R"GLSL(
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
-uniform int stop_crossings;
 uniform vec2 viewport;        // pixels
 uniform bool ringing;         // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
 uniform sampler2D iris_ringing;
@@ -357,14 +394,15 @@ void main() {
     mat3x2 w = mat3x2(vertices[3 * i.x + 2].xy, vertices[3 * i.y + 2].xy, vertices[3 * i.z + 2].xy);
     const vec3 samples[4] = vec3[4](vec3(1.0 / 3.0), vec3(0.6, 0.2, 0.2), vec3(0.2, 0.6, 0.2), vec3(0.2, 0.2, 0.6));
     float shade = 0.0;
+    int crossings = ghost_stop_crossings();
     for (int k = 0; k < 4; ++k) {
         vec4 at_q = q * samples[k];
         vec4 at_s = s * samples[k];
         if (at_q.z > 1.0) continue;
         float through = 1.0;
-        if (stop_crossings > 0) through *= iris(at_s.xy);
-        if (stop_crossings > 1) through *= iris(at_s.zw);
-        if (stop_crossings > 2) through *= iris(w * samples[k]);
+        if (crossings > 0) through *= iris(at_s.xy);
+        if (crossings > 1) through *= iris(at_s.zw);
+        if (crossings > 2) through *= iris(w * samples[k]);
         shade += 0.25 * at_q.w * through;
     }
     // GL drops a point whose centre is outside the viewport, also its share of the pixels inside: a point
@@ -376,7 +414,7 @@ void main() {
         return;
     }
     gl_Position = vec4(clamp(v_centre, vec2(0.01), viewport - 0.01) / viewport * 2.0 - 1.0, 0.0, 1.0);
-    v_irradiance = triangle_flux * shade / pixel_area;
+    v_irradiance = ghost_triangle_flux() * shade / pixel_area;
 }
 )GLSL";
 
@@ -417,10 +455,10 @@ in vec2 v_uv2;
 in float v_irradiance;
 in vec3 v_bary;
 flat in int v_outer;
+flat in vec4 v_channels;       // the ghost's (ghost_channels)
+flat in int v_stop_crossings;
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
-uniform int stop_crossings;
-uniform vec4 channels;
 uniform bool ringing;          // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
 uniform sampler2D iris_ringing;
 uniform int rim_mode;          // 0 plain, 1 reduced interior, 2 full-resolution rim band
@@ -441,6 +479,7 @@ float pixels_inside(float f) {
 }
 
 void main() {
+    int stop_crossings = v_stop_crossings;
     float s0 = stop_crossings > 0 ? sdf(v_uv0) : -1.0;
     float s1 = stop_crossings > 1 ? sdf(v_uv1) : -1.0;
     float s2 = stop_crossings > 2 ? sdf(v_uv2) : -1.0;
@@ -466,7 +505,7 @@ void main() {
     } else if (s0 > 0.0 || s1 > 0.0 || s2 > 0.0) {
         discard;
     }
-    colour = channels * (v_irradiance * v_transmission * iris * weight);
+    colour = v_channels * (v_irradiance * v_transmission * iris * weight);
 }
 )GLSL";
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -92,21 +93,38 @@ TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
 
 TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const double pixel_mm = 0.01;
-    const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
     const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
     DetailSettings detail;
     detail.base_grid = 32;
     detail.pixel_mm = pixel_mm;
     const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Faint, SceneVerdict::Draw,
                                                 SceneVerdict::Cull, SceneVerdict::Cull};
+    // Ghost 1 sharp (caustics: its peak may lie far above the coarse estimate): faint, but it keeps its splats
+    // and a sharp ghost's level, so it is drawn alone.
+    const PassPlan sharp = plan_pass(e, 0.0, verdicts, selection, detail, 0);
+    EXPECT_EQ(sharp.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_LE(sharp.plans[1].grid, 16);
+    EXPECT_EQ(sharp.plans[1].reduce, 1);
+    EXPECT_TRUE(!sharp.plans[1].rim && sharp.plans[1].splat);
+    EXPECT_EQ(sharp.faint, 0);
+    // Ghost 1 smooth: drawn at the coarsest detail, with the pass's other faint ghosts.
+    e[1].area_cv = 0.2;
     const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
-    EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0}));
+    EXPECT_EQ(plan.batched, (std::vector<std::size_t>{1}));  // faint: drawn with the pass's other faint ghosts
+    EXPECT_FALSE(plan.plans[1].rim || plan.plans[1].splat);
     EXPECT_EQ(plan.culled, 1);  // ghost 4; ghost 3 had no light to cull
     EXPECT_EQ(plan.faint, 1);
     EXPECT_EQ(plan.skipped, 3);
     EXPECT_LE(plan.plans[1].grid, 16);  // faint: at most half the base grid
     // A total over every light's ghosts larger than this light's: its ghost 1 now falls under the threshold.
     EXPECT_EQ(plan_pass(e, 8e3, verdicts, selection, detail, 0).todo, (std::vector<std::size_t>{0}));
+    EXPECT_TRUE(plan_pass(e, 8e3, verdicts, selection, detail, 0).batched.empty());
+    // Faint ghosts drawn one by one when asked.
+    detail.batch_faint = false;
+    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).todo, (std::vector<std::size_t>{0, 1}));
+    EXPECT_TRUE(plan_pass(e, 0.0, verdicts, selection, detail, 0).batched.empty());
 }
 
 TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
@@ -196,6 +214,49 @@ TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
     EXPECT_GT(both, 100);  // of 33 x 33 over the entrance square: about a fifth get through
     EXPECT_LE(disagree, kGrid);  // rays at a surface's edge may go either way in float
     EXPECT_THROW(renderer.trace_ghost(system, view, {0, 99}, kGrid, square), std::invalid_argument);
+}
+
+// A visibility map over a width x height frame under which every ghost whose peak is known is faint and none
+// is culled: each cell shows only huge additions, and the budget is 0.
+std::shared_ptr<VisibilityMap> everything_faint(int width, int height) {
+    auto map = std::make_shared<VisibilityMap>();
+    map->width = width;
+    map->height = height;
+    map->cols = (width + map->cell - 1) / map->cell;
+    map->rows = (height + map->cell - 1) / map->cell;
+    map->visible.assign(static_cast<std::size_t>(map->cols) * static_cast<std::size_t>(map->rows) * 3, 1e30f);
+    map->budget = 0.0;
+    return map;
+}
+
+// The batched draw of faint ghosts (one trace, one shade and one instanced draw per grid and level) makes the
+// image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands.
+TEST(BatchedFaintGhosts, SameImageAsOneDrawEach) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.width = 320;
+    view.height = 200;
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    GpuFlareOptions options;
+    options.visibility = everything_faint(view.width, view.height);
+    options.full_target_bytes = 16.0 * view.width * view.height / 3.0;  // three bands
+    options.styles = {{0, 6, {2.0, 0.5, 1.0}, {1.5, -1.0}}};
+    const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
+    std::vector<float> batched(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
+    renderer.render_add(system, view, lights, options, batched);
+    const RenderStats stats = renderer.last_stats();
+    options.batch_faint = false;
+    std::vector<float> alone(batched.size(), 0.0f);
+    renderer.render_add(system, view, lights, options, alone);
+    EXPECT_GT(stats.ghosts_faint, 10);
+    EXPECT_EQ(stats.ghosts_drawn, renderer.last_stats().ghosts_drawn);
+    EXPECT_EQ(stats.ghosts_reduced, renderer.last_stats().ghosts_reduced);
+    const float peak = *std::max_element(alone.begin(), alone.end());
+    ASSERT_GT(peak, 0.0f);
+    double largest = 0.0;
+    for (std::size_t i = 0; i < alone.size(); ++i) largest = std::max(largest, static_cast<double>(std::abs(batched[i] - alone[i])));
+    EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
 }
 
 }  // namespace

@@ -62,6 +62,7 @@ struct DetailSettings {
     int base_grid = 16;          // --grid
     double pixel_mm = 0.1;       // the sensor width of one pixel
     bool per_ghost_power = false;
+    bool batch_faint = true;     // GpuFlareOptions::batch_faint
 };
 
 // Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
@@ -73,10 +74,12 @@ inline constexpr int kRimReduce = 4;
 
 // One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,
 // in ghost order (later bands only those with a full-size part: the ghost or its rim), with what band 0
-// counts for RenderStats.
+// counts for RenderStats. Faint ghosts (scene culling; no rim pass, no splats) are drawn together, grouped
+// by grid and level (the renderer's batched draw), the others one draw each.
 struct PassPlan {
-    std::vector<GhostPlan> plans;    // per ghost
-    std::vector<std::size_t> todo;   // ghost indices to trace and raster
+    std::vector<GhostPlan> plans;     // per ghost
+    std::vector<std::size_t> todo;    // ghost indices to trace and raster one by one
+    std::vector<std::size_t> batched; // faint ghost indices to trace and raster together
     int skipped = 0, culled = 0, faint = 0;
 };
 // verdicts: this light and pass's (empty: all Draw); total_power: pass_totals' entry for the pass.

@@ -41,6 +41,9 @@ struct GpuFlareOptions {
     // renderer keeps the whole lens's ghost list, so the groups of an extended light share one bounds table,
     // one set of sequences and one coarse estimate per light.
     std::vector<std::pair<int, int>> draw_only;
+    // The faint ghosts of a pass (scene culling) traced and drawn together, by grid and level; false: one
+    // draw each, as every other ghost (the same image; for tests).
+    bool batch_faint = true;
 };
 
 // Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
