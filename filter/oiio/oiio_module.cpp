@@ -232,7 +232,10 @@ OIIO::ImageSpec oiio_spec(const ImageSpec& spec) {
             if (p.name() != "compression") s.attribute(p.name(), p.type(), p.data());
     }
     if (spec.pixel_aspect != 1.0f) s.attribute("PixelAspectRatio", spec.pixel_aspect);
-    for (const auto& [name, value] : spec.text) s.attribute(name, value);
+    for (const auto& [name, value] : spec.text) {
+        if (name == "oiio:UnassociatedAlpha") s.attribute(name, value == "1" ? 1 : 0);  // an int to OpenImageIO
+        else s.attribute(name, value);
+    }
     return s;
 }
 

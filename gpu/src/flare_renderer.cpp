@@ -702,6 +702,31 @@ void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, 
     glDispatchCompute(groups, groups, 1);
 }
 
+namespace {
+
+// Traces `count` grids of `vertices` vertices each, in batches whose vertices fit 48 MB of buffer, and reads
+// them back: dispatch(i, offset) issues the i-th trace at vertex `offset` of its batch's buffer, take(i, data)
+// gets its vertices (12 floats each); `what` names the pass in a GL error.
+template <class Dispatch, class Take>
+void trace_and_read_back(std::size_t count, std::size_t vertices, const char* what, Dispatch dispatch, Take take) {
+    const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (vertices * kVertexBytes));
+    std::vector<float> readback;
+    for (std::size_t first = 0; first < count; first += batch) {
+        const std::size_t n = std::min(batch, count - first);
+        GlObject buffer = GlObject::buffer();
+        glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(n * vertices * kVertexBytes), nullptr, GL_MAP_READ_BIT);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer.get());
+        for (std::size_t k = 0; k < n; ++k) dispatch(first + k, k * vertices);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        readback.resize(n * vertices * 12);
+        glGetNamedBufferSubData(buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)), readback.data());
+        check_gl(what);
+        for (std::size_t k = 0; k < n; ++k) take(first + k, readback.data() + k * vertices * 12);
+    }
+}
+
+}  // namespace
+
 // Coarse pass over the whole entrance square of a light direction, all ghosts in batches: which part of the
 // pupil each ghost's light gets through, and roughly how much. At least 8 coarse rays span the entrance pupil.
 std::vector<GhostEstimate> FlareRenderer::Drawing::coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at,
@@ -713,24 +738,13 @@ std::vector<GhostEstimate> FlareRenderer::Drawing::coarse_pass(std::size_t p, co
     const double spacing = std::min(side / 48.0, std::max(epd, 1e-3) / 8.0);
     const int res = std::clamp(static_cast<int>(std::ceil(side / spacing)), 48, 320);
     const std::size_t coarse_vertices = static_cast<std::size_t>(res + 1) * static_cast<std::size_t>(res + 1);
-    const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (coarse_vertices * 48));
     std::vector<GhostEstimate> coarse(ghosts_.size());
-    std::vector<float> readback;
-    for (std::size_t first = 0; first < ghosts_.size(); first += batch) {
-        const std::size_t n = std::min(batch, ghosts_.size() - first);
-        GlObject coarse_buffer = GlObject::buffer();
-        glNamedBufferStorage(coarse_buffer.get(), static_cast<GLsizeiptr>(n * coarse_vertices * 48), nullptr, GL_MAP_READ_BIT);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, coarse_buffer.get());
-        for (std::size_t g = first; g < first + n; ++g)
-            dispatch_trace(res, square, 0.0, ray.direction, seq.offset[g], seq.count[g], (g - first) * coarse_vertices);
-        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        readback.resize(n * coarse_vertices * 12);
-        glGetNamedBufferSubData(coarse_buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)), readback.data());
-        check_gl("the coarse ghost pass");
-        for (std::size_t g = first; g < first + n; ++g)
-            coarse[g] = coarse_estimate(readback.data() + (g - first) * coarse_vertices * 12, res, square, seq.stop_crossings[g],
-                                        aperture, std::abs(ray.direction.z), sensor_radius_);
-    }
+    trace_and_read_back(
+        ghosts_.size(), coarse_vertices, "the coarse ghost pass",
+        [&](std::size_t g, std::size_t offset) { dispatch_trace(res, square, 0.0, ray.direction, seq.offset[g], seq.count[g], offset); },
+        [&](std::size_t g, const float* vertices) {
+            coarse[g] = coarse_estimate(vertices, res, square, seq.stop_crossings[g], aperture, std::abs(ray.direction.z), sensor_radius_);
+        });
     find_unknown_peaks(coarse, seq, ray.direction, aperture);
     return coarse;
 }
@@ -744,27 +758,17 @@ void FlareRenderer::Drawing::find_unknown_peaks(std::vector<GhostEstimate>& coar
     for (std::size_t g = 0; g < coarse.size(); ++g)
         if (!coarse[g].rect.empty() && !(coarse[g].peak > 0.0)) unknown.push_back(g);
     const std::size_t vertices = static_cast<std::size_t>(kPeakGrid + 1) * static_cast<std::size_t>(kPeakGrid + 1);
-    const std::size_t batch = std::max<std::size_t>(1, (std::size_t{48} << 20) / (vertices * 48));
-    std::vector<float> readback;
-    for (std::size_t first = 0; first < unknown.size(); first += batch) {
-        const std::size_t n = std::min(batch, unknown.size() - first);
-        GlObject buffer = GlObject::buffer();
-        glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(n * vertices * 48), nullptr, GL_MAP_READ_BIT);
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer.get());
-        for (std::size_t k = 0; k < n; ++k) {
-            const std::size_t g = unknown[first + k];
-            dispatch_trace(kPeakGrid, coarse[g].rect, 0.0, direction, seq.offset[g], seq.count[g], k * vertices);
-        }
-        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-        readback.resize(n * vertices * 12);
-        glGetNamedBufferSubData(buffer.get(), 0, static_cast<GLsizeiptr>(readback.size() * sizeof(float)), readback.data());
-        check_gl("the finer pass over ghosts of unknown peak");
-        for (std::size_t k = 0; k < n; ++k) {
-            const std::size_t g = unknown[first + k];
-            learn_peak(coarse[g], coarse_estimate(readback.data() + k * vertices * 12, kPeakGrid, coarse[g].rect, seq.stop_crossings[g],
-                                                  aperture, std::abs(direction.z), sensor_radius_));
-        }
-    }
+    trace_and_read_back(
+        unknown.size(), vertices, "the finer pass over ghosts of unknown peak",
+        [&](std::size_t k, std::size_t offset) {
+            const std::size_t g = unknown[k];
+            dispatch_trace(kPeakGrid, coarse[g].rect, 0.0, direction, seq.offset[g], seq.count[g], offset);
+        },
+        [&](std::size_t k, const float* traced) {
+            const std::size_t g = unknown[k];
+            learn_peak(coarse[g], coarse_estimate(traced, kPeakGrid, coarse[g].rect, seq.stop_crossings[g], aperture, std::abs(direction.z),
+                                                  sensor_radius_));
+        });
 }
 
 // The bounds table of this lens, ghosts and wavelengths with the entries on either side of the light's field

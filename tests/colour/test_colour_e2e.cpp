@@ -135,6 +135,32 @@ TEST_F(ColourEndToEnd, PngIsToneMappedWithDitherThatKeepsTheMean) {
     EXPECT_NEAR(half_mean(px16, false, 1), grey, 0.3 / 65535);
 }
 
+// A PNG's alpha is straight by its specification: a premultiplied EXR pixel (0.09 at alpha 0.5, a surface
+// of 0.18) is written with the surface's display value, as an opaque 0.18 is, and its alpha. Premultiplied
+// display values (or OpenImageIO's division of them, in display space) would make every soft edge too dark
+// (or too bright) once the PNG is composited.
+TEST_F(ColourEndToEnd, PngHoldsStraightColourOfAPremultipliedInput) {
+    std::vector<float> px(W * H * 4);
+    for (std::size_t i = 0; i < px.size(); i += 4) px[i] = px[i + 1] = px[i + 2] = 0.09f, px[i + 3] = 0.5f;
+    OIIO::ImageSpec spec(W, H, 4, OIIO::TypeHalf);
+    spec.alpha_channel = 3;
+    auto out = OIIO::ImageOutput::create(path("in.exr"));
+    ASSERT_TRUE(out && out->open(path("in.exr"), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png")).status, 0);
+    OIIO::ImageSpec raw_config;
+    raw_config.attribute("oiio:UnassociatedAlpha", 1);  // the file's own values, not OpenImageIO's premultiplied ones
+    auto in = OIIO::ImageInput::open(path("out.png"), &raw_config);
+    ASSERT_TRUE(in);
+    ASSERT_EQ(in->spec().nchannels, 4);
+    std::vector<float> png(W * H * 4);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 4, OIIO::TypeFloat, png.data()));
+    const double surface = static_cast<double>(expected_display("srgb", {0.18f, 0.18f, 0.18f}, 0));
+    double colour = 0, alpha = 0;
+    for (std::size_t i = 0; i < png.size(); i += 4) colour += static_cast<double>(png[i + 1]), alpha += static_cast<double>(png[i + 3]);
+    EXPECT_NEAR(colour / (W * H), surface, 0.5 / 255);
+    EXPECT_NEAR(alpha / (W * H), 0.5, 0.5 / 255);
+}
+
 TEST_F(ColourEndToEnd, SceneLinearOutputsAreUntouchedUnlessAsked) {
     write_exr("in.exr", {0.18f, 0.05f, 0.6f}, {3.f, 2.f, 1.f});
     ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("same.exr")).status, 0);

@@ -2,6 +2,7 @@
 #include <filter/colour/quantise.h>
 
 #include <algorithm>
+#include <initializer_list>
 #include <cctype>
 #include <cmath>
 #include <limits>
@@ -11,14 +12,29 @@
 
 namespace lensfx::colour {
 
-bool is_display_referred_format(std::string_view path) {
+namespace {
+
+// The lower-case extension of a path, or the whole text when it has no dot ("png" or "out.PNG").
+std::string lower_extension_of(std::string_view path) {
     const auto dot = path.rfind('.');
     std::string ext(dot == std::string_view::npos ? path : path.substr(dot + 1));
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-    for (const char* e : {"png", "jpg", "jpeg", "jpe", "jfif", "bmp", "gif", "webp", "ppm", "pgm", "pnm", "tga",
-                          "jp2", "j2k", "dpx", "cin", "heic", "avif"})
-        if (ext == e) return true;
-    return false;
+    return ext;
+}
+
+bool is_one_of(const std::string& ext, std::initializer_list<const char*> extensions) {
+    return std::any_of(extensions.begin(), extensions.end(), [&](const char* e) { return ext == e; });
+}
+
+}  // namespace
+
+bool is_display_referred_format(std::string_view path) {
+    return is_one_of(lower_extension_of(path), {"png", "jpg", "jpeg", "jpe", "jfif", "bmp", "gif", "webp", "ppm", "pgm", "pnm",
+                                                "tga", "jp2", "j2k", "dpx", "cin", "heic", "avif"});
+}
+
+bool holds_straight_alpha(std::string_view path) {
+    return is_one_of(lower_extension_of(path), {"png", "webp", "tga", "gif", "avif", "heic"});
 }
 
 namespace {

@@ -14,7 +14,8 @@ namespace lensfx::colour {
 ColourSession::ColourSession(const ColourArgs& args, const std::string& output)
     : config_(ColourConfig::load(args.options.ocio_config)),
       options_(args.options),
-      display_output_(args.display_asked() || is_display_referred_format(output)) {
+      display_output_(args.display_asked() || is_display_referred_format(output)),
+      straight_alpha_output_(display_output_ && holds_straight_alpha(output)) {
     // Check every name now, before any frame is read.
     if (!options_.colorspace.empty()) config_.check_colour_space(options_.colorspace);
     options_ = config_.checked_output_names(options_);
@@ -79,6 +80,19 @@ void ColourOutputStage::apply(const ColourTransform& transform, std::unique_ptr<
 }
 
 namespace {
+// Divides the frame's scene-linear R, G, B by its alpha (premultiplied, as EXR holds it) where alpha is
+// above 0, so that the display transform sees the surface's own colour: a straight-alpha file holds that,
+// and a premultiplied value there darkens every soft edge when the file is composited.
+void unpremultiply(filter::Frame& frame) {
+    const int a = frame.spec.channel_index("A");
+    if (a < 0) return;
+    const std::vector<float> alpha = filter::channels_as_float(frame, {a});
+    if (alpha.size() * 3 != frame.rgb.size()) return;
+    for (std::size_t i = 0; i < alpha.size(); ++i)
+        if (alpha[i] > 0.0f)
+            for (std::size_t c = 0; c < 3; ++c) frame.rgb[3 * i + c] /= alpha[i];
+}
+
 // Where the output transform ran, in the frame's metadata (EXR outputs keep it).
 void record_device(filter::Frame& frame, bool gpu) { frame.spec.text["lensfx:colourTransformOn"] = gpu ? "gpu" : "cpu"; }
 }  // namespace
@@ -88,6 +102,10 @@ void ColourOutputStage::process(filter::Frame& frame) {
     const auto& p = session_->pipeline_for(frame);
     auto px = rgb_span(frame);
     if (session_->display_output()) {
+        if (session_->straight_alpha_output()) {
+            unpremultiply(frame);
+            frame.spec.text.insert_or_assign("oiio:UnassociatedAlpha", std::string(1, '1'));  // the writer must not divide again
+        }
         apply(p.to_display(), gpu_display_, px);
         record_device(frame, ran_on_gpu_);
         // The pixels are display code values now: the input's primaries no longer describe them.

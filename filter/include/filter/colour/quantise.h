@@ -15,6 +15,9 @@ namespace lensfx::colour {
 // Output files: those that hold display-referred integer pixels always get the display transform
 // (PNG, JPEG, 8/16-bit TIFF, ...); scene-linear ones (EXR, HDR, PFM, raw float) only when asked.
 bool is_display_referred_format(std::string_view path_or_extension);
+// Display formats whose alpha is straight (unassociated) by their specification: PNG, WebP, TGA, GIF,
+// AVIF, HEIC. Their colour is written divided by alpha, as such a file's readers composite it.
+bool holds_straight_alpha(std::string_view path_or_extension);
 
 // Quantises display-referred values in [0, 1] to `bits` (8 or 16) with deterministic dither: Ordered is a
 // 16x16 Bayer matrix, BlueNoise a fixed, spatially decorrelated pattern; `frame` shifts the pattern over

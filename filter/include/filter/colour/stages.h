@@ -24,6 +24,8 @@ public:
     ColourSession(const ColourArgs& args, const std::string& output);
 
     bool display_output() const { return display_output_; }
+    // The output holds straight alpha (PNG...): colour is divided by alpha before the display transform.
+    bool straight_alpha_output() const { return straight_alpha_output_; }
     const ColourConfig& config() const { return config_; }
     const ColourOptions& options() const { return options_; }  // display and view filled in
     // The pipeline for a frame: made from the first frame; a later frame whose chromaticities differ
@@ -36,6 +38,7 @@ private:
     ColourConfig config_;
     ColourOptions options_;
     bool display_output_ = false;
+    bool straight_alpha_output_ = false;
     std::optional<ColourPipeline> pipeline_;
     std::optional<std::array<float, 8>> first_chromaticities_;
 };
