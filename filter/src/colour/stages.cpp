@@ -81,8 +81,8 @@ void ColourOutputStage::apply(const ColourTransform& transform, std::unique_ptr<
 
 namespace {
 // Divides the frame's scene-linear R, G, B by its alpha (premultiplied, as EXR holds it) where alpha is
-// above 0, so that the display transform sees the surface's own colour: a straight-alpha file holds that,
-// and a premultiplied value there darkens every soft edge when the file is composited.
+// above 0, so that the display transform sees the surface's own colour: a straight-alpha file holds that.
+// (Before, OpenImageIO divided the display code values instead, which brightened every soft edge.)
 void unpremultiply(filter::Frame& frame) {
     const int a = frame.spec.channel_index("A");
     if (a < 0) return;
