@@ -16,6 +16,8 @@
 #include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfPartType.h>
 
+#include <optics/image_window.h>
+
 namespace lensfx::dof {
 
 namespace {
@@ -25,15 +27,6 @@ struct ChannelRead {
     const char* name;
     float DeepSample::*field;
 };
-
-// A window's side from its inclusive bounds, in 64 bits (a hostile header's bounds near the int limits
-// would overflow). Throws when it is empty, inverted or beyond an int.
-int window_side(int min, int max, const char* window) {
-    const std::int64_t side = std::int64_t{max} - min + 1;
-    if (side < 1 || side > std::numeric_limits<int>::max())
-        throw std::runtime_error(fmt::format("{} {}..{} is empty or too large", window, min, max));
-    return static_cast<int>(side);
-}
 
 // Bytes a pixel of the data window takes while it is read: its count, its offset and one sample pointer a
 // channel.

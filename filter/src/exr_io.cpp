@@ -30,6 +30,8 @@
 #include <OpenEXR/ImfStringVectorAttribute.h>
 #include <OpenEXR/ImfThreading.h>
 
+#include <optics/image_window.h>
+
 namespace lensfx::filter {
 
 namespace {
@@ -221,15 +223,6 @@ void check_attribute_sizes(const std::string& path) {
     }
 }
 
-// A window's width or height from its inclusive bounds, in 64 bits: a hostile header's bounds near the int
-// limits would overflow. Throws when it is beyond what any frame can hold (2^31 - 1 pixels).
-int window_extent(int min, int max, const char* window) {
-    const std::int64_t extent = static_cast<std::int64_t>(max) - min + 1;
-    if (extent > std::numeric_limits<int>::max())
-        throw std::runtime_error(fmt::format("{} {}..{} is too large", window, min, max));
-    return static_cast<int>(std::max<std::int64_t>(extent, 0));
-}
-
 }  // namespace
 
 bool is_exr_file(const std::string& path) {
@@ -325,14 +318,12 @@ Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, cons
         const Imath::Box2i dw = header.dataWindow(), disp = header.displayWindow();
         spec.x = dw.min.x;
         spec.y = dw.min.y;
-        spec.width = window_extent(dw.min.x, dw.max.x, "data window");
-        spec.height = window_extent(dw.min.y, dw.max.y, "data window");
+        spec.width = window_side(dw.min.x, dw.max.x, "data window");
+        spec.height = window_side(dw.min.y, dw.max.y, "data window");
         spec.full_x = disp.min.x;
         spec.full_y = disp.min.y;
-        spec.full_width = window_extent(disp.min.x, disp.max.x, "display window");
-        spec.full_height = window_extent(disp.min.y, disp.max.y, "display window");
-        if (spec.width < 1 || spec.height < 1 || spec.full_width < 1 || spec.full_height < 1)
-            throw std::runtime_error(fmt::format("empty window {}x{}", spec.width, spec.height));
+        spec.full_width = window_side(disp.min.x, disp.max.x, "display window");
+        spec.full_height = window_side(disp.min.y, disp.max.y, "display window");
 
         struct Channel {
             std::string name;

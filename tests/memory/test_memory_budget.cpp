@@ -5,6 +5,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,6 +18,7 @@
 #include <filter/colour.h>
 #include <filter/image_io.h>
 #include <gpu/flare_renderer.h>
+#include <optics/image_window.h>
 #include <optics/lens_file.h>
 #include <optics/memory_budget.h>
 #include <optics/system.h>
@@ -117,6 +120,28 @@ TEST(MemoryBudget, DefaultIsHalfOfTheMachine) {
 // surfaces); the estimate follows. The coating tables are shared by the steps (one per surface and way),
 // so 100 surfaces need some 0.2 GB, not the 5.5 GB they once did. What cannot be drawn with fewer ghosts,
 // the ghost list, is checked; the refusal names the lens, surfaces and ghosts.
+// A window's side from its inclusive bounds (the EXR readers of filter/ and dof/ share it): exact up to an
+// int's largest side, and bounds near the int limits refused in words instead of overflowing.
+TEST(MemoryBudget, WindowSideFromBoundsWithoutOverflow) {
+    EXPECT_EQ(window_side(0, 0, "data window"), 1);
+    EXPECT_EQ(window_side(-4, 3, "data window"), 8);
+    EXPECT_EQ(window_side(0, std::numeric_limits<int>::max() - 1, "display window"), std::numeric_limits<int>::max());
+    const auto message = [](int min, int max) {
+        try {
+            window_side(min, max, "display window");
+        } catch (const std::runtime_error& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_EQ(message(std::numeric_limits<int>::min(), std::numeric_limits<int>::max()),
+              "display window -2147483648..2147483647 is empty or too large");
+    EXPECT_EQ(message(-1, std::numeric_limits<int>::max() - 1), "display window -1..2147483646 is empty or too large");
+    EXPECT_EQ(message(5, 4), "display window 5..4 is empty or too large");
+    EXPECT_EQ(message(std::numeric_limits<int>::max(), std::numeric_limits<int>::min()),
+              "display window 2147483647..-2147483648 is empty or too large");
+}
+
 TEST(MemoryBudget, GhostTablesOfManySurfaces) {
     const fs::path dir = scratch_dir("memory-lens");
     auto system_of = [&](int surfaces) { return optics::realize(optics::load_lens(make_many_surface_lens(dir, surfaces).string())); };
