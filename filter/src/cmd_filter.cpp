@@ -177,6 +177,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     if (!args.stream_format.empty()) o.stream_format = parse_stream_format(args.stream_format);
     if (!args.size.empty()) parse_size(args.size, o.raw_width, o.raw_height);
     o.memory = memory_budget_option(args.memory_limit);
+    if (args.memory_limit.empty()) o.in_flight_limit = kDefaultInFlightBytes;
     args.flare.memory = o.memory;
     check_output_options(args, app);
     refuse_output_over_side_inputs(args);

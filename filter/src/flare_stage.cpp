@@ -607,6 +607,12 @@ std::vector<std::pair<std::string, double>> FlareStage::part_times() const { ret
 std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { return state_->figures; }
 const LightSummary& FlareStage::summary() const { return state_->summary; }
 
+std::size_t FlareStage::held_bytes(const ImageSpec& spec) const {
+    if (!state_->parts.ghosts || state_->measured_lens) return 0;
+    const double bytes = gpu::render_target_bytes(spec.full_width, spec.full_height);
+    return static_cast<std::size_t>(std::min(bytes, 0x1p60));  // a hostile window is refused by the stage itself
+}
+
 // lights -> fade -> model -> composite.
 void FlareStage::process(Frame& frame) {
     State& s = *state_;

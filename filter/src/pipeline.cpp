@@ -1,6 +1,7 @@
 // The frame pipeline (see filter/pipeline.h).
 #include <filter/pipeline.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -41,67 +42,87 @@ std::size_t RunReport::skipped() const { return frames.size() - written(); }
 
 namespace {
 
-// The bytes of the frames between reader and writer, against the memory limit: the reader waits before
-// reading another frame while those held and the next would exceed it. A frame is always let through when
-// nothing is held, so one that fits the limit alone never waits forever (the readers refuse larger ones).
+// The bytes held in the pipeline, against the memory limit: the frames between reader and writer and the
+// stages' own buffers (Stage::held_bytes). The reader waits before reading another frame while those held
+// and the next would exceed the limit. A frame is always let through when no frame is held, so one that
+// fits the limit alone never waits forever (the readers and stages refuse larger ones).
 class FrameBytes {
 public:
-    // Bytes held for one frame until it is written or dropped; moves with the frame through the queues.
+    // Bytes held for one frame until it is written or dropped (moving with the frame through the queues),
+    // or for the stages' buffers.
     class Hold {
     public:
         Hold() = default;
-        Hold(FrameBytes* owner, std::size_t bytes) : owner_(owner), bytes_(bytes) {}
-        Hold(Hold&& other) noexcept : owner_(std::exchange(other.owner_, nullptr)), bytes_(other.bytes_) {}
+        Hold(FrameBytes* owner, std::size_t bytes, bool frame) : owner_(owner), bytes_(bytes), frame_(frame) {}
+        Hold(Hold&& other) noexcept
+            : owner_(std::exchange(other.owner_, nullptr)), bytes_(other.bytes_), frame_(other.frame_) {}
         Hold& operator=(Hold&& other) noexcept {
             if (this != &other) {
                 release();
                 owner_ = std::exchange(other.owner_, nullptr);
                 bytes_ = other.bytes_;
+                frame_ = other.frame_;
             }
             return *this;
         }
         Hold(const Hold&) = delete;
         Hold& operator=(const Hold&) = delete;
         ~Hold() { release(); }
-        // The frame turned out to need `bytes` (known once it is read): held without waiting.
+        // What is held turned out to be `bytes` (a frame once it is read or stored): held without waiting.
         void resize(std::size_t bytes) {
-            if (owner_) owner_->change(bytes_, bytes);
+            if (owner_) owner_->change(bytes_, bytes, false);
             bytes_ = bytes;
         }
+        std::size_t bytes() const { return bytes_; }
 
     private:
         void release() {
-            if (owner_) owner_->change(bytes_, 0);
+            if (owner_) owner_->change(bytes_, 0, frame_);
             owner_ = nullptr;
         }
         FrameBytes* owner_ = nullptr;
         std::size_t bytes_ = 0;
+        bool frame_ = false;
     };
 
     explicit FrameBytes(std::size_t limit) : limit_(limit) {}
 
-    // Waits until `bytes` more fit under the limit (or nothing is held); nothing when cancelled.
+    // Waits until a frame of `bytes` fits under the limit (or no frame is held); nothing when cancelled.
     std::optional<Hold> acquire(std::size_t bytes) {
         std::unique_lock lock(mutex_);
-        freed_.wait(lock, [&] { return cancelled_ || limit_ == 0 || held_ == 0 || held_ + bytes <= limit_; });
+        freed_.wait(lock, [&] { return cancelled_ || limit_ == 0 || frames_ == 0 || held_ + bytes <= limit_; });
         if (cancelled_) return std::nullopt;
-        held_ += bytes;
-        return Hold(this, bytes);
+        ++frames_;
+        add(bytes);
+        return Hold(this, bytes, true);
     }
+    // The stages' buffers: held at once, resized as they grow.
+    Hold stages() { return Hold(this, 0, false); }
     void cancel() {
         std::lock_guard lock(mutex_);
         cancelled_ = true;
         freed_.notify_all();
     }
+    std::size_t peak() {
+        std::lock_guard lock(mutex_);
+        return peak_;
+    }
 
 private:
-    void change(std::size_t from, std::size_t to) {
+    void change(std::size_t from, std::size_t to, bool frame_released) {
         std::lock_guard lock(mutex_);
-        held_ = held_ - from + to;
-        if (to < from) freed_.notify_all();
+        held_ -= from;
+        add(to);
+        if (frame_released) --frames_;
+        if (to < from || frame_released) freed_.notify_all();
+    }
+    void add(std::size_t bytes) {
+        held_ += bytes;
+        peak_ = std::max(peak_, held_);
     }
     std::size_t limit_;
-    std::size_t held_ = 0;
+    std::size_t held_ = 0, peak_ = 0;
+    std::size_t frames_ = 0;  // frames held (the stages' buffers are not one)
     bool cancelled_ = false;
     std::mutex mutex_;
     std::condition_variable freed_;
@@ -330,9 +351,19 @@ struct FrameSource {
 };
 
 // The reader's wait for memory, expecting the size of the frame before; then what the frame holds.
+// The stages' buffers for frames of `spec` counted in `held`, as soon as a frame of that size is read (before
+// the next is): the most any frame so far needs, since what a stage keeps for the next frame (or a driver
+// keeps for it) does not shrink.
+void hold_stage_buffers(FrameBytes::Hold& held, const std::vector<Stage*>& stages, const ImageSpec& spec) {
+    std::size_t bytes = 0;
+    for (const Stage* s : stages) bytes += s->held_bytes(spec);
+    if (bytes > held.bytes()) held.resize(bytes);
+}
+
 class ReadBudget {
 public:
-    ReadBudget(FrameBytes& held, bool wants_rgb) : held_(held), wants_rgb_(wants_rgb) {}
+    ReadBudget(FrameBytes& held, const std::vector<Stage*>& stages, bool wants_rgb)
+        : held_(held), stages_(stages), wants_rgb_(wants_rgb), stage_buffers_(held.stages()) {}
     bool hold(Item& item) {
         std::optional<FrameBytes::Hold> hold = held_.acquire(expected_);
         if (hold) item.held = std::move(*hold);
@@ -342,12 +373,15 @@ public:
         if (!item.frame) return;
         expected_ = frame_bytes(*item.frame, wants_rgb_);
         item.held.resize(expected_);
+        hold_stage_buffers(stage_buffers_, stages_, item.frame->spec);
     }
 
 private:
     FrameBytes& held_;
+    const std::vector<Stage*>& stages_;
     bool wants_rgb_;
     std::size_t expected_ = 0;
+    FrameBytes::Hold stage_buffers_;
 };
 
 // The reader thread: every frame of the source into the queue, a bad one as an item without a frame (the
@@ -479,8 +513,9 @@ bool any_wants_rgb(const std::vector<Stage*>& stages) {
     return wants_rgb;
 }
 
-// The main thread's part: every frame read through the stages into the write queue. A bad frame stops
-// the run (`stop`, with the line saying why) unless --skip-bad-frames lets it be skipped.
+// The main thread's part: every frame read through the stages into the write queue, holding then the
+// bytes of its stored pixels. A bad frame stops the run (`stop`, with the line saying why) unless
+// --skip-bad-frames lets it be skipped.
 void process_frames(const PipelineOptions& o, const std::vector<Stage*>& stages, bool wants_rgb, BoundedQueue<Item>& read_queue,
                     BoundedQueue<Item>& write_queue, const std::function<void(std::string)>& stop) {
     std::optional<ImageSpec> first;
@@ -490,6 +525,7 @@ void process_frames(const PipelineOptions& o, const std::vector<Stage*>& stages,
             const auto t0 = Clock::now();
             try {
                 process_frame(*item->frame, stages, wants_rgb, first, rec);
+                item->held.resize(frame_bytes(*item->frame, false));
             } catch (const std::exception& e) {
                 item->frame.reset();
                 rec.error = one_line(error_text(e));
@@ -502,6 +538,12 @@ void process_frames(const PipelineOptions& o, const std::vector<Stage*>& stages,
         }
         if (!write_queue.push(std::move(*item))) break;
     }
+}
+
+// The bytes a run may hold in flight: the memory limit, and the in-flight limit when smaller (0: none).
+std::size_t in_flight_bound(const PipelineOptions& o) {
+    if (o.in_flight_limit == 0) return o.memory.limit;
+    return o.memory.limit == 0 ? o.in_flight_limit : std::min(o.memory.limit, o.in_flight_limit);
 }
 
 // The report's fields known before the first frame; sets the readers' and writers' thread counts.
@@ -542,7 +584,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     const bool show_progress = progress_shown(o, plan);
     const bool wants_rgb = any_wants_rgb(stages);
 
-    FrameBytes frame_bytes_held(o.memory.limit);  // before the queues: their items release into it
+    FrameBytes frame_bytes_held(in_flight_bound(o));  // before the queues: their items release into it
     BoundedQueue<Item> read_queue(o.queue_depth), write_queue(o.queue_depth);
     Failure failure;
     auto fail = [&](std::string message) {
@@ -551,7 +593,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
         read_queue.cancel();
         write_queue.cancel();
     };
-    ReadBudget budget(frame_bytes_held, wants_rgb);
+    ReadBudget budget(frame_bytes_held, stages, wants_rgb);
     std::thread reader([&] { read_frames(FrameSource{o, plan}, budget, read_queue); });
     std::thread writer([&] { write_frames(o, plan, show_progress, write_queue, report, fail); });
 
@@ -564,6 +606,7 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
     write_queue.close();
     reader.join();
     writer.join();
+    report.peak_held_bytes = frame_bytes_held.peak();
 
     finish_report(report, o, plan, failure.get(), start);
     return report;
@@ -594,6 +637,7 @@ void write_report(const RunReport& report, const std::string& path) {
                         {"frames_skipped", report.skipped()},
                         {"wall_seconds", report.wall_seconds},
                         {"frames_per_second", fps},
+                        {"peak_held_bytes", report.peak_held_bytes},
                         {"frames", std::move(frames)}};
     if (!report.error.empty()) j["error"] = report.error;
     if (!report.options_toml.empty()) j["options"] = report.options_toml;

@@ -2,6 +2,7 @@
 // and end-to-end runs of the lensfx program on small hostile inputs made here: each is refused in one
 // `lensfx:` line naming what was too big (never a bare std::bad_alloc), or runs within the budget.
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +10,7 @@
 #include <stdexcept>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <OpenImageIO/imageio.h>
@@ -17,6 +19,7 @@
 
 #include <filter/colour.h>
 #include <filter/image_io.h>
+#include <filter/pipeline.h>
 #include <gpu/flare_renderer.h>
 #include <optics/image_window.h>
 #include <optics/lens_file.h>
@@ -275,6 +278,48 @@ TEST(MemoryBudgetEndToEnd, LensOfManySurfacesFitsWithItsBrightestGhosts) {
     EXPECT_NE(r.stderr_text.find("brightest ghosts"), std::string::npos) << r.stderr_text;
     EXPECT_NE(r.stderr_text.find("% of that power"), std::string::npos) << r.stderr_text;
     EXPECT_TRUE(fs::exists(dir / "f.exr"));
+    fs::remove_all(dir);
+}
+
+// A stage that keeps `bytes` of its own buffers (as the flare stage keeps its GL targets) and takes a
+// while on each frame, so that a reader not held back by those bytes would read ahead meanwhile.
+class KeepsBuffers : public filter::Stage {
+public:
+    explicit KeepsBuffers(std::size_t bytes) : bytes_(bytes) {}
+    std::string_view name() const override { return "keeps"; }
+    void process(filter::Frame&) override { std::this_thread::sleep_for(std::chrono::milliseconds(40)); }
+    std::size_t held_bytes(const filter::ImageSpec&) const override { return bytes_; }
+
+private:
+    std::size_t bytes_;
+};
+
+// The pipeline counts a stage's own buffers with the frames in flight: under a limit that holds one 64 x 64
+// frame (24 KB of half pixels and 48 KB as float) with the stage's 100 KB, but not two frames with them,
+// the most ever held counts the stage's bytes and stays within the limit (the reader waits); so does a
+// run bounded by the in-flight limit alone (the filter's default when no --memory-limit is given).
+TEST(MemoryBudgetEndToEnd, SequenceCountsTheStagesBuffers) {
+    const fs::path dir = scratch_dir("memory-stage-buffers");
+    for (int i = 1; i <= 4; ++i) make_windowed_exr(dir / fmt::format("in.{:04d}.exr", i), 64, 64);
+    constexpr std::size_t kFrame = 64 * 64 * (6 + 12), kStage = 100000;
+    KeepsBuffers stage(kStage);
+    filter::PipelineOptions o;
+    o.input = (dir / "in.####.exr").string();
+    o.output = (dir / "out.####.exr").string();
+    o.quiet = true;
+    o.queue_depth = 3;
+    o.memory.limit = 200000;
+    const filter::RunReport limited = filter::run_pipeline(o, {&stage});
+    EXPECT_EQ(limited.written(), 4u);
+    EXPECT_GE(limited.peak_held_bytes, kFrame + kStage);
+    EXPECT_LE(limited.peak_held_bytes, o.memory.limit);
+
+    o.memory.limit = 0;  // none: the in-flight limit alone bounds what is held
+    o.in_flight_limit = 200000;
+    const filter::RunReport in_flight = filter::run_pipeline(o, {&stage});
+    EXPECT_EQ(in_flight.written(), 4u);
+    EXPECT_GE(in_flight.peak_held_bytes, kFrame + kStage);
+    EXPECT_LE(in_flight.peak_held_bytes, o.in_flight_limit);
     fs::remove_all(dir);
 }
 

@@ -126,6 +126,10 @@ public:
     // Figures of the last process() call (what it found: lights, the brightest luminance...); the report
     // lists them as NAME.FIGURE.
     virtual std::vector<std::pair<std::string, double>> frame_figures() const { return {}; }
+    // Bytes the stage holds, beyond the frame itself, while it processes a frame of `spec` and after it
+    // (buffers it keeps for the next frame: the flare's GL targets); the pipeline counts them against the
+    // memory limit with the frames in flight.
+    virtual std::size_t held_bytes(const ImageSpec& /*spec*/) const { return 0; }
 };
 
 }  // namespace lensfx::filter

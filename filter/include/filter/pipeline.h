@@ -17,6 +17,11 @@
 
 namespace lensfx::filter {
 
+// The default bound on the bytes a run holds in flight (PipelineOptions::in_flight_limit) when no
+// --memory-limit is given: 2 GiB keeps an 8K sequence with a flare near the 2 GB a frame (frames
+// of 4K and below never reach it with the default --queue-depth, so they read and write ahead as before).
+inline constexpr std::size_t kDefaultInFlightBytes = std::size_t{2} << 30;
+
 enum class Progress { automatic, on, off };  // automatic: on when stderr is a terminal and IN is a sequence or stream
 
 struct PipelineOptions {
@@ -37,9 +42,13 @@ struct PipelineOptions {
     int raw_width = 0, raw_height = 0;          // raw input frame size (--size): stdin is raw when given
     // What "-" as output carries; nothing: raw when pix_fmt is given, else the input stream's format, else EXR.
     std::optional<StreamFormat> stream_format;
-    // --memory-limit: every frame is sized against it before it is read, and the reader waits before
-    // reading another while the frames held (pixels and R, G, B as float) and the next would exceed it.
+    // --memory-limit: every frame is sized against it before it is read.
     MemoryBudget memory;
+    // The most bytes held in flight, with `memory`'s limit (the smaller bounds; 0: the memory limit alone):
+    // the reader waits before reading another frame while the frames held (pixels, and R, G, B as float
+    // until stored) and the stages' buffers (the flare's GL targets), with the next frame, would exceed it.
+    // The filter command sets kDefaultInFlightBytes when no --memory-limit is given.
+    std::size_t in_flight_limit = 0;
 };
 
 // What happened to one frame. Times are wall-clock milliseconds spent in each stage on this frame.
@@ -61,6 +70,9 @@ struct RunReport {
     double wall_seconds = 0;
     std::string error;  // the failure that stopped the run, if one did
     std::string options_toml;  // the options of the run as a TOML shot file: `--config` repeats it
+    // The most bytes the memory budget counted at once: frames in flight (pixels, and R, G, B as float
+    // while the stages run) and the stages' buffers (Stage::held_bytes).
+    std::size_t peak_held_bytes = 0;
     std::size_t written() const;
     std::size_t skipped() const;
 };

@@ -44,6 +44,7 @@ public:
     void process(Frame& frame) override;
     std::vector<std::pair<std::string, double>> part_times() const override { return inner_->part_times(); }
     std::vector<std::pair<std::string, double>> frame_figures() const override { return inner_->frame_figures(); }
+    std::size_t held_bytes(const ImageSpec& spec) const override { return inner_->held_bytes(spec); }
 
 private:
     std::unique_ptr<Stage> inner_;

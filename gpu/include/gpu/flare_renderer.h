@@ -25,8 +25,9 @@ struct GpuFlareOptions {
     int grid = 16;                 // base cells per side of each ghost's ray grid (the adaptive grid scales it)
     bool per_ghost_power = false;  // fill FlareImage::ghosts (reads back after every ghost: slower)
     // The full-size RGBA32F target is drawn in horizontal bands of at most this many bytes (1 GB for one
-    // 8K target); each band re-traces the ghosts drawn at full size. Per-ghost power draws it whole.
-    double full_target_bytes = 400e6;
+    // 8K target: five bands); each band re-traces the ghosts drawn at full size. Per-ghost power draws it
+    // whole. (llvmpipe keeps most of a released target's memory, so the band is held for the whole run.)
+    double full_target_bytes = 256e6;
     Acceleration accel;            // all on by default; fixed grid per ghost with every one off
     // High quality: ghosts are shaded by the iris with its ringing (the fractional Fourier transform of
     // order eq. 5 at each pass's wavelength and the lens's f-number) instead of the sharp iris.
