@@ -73,7 +73,7 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--depth-scale", s.depth_scale, "Metres per depth unit")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
     app.add_option("--deep", s.deep, "Deep EXR files (comma-separated, merged) whose samples are the scene's layers")->group(group);
     app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
-    app.add_option("--dof-max-rays", s.max_rays, "Up to this many where the blur is wide, so its rays land 2.5 px apart (default 4 x --dof-rays)")
+    app.add_option("--dof-max-rays", s.max_rays, "Up to this many where the blur is wide, so its rays land 2.5 px apart (default 4 x --dof-rays, at most 256)")
         ->group(group)
         ->check(CLI::Range(1, 4096));
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
@@ -187,8 +187,8 @@ struct DofStage::State {
     double layers_ms = 0, rays_ms = 0, trace_ms = 0;
 
     std::string cache_dir() const;
-    // lens rays per pixel where the blur is widest (--dof-max-rays, default 4 x --dof-rays)
-    int max_rays() const { return std::max(settings.rays, settings.max_rays > 0 ? settings.max_rays : 4 * settings.rays); }
+    // lens rays per pixel where the blur is widest (--dof-max-rays; default 4 x --dof-rays, at most 256)
+    int max_rays() const { return std::max(settings.rays, settings.max_rays > 0 ? settings.max_rays : std::min(4 * settings.rays, 256)); }
 
     dof::Camera camera_for(const Frame& frame) const;
     dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work) const;
