@@ -81,7 +81,20 @@ int faint_reduce(double extent_px) {
     return reduce;
 }
 
+// A ghost's size on the sensor (mm): its extent, or where it has none its sensor box's larger side (a sliver
+// ghost, with no whole coarse cell, has an extent of 0 and its box from the finer pass that found its peak,
+// learn_peak; drawn as if small, one 2000 px across cost 40 ms at full size).
+double sensor_size_mm(const GhostEstimate& e) {
+    if (e.extent_mm > 0.0) return e.extent_mm;
+    const double box = std::max(e.sensor.x1 - e.sensor.x0, e.sensor.y1 - e.sensor.y0);
+    return std::isfinite(box) ? std::max(box, 0.0) : 0.0;
+}
+
 }  // namespace
+
+double caustic_spike(const GhostEstimate& e) {
+    return e.area_cv >= kReducedMaxCv ? kCausticSpike : 1.0;
+}
 
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
                                    int base_grid, double pixel_mm, bool per_ghost_power, double total_power,
@@ -107,11 +120,11 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         }
         const SceneVerdict verdict = g < verdicts.size() ? verdicts[g] : SceneVerdict::Draw;
         if (verdict == SceneVerdict::Cull) continue;
-        const bool faint = verdict == SceneVerdict::Faint;
+        const bool faint = verdict == SceneVerdict::Faint || verdict == SceneVerdict::Spiky;
         // A faint ghost with caustics (cells too uneven to draw reduced) may peak far above its coarse cells'
-        // estimate in a pixel or two: it keeps its splats and the level a sharp ghost gets (nikon-80-200,
-        // pan1080, --gain 20: a 7-code spike otherwise).
-        const bool smooth_faint = faint && e.area_cv < kReducedMaxCv;
+        // estimate in a pixel or two: where that spike could show (Spiky) it keeps its splats and the level a
+        // sharp ghost gets (nikon-80-200, pan1080, --gain 20: a 7-code spike otherwise).
+        const bool smooth_faint = verdict == SceneVerdict::Faint;
         plan.draw = true;
         int grid = base_grid;
         if (accel.adaptive) {
@@ -146,7 +159,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             } else {
                 plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
             }
-            if (smooth_faint) plan.reduce = faint_reduce(extent_px);
+            if (smooth_faint) plan.reduce = faint_reduce(sensor_size_mm(e) / pixel_mm);
         }
     }
     return plans;
@@ -240,7 +253,7 @@ std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, Visibil
             verdicts[i] = SceneVerdict::Cull;
             spend_budget(items[i], ranges[i], map);
         } else if (ratio[i] < 1.0) {
-            verdicts[i] = SceneVerdict::Faint;
+            verdicts[i] = ratio[i] * items[i].spike < 1.0 ? SceneVerdict::Faint : SceneVerdict::Spiky;
         }
     }
     return verdicts;

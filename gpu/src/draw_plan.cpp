@@ -67,6 +67,7 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     item.y1 += spread;
     for (std::size_t k = 0; k < 3; ++k)
         item.peak[k] = e.peak * std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
+    item.spike = caustic_spike(e);
     return item;
 }
 

@@ -63,6 +63,26 @@ TEST(SceneCull, CulledGhostsTogetherStayWithinTheBudget) {
     EXPECT_EQ(again[1], SceneVerdict::Cull);
 }
 
+// A ghost with caustics (spike 16) is Faint only when its peak times its spike is under a code; between that
+// and its peak alone under a code it is Spiky (drawn coarsened but with its splats); a smooth one is Faint.
+TEST(SceneCull, ACausticGhostIsFaintOnlyWhenItsSpikeIsUnderACode) {
+    auto map = lensfx::filter::plate_visibility(split_plate(0.5f, 0.5f), 1.0);
+    map->budget = 0.0;  // nothing culled: only the Faint or Spiky verdict is weighed
+    const double step = lensfx::filter::srgb8_code_step(0.5);
+    CullItem spiky = ghost_at(40.0, 0.5 * step), faint = ghost_at(40.0, 0.5 * step / 32.0), smooth = ghost_at(40.0, 0.5 * step);
+    spiky.spike = faint.spike = 16.0;
+    const auto verdicts = lensfx::gpu::scene_cull({spiky, faint, smooth}, *map);
+    EXPECT_EQ(verdicts[0], SceneVerdict::Spiky);
+    EXPECT_EQ(verdicts[1], SceneVerdict::Faint);
+    EXPECT_EQ(verdicts[2], SceneVerdict::Faint);
+    // The spike is how caustic_spike weighs an estimate: by its cells' unevenness.
+    lensfx::gpu::GhostEstimate e;
+    e.area_cv = 0.05;
+    EXPECT_EQ(lensfx::gpu::caustic_spike(e), 1.0);
+    e.area_cv = 1.0;
+    EXPECT_EQ(lensfx::gpu::caustic_spike(e), lensfx::gpu::kCausticSpike);
+}
+
 namespace {
 
 // A ghost of one spectral pass: over the same pixels as ghost_at, adding `peak` to channel `channel` only.

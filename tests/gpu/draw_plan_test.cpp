@@ -98,16 +98,28 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     DetailSettings detail;
     detail.base_grid = 32;
     detail.pixel_mm = pixel_mm;
-    const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Faint, SceneVerdict::Draw,
-                                                SceneVerdict::Cull, SceneVerdict::Cull};
-    // Ghost 1 sharp (caustics: its peak may lie far above the coarse estimate): faint, but it keeps its splats
-    // and a sharp ghost's level, so it is drawn alone.
+    std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Spiky, SceneVerdict::Draw,
+                                          SceneVerdict::Cull, SceneVerdict::Cull};
+    // Ghost 1 sharp and Spiky (caustics: a spike far above the coarse estimate could show): coarsened, but it
+    // keeps its splats and a sharp ghost's level, so it is drawn alone.
     const PassPlan sharp = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(sharp.todo, (std::vector<std::size_t>{0, 1}));
     EXPECT_LE(sharp.plans[1].grid, 16);
     EXPECT_EQ(sharp.plans[1].reduce, 1);
     EXPECT_TRUE(!sharp.plans[1].rim && sharp.plans[1].splat);
     EXPECT_EQ(sharp.faint, 0);
+    // Ghost 1 sharp but Faint (even its spikes under what the frame shows): the coarsest detail, batched.
+    verdicts[1] = SceneVerdict::Faint;
+    const PassPlan caustic = plan_pass(e, 0.0, verdicts, selection, detail, 0);
+    EXPECT_EQ(caustic.batched, (std::vector<std::size_t>{1}));
+    EXPECT_FALSE(caustic.plans[1].rim || caustic.plans[1].splat);
+    // A sliver ghost (no whole coarse cell: extent 0, its sensor box from the finer pass) 600 pixels across:
+    // drawn at the level its box allows (600 / 8 >= 2 x 64 cells), not at full size.
+    e[1].extent_mm = 0.0;
+    e[1].sensor = {-300 * pixel_mm, -100 * pixel_mm, 300 * pixel_mm, 100 * pixel_mm};
+    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[1].reduce, 8);
+    e[1].extent_mm = 40 * pixel_mm;
+    e[1].sensor = {};
     // Ghost 1 smooth: drawn at the coarsest detail, with the pass's other faint ghosts.
     e[1].area_cv = 0.2;
     const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
