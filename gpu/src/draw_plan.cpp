@@ -107,8 +107,8 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
             }
             continue;
         }
-        // no full-size part: neither the ghost nor its rim (drawn at rim_level) is at full size
-        if (band > 0 && plan.reduce != 1 && !(plan.rim && rim_level(plan.reduce) == 1)) continue;
+        // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
+        if (band > 0 && plan.reduce != 1 && !(plan.rim && plan.reduce == kRimReduce)) continue;
         const bool faint = verdict == SceneVerdict::Faint && !plan.rim && !plan.splat;  // coarsened (plan_ghosts)
         out.faint += band == 0 && faint;
         (faint && detail.batch_faint ? out.batched : out.todo).push_back(g);

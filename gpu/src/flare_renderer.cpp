@@ -421,8 +421,8 @@ void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, co
 
 // The Mitchell-Netravali cubic (B = C = 1/3) at offset x in source pixels: smoother than bilinear (its
 // gradient is continuous, so a reduced ghost's shading has no creases at the source pixels' centres) with
-// lobes under 4% below zero. Cooke-triplet at (14, 9), 960x640: structure error 0.717 -> 0.705 against
-// bilinear's (bench_flare), Catmull-Rom 0.733 and the cubic B-spline 0.771 against bilinear's 0.741.
+// lobes under 4% below zero. Cooke-triplet at (14, 9), 960x640 (bench_flare): structure error 0.732, against
+// bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render time the same within noise.
 double mitchell(double x) {
     constexpr double B = 1.0 / 3.0, C = 1.0 / 3.0;
     x = std::abs(x);
@@ -715,11 +715,11 @@ void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, 
     glUniform1i(s_.shade.uniform("grid"), res);
     glUniform1ui(s_.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
     glUniform1f(s_.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
-    const int rim_target = rim_level(reduce);
+    const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
     glUniform2f(s_.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
-    glUniform1f(s_.shade.uniform("rim_band"), static_cast<float>(rim_target > 0 ? 3 * reduce / rim_target : 0));
+    glUniform1f(s_.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.shade.uniform("stop_crossings"), stop_crossings);
     glUniform1i(s_.shade.uniform("ringing"), options_.ringing ? 1 : 0);
     glUniform1i(s_.shade.uniform("iris_sdf"), 0);
@@ -949,9 +949,9 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
 
-// The batch's traced grids rasterised (and splatted) level by level, then the reduced ghosts' rims at their
-// rim_level (ghost_raster_frag's rim_mode 2), grouped by target. Later bands draw only into the full-size
-// target.
+// The batch's traced grids rasterised (and splatted) level by level, then the reduced ghosts' rims at
+// kRimReduce times their level's resolution (ghost_raster_frag's rim_mode 2), grouped by target. Later bands
+// draw only into the full-size target.
 void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
     for (const int reduce : {16, 8, 4, 2, 1}) {
         if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
@@ -979,7 +979,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
         bool bound = false;
         for (const BatchJob& job : batch) {
             const GhostPlan& plan = pd.plans[job.ghost];
-            if (!plan.rim || rim_level(plan.reduce) != level) continue;
+            if (!plan.rim || plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
             if (!bound) bind_level(level);
             bound = true;
             ghost_uniforms(job, pd, plan.reduce, 2);
@@ -1018,8 +1018,8 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
 // of its level (1/reduce of the image); rim_mode 2 draws the same triangles at kRimReduce times that resolution.
 void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const std::size_t g = job.ghost;
-    // The rim pass draws at rim_level(reduce); the full-size image in bands.
-    const int target_reduce = rim_mode == 2 ? rim_level(reduce) : reduce;
+    // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
+    const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
     for (const Program* program : {&s_.raster, &s_.splat}) {
         glUseProgram(program->get());

@@ -91,29 +91,6 @@ TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
     EXPECT_EQ(whole.plans[0].reduce, 1);
 }
 
-// A smooth ghost larger than the frame at 1/8 of the image draws its rim at full size (the rim of one at
-// 1/16 stays at 1/4): later bands of the full-size target hold it. Before issue 16's structure work its rim
-// was at 1/2 and only band 0 drew it.
-TEST(PlanPass, EighthSizeGhostsDrawTheirRimsAtFullSize) {
-    EXPECT_EQ(rim_level(1), 0);
-    EXPECT_EQ(rim_level(2), 0);
-    EXPECT_EQ(rim_level(4), 1);
-    EXPECT_EQ(rim_level(8), 1);
-    EXPECT_EQ(rim_level(16), 4);
-    const double pixel_mm = 0.01;
-    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
-    e[0].extent_mm = 1100 * pixel_mm;  // 1/8
-    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}),
-                                                        {{1, 0}, {2, 0}, {3, 0}, {4, 0}}, {});
-    DetailSettings detail;
-    detail.base_grid = 32;
-    detail.pixel_mm = pixel_mm;
-    const PassPlan first = plan_pass(e, 0.0, {}, selection, detail, 0);
-    ASSERT_EQ(first.plans[0].reduce, 8);
-    EXPECT_TRUE(first.plans[0].rim);
-    EXPECT_EQ(plan_pass(e, 0.0, {}, selection, detail, 1).todo, (std::vector<std::size_t>{0, 1}));
-}
-
 TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const double pixel_mm = 0.01;
     std::vector<GhostEstimate> e = five_estimates(pixel_mm);

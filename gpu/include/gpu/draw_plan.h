@@ -65,15 +65,12 @@ struct DetailSettings {
     bool batch_faint = true;     // GpuFlareOptions::batch_faint
 };
 
-// Ghosts drawn at 1/4 of the image or smaller get their rims drawn sharper than their level (rim_level):
-// at 1/4 and 1/8 at full size, at 1/16 at 1/4. Upsampled, a rim drawn at 1/2 still softens by a pixel or
-// two, which the structure error (a soft edge costs about its whole step) counts at the rims of the big
-// ghosts that fill the frame: cooke-triplet at (14, 9), 960x640, 0.741 with 1/8 rims at 1/2, 0.717 at full
-// size (bench_flare). At full size the rim pass of a frame-filling ghost at 1/16 (a 48-px band along its
-// outline, filled by whole grid triangles) cost more than all the rest of the render, so 1/16 keeps 1/4.
+// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
+// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
+// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
+// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
+// rest of the render.
 inline constexpr int kRimReduce = 4;
-// The level (the image at 1/n) the rim of a ghost drawn at 1/reduce is drawn at; 0: no rim pass.
-constexpr int rim_level(int reduce) { return reduce < kRimReduce ? 0 : reduce <= 2 * kRimReduce ? 1 : reduce / kRimReduce; }
 
 // One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,
 // in ghost order (later bands only those with a full-size part: the ghost or its rim), with what band 0
