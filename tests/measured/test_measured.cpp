@@ -189,6 +189,35 @@ TEST(MeasuredRender, ReducedGlowMatchesFullSizeAndTheGpu) {
     }
 }
 
+// Ghosts of several shapes (a disc, a diamond with sharp corners, a near square, a lopsided one), large
+// in the frame (the table coarser than the pixels), each with a bright rim: drawn from their distance
+// tables against the exact Bezier search per pixel.
+TEST(MeasuredRender, DistanceTablesMatchTheExactSearch) {
+    MeasuredLens lens;
+    const std::array<std::array<double, 5>, 4> shapes{{{6, 6, 6, 0.5523, 0.5523}, {5, 7, 4, 0.0, 0.0}, {6, 6, 5, 1.0, 1.0}, {3, 9, 5, 0.2, 0.8}}};
+    for (const auto& [left, right, height, cl, cr] : shapes) {
+        GhostParams p = disc_ghost(1.0, 6.0, {2e-3, 1e-3, 3e-3});
+        p[kLeft] = left, p[kRight] = right, p[kHeight] = height, p[kCurveLeft] = cl, p[kCurveRight] = cr;
+        p[kInsideR] = 5e-4, p[kInsideG] = 1e-4, p[kInsideB] = 2e-4, p[kSlopeInside] = 2.0, p[kSlopeOutside] = 3.0;
+        MeasuredGhost g;
+        g.angle_min_deg = 0.0, g.angle_max_deg = 20.0;
+        for (int k = 0; k < kParamCount; ++k) g.poly[static_cast<std::size_t>(k)] = {p[k], 0.0, 0.0};
+        lens.ghosts.assign(1, g);
+        for (const auto& [ax, ay] : {std::pair{6.0, 0.0}, std::pair{5.0, -7.0}}) {
+            MeasuredView view{ax, ay, 36.0, 24.0, 480, 320};
+            std::vector<float> tables(480 * 320 * 3, 0.5f), exact(480 * 320 * 3, 0.5f);
+            render_add(lens, view, {1, 1, 1}, tables.data());
+            view.distance_tables = false;
+            render_add(lens, view, {1, 1, 1}, exact.data());
+            EXPECT_LT(relative_l1(tables, exact, 0.5f), 3e-3) << left << "," << right << "," << height << "," << cl << " at " << ax << "," << ay;
+        }
+        // Beyond its grid the table gives the fall-off outside: dark.
+        const DistanceTable t = distance_table(p, 0.1);
+        EXPECT_EQ(t.at(right + p[kFallOutside] + 0.1, 0.0), p[kFallOutside]);
+        EXPECT_NEAR(t.at(0.0, 0.0), signed_distance(p, 0.0, 0.0), 0.02);
+    }
+}
+
 TEST(MeasuredPredict, EstimatorsOfAKnownImage) {
     std::vector<float> flare(4 * 4 * 3, 0.0f);
     for (int c = 0; c < 3; ++c) flare[static_cast<std::size_t>(c)] = 1.0f;  // one pixel of luminance 1
