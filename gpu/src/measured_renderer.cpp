@@ -16,14 +16,15 @@ namespace lensfx::gpu {
 
 namespace {
 
-constexpr std::size_t kStride = 26;  // floats per ghost in the shader's table
+constexpr std::size_t kStride = 28;     // floats per ghost in the shader's table (7 vec4)
+constexpr std::size_t kMaxGhosts = 64;  // per draw: the uniform block holds 64 x 112 bytes
 
 // The shader twin of measured/src/model.cpp (DistanceTable::at, level_weights), float precision: each
 // ghost's signed distance looked up bilinearly in its table (measured::distance_table).
-constexpr const char* kMeasuredShader = R"(#version 430
-layout(local_size_x = 16, local_size_y = 16) in;
-// 26 floats each: 16 parameters, pixel box (x0, y0, x1, y1), table (u0, du, dv, nu, nv, offset)
-layout(std430, binding = 0) readonly buffer Ghosts { float ghost[]; };
+constexpr const char* kMeasuredShader = R"(layout(local_size_x = 16, local_size_y = 16) in;
+// 7 vec4 each: 16 parameters, pixel box (x0, y0, x1, y1), table (u0, du, dv, nu, nv, offset), 2 unused.
+// A uniform block: the same ghost for every invocation, loaded once rather than gathered per pixel.
+layout(std140, binding = 0) uniform Ghosts { vec4 ghost4[MAX_GHOSTS * 7]; };
 layout(std430, binding = 1) buffer Image { float rgb[]; };
 layout(std430, binding = 3) readonly buffer Tables { float table[]; };
 uniform int ghost_count;
@@ -31,19 +32,15 @@ uniform ivec2 size;     // of the grid drawn: pixels of the image, or a reduced 
 uniform vec2 centre;    // the image's centre, pixels
 uniform vec2 origin;    // the image's pixel coordinate of sample (0, 0) ...
 uniform float spacing;  // ... and between samples (1: the image's pixels)
-uniform ivec2 write_at; // where sample (0, 0) goes in the target ...
-uniform int row;        // ... of rows this wide
 uniform vec2 pixel_mm;
 uniform vec2 roll;  // cos, sin
 
-const int STRIDE = 26;
-float P(int g, int k) { return ghost[g * STRIDE + k]; }
+float P(int g, int k) { return ghost4[g * 7 + k / 4][k % 4]; }
 
 // Ghost g's signed distance at (u, |v|) of its frame; its fall-off outside (dark) beyond its table.
 float distance_at(int g, float u, float v) {
-    int base = g * STRIDE;
-    int nu = int(ghost[base + 23]), nv = int(ghost[base + 24]), offset = int(ghost[base + 25]);
-    vec2 x = vec2((u - ghost[base + 20]) / ghost[base + 21], v / ghost[base + 22]);
+    int nu = int(P(g, 23)), nv = int(P(g, 24)), offset = int(P(g, 25));
+    vec2 x = vec2((u - P(g, 20)) / P(g, 21), v / P(g, 22));
     if (x.x < 0.0 || x.y < 0.0 || x.x > float(nu - 1) || x.y > float(nv - 1)) return P(g, 8);
     ivec2 ij = min(ivec2(x), ivec2(nu - 2, nv - 2));
     vec2 t = x - vec2(ij);
@@ -63,8 +60,8 @@ void main() {
     float v = abs(-xs * roll.y + ys * roll.x);
     vec3 sum = vec3(0.0);
     for (int g = 0; g < ghost_count; ++g) {
-        int base = g * STRIDE;
-        if (at.x < ghost[base + 16] - margin || at.y < ghost[base + 17] - margin || at.x >= ghost[base + 18] + margin || at.y >= ghost[base + 19] + margin) continue;
+        vec4 box = ghost4[g * 7 + 4];
+        if (at.x < box.x - margin || at.y < box.y - margin || at.x >= box.z + margin || at.y >= box.w + margin) continue;
         float d = distance_at(g, u0 - P(g, 0), v);
         if (d >= P(g, 8)) continue;  // beyond the fall-off outside: nothing
         vec2 w;
@@ -78,41 +75,10 @@ void main() {
         }
         sum += vec3(P(g, 10), P(g, 11), P(g, 12)) * w.x + vec3(P(g, 13), P(g, 14), P(g, 15)) * w.y;
     }
-    int i = ((px.y + write_at.y) * row + px.x + write_at.x) * 3;
+    int i = (px.y * size.x + px.x) * 3;
     rgb[i] += sum.r;
     rgb[i + 1] += sum.g;
     rgb[i + 2] += sum.b;
-}
-)";
-
-// Adds a reduced grid of samples, bilinearly interpolated, into a box of the image (measured::add_upsampled's twin).
-constexpr const char* kUpsampleShader = R"(#version 430
-layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 1) buffer Image { float rgb[]; };
-layout(std430, binding = 2) readonly buffer Samples { float samples[]; };
-uniform ivec2 size;    // of the box
-uniform ivec2 offset;  // the image pixel of the box's (0, 0)
-uniform ivec2 grid;
-uniform float reduction;
-
-vec3 sample_at(ivec2 ij) {
-    int i = (ij.y * grid.x + ij.x) * 3;
-    return vec3(samples[i], samples[i + 1], samples[i + 2]);
-}
-
-void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (px.x >= size.x || px.y >= size.y) return;
-    vec2 s = (vec2(px + offset) - 0.5 * (reduction - 1.0)) / reduction + 1.0;
-    ivec2 ij = clamp(ivec2(floor(s)), ivec2(0), grid - 2);
-    vec2 t = s - vec2(ij);
-    vec3 top = mix(sample_at(ij), sample_at(ij + ivec2(1, 0)), t.x);
-    vec3 bottom = mix(sample_at(ij + ivec2(0, 1)), sample_at(ij + ivec2(1, 1)), t.x);
-    vec3 v = mix(top, bottom, t.y);
-    int i = (px.y * size.x + px.x) * 3;  // the box's pixel
-    rgb[i] += v.r;
-    rgb[i + 1] += v.g;
-    rgb[i + 2] += v.b;
 }
 )";
 
@@ -124,6 +90,7 @@ void append_ghost(std::vector<float>& table, std::vector<float>& distances, cons
     for (int b : box) table.push_back(static_cast<float>(b));
     for (double v : {d.u0, d.du, d.dv}) table.push_back(static_cast<float>(v));
     for (std::size_t v : {static_cast<std::size_t>(d.nu), static_cast<std::size_t>(d.nv), distances.size()}) table.push_back(static_cast<float>(v));
+    table.insert(table.end(), {0.0f, 0.0f});
     distances.insert(distances.end(), d.d.begin(), d.d.end());
 }
 
@@ -137,17 +104,11 @@ Box joined(const Box& a, const Box& b) {
     if (box_width(a) <= 0) return b;
     return {std::min(a[0], b[0]), std::min(a[1], b[1]), std::max(a[2], b[2]), std::max(a[3], b[3])};
 }
-// A smooth ghost's box grown by what its upsampling spreads (two reduced samples), clamped to the image.
-Box grown(const Box& b, int by, const measured::MeasuredView& view) {
-    return {std::max(b[0] - by, 0), std::max(b[1] - by, 0), std::min(b[2] + by, view.width), std::min(b[3] + by, view.height)};
-}
-
 // The ghosts of one view in the shader's tables, and the boxes they light.
 struct GhostTables {
     std::array<std::vector<float>, 4> by_reduction;  // 1, 2, 4, 8 (measured::reduction_for)
     std::vector<float> distances;
     Box full_size{0, 0, 0, 0};  // of the ghosts drawn at full size
-    Box all{0, 0, 0, 0};        // of every ghost, smooth ones grown
 };
 
 GhostTables ghost_tables(const measured::MeasuredLens& lens, const measured::MeasuredView& view, double field, double roll, std::array<double, 3> scale) {
@@ -160,65 +121,78 @@ GhostTables ghost_tables(const measured::MeasuredLens& lens, const measured::Mea
         append_ghost(t.by_reduction[static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(reduction)))], t.distances, p, box,
                      measured::distance_table(p, reduction * pixel));
         if (reduction == 1) t.full_size = joined(t.full_size, box);
-        t.all = joined(t.all, reduction == 1 ? box : grown(box, 2 * reduction, view));
     }
     return t;
 }
 
 struct MeasuredRenderer::State {
-    Program program{"measured.comp", {{ShaderStage::Type::Compute, kMeasuredShader}}};
-    Program upsample{"measured_upsample.comp", {{ShaderStage::Type::Compute, kUpsampleShader}}};
+    Program program{"measured.comp", {{ShaderStage::Type::Compute, fmt::format("#version 430\n#define MAX_GHOSTS {}\n{}", kMaxGhosts, kMeasuredShader)}}};
     GlObject ghosts = GlObject::buffer();
     GlObject image = GlObject::buffer();
     GlObject samples = GlObject::buffer();
     GlObject distances = GlObject::buffer();
 
     // Draws the table's ghosts into `target`: a grid of width x height samples at image pixel origin + i x
-    // spacing, sample (0, 0) written at write_at of the target's rows of `row` samples.
+    // spacing.
     void draw(const std::vector<float>& table, const measured::MeasuredView& view, double roll, GLuint target, std::array<int, 2> size,
-              std::array<double, 2> origin, double spacing, std::array<int, 2> write_at, int row) {
-        glBindBuffer(GL_SHADER_STORAGE_BUFFER, ghosts.get());
-        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(table.size() * sizeof(float)), table.data(), GL_STREAM_DRAW);
+              std::array<double, 2> origin, double spacing) {
         glUseProgram(program.get());
-        glUniform1i(program.uniform("ghost_count"), static_cast<GLint>(table.size() / kStride));
         glUniform2i(program.uniform("size"), size[0], size[1]);
         glUniform2f(program.uniform("centre"), static_cast<float>(0.5 * view.width), static_cast<float>(0.5 * view.height));
         glUniform2f(program.uniform("origin"), static_cast<float>(origin[0]), static_cast<float>(origin[1]));
         glUniform1f(program.uniform("spacing"), static_cast<float>(spacing));
-        glUniform2i(program.uniform("write_at"), write_at[0], write_at[1]);
-        glUniform1i(program.uniform("row"), row);
         glUniform2f(program.uniform("pixel_mm"), static_cast<float>(view.sensor_width_mm / view.width), static_cast<float>(view.sensor_height_mm / view.height));
         glUniform2f(program.uniform("roll"), static_cast<float>(std::cos(roll)), static_cast<float>(std::sin(roll)));
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, ghosts.get());
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, target);
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, distances.get());
-        glDispatchCompute(static_cast<GLuint>((size[0] + 15) / 16), static_cast<GLuint>((size[1] + 15) / 16), 1);
-        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+        for (std::size_t first = 0; first < table.size(); first += kMaxGhosts * kStride) {  // kMaxGhosts at a time
+            const std::size_t floats = std::min(table.size() - first, kMaxGhosts * kStride);
+            std::vector<float> block(kMaxGhosts * kStride, 0.0f);
+            std::copy_n(table.begin() + static_cast<std::ptrdiff_t>(first), floats, block.begin());
+            glBindBuffer(GL_UNIFORM_BUFFER, ghosts.get());
+            glBufferData(GL_UNIFORM_BUFFER, static_cast<GLsizeiptr>(block.size() * sizeof(float)), block.data(), GL_STREAM_DRAW);
+            glBindBufferBase(GL_UNIFORM_BUFFER, 0, ghosts.get());
+            glUniform1i(program.uniform("ghost_count"), static_cast<GLint>(floats / kStride));
+            glDispatchCompute(static_cast<GLuint>((size[0] + 15) / 16), static_cast<GLuint>((size[1] + 15) / 16), 1);
+            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+        }
     }
 
-    // Full-size ghosts drawn over their box into the image buffer, which holds box `all`.
-    void draw_full(const GhostTables& t, const measured::MeasuredView& view, double roll) {
+    // A buffer of `floats` zeros bound as the shader storage buffer.
+    static void clear(const GlObject& buffer, std::size_t floats) {
+        glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffer.get());
+        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(floats * sizeof(float)), nullptr, GL_STREAM_READ);
+        glClearBufferData(GL_SHADER_STORAGE_BUFFER, GL_R32F, GL_RED, GL_FLOAT, nullptr);
+    }
+
+    static std::vector<float> read_back(const GlObject& buffer, std::size_t floats) {
+        std::vector<float> out(floats);
+        glBindBuffer(GL_SHADER_STORAGE_BUFFER, buffer.get());
+        glGetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(floats * sizeof(float)), out.data());
+        return out;
+    }
+
+    // The full-size ghosts drawn over their box, read back (that box only) and added into rgb.
+    void add_full_size(const GhostTables& t, const measured::MeasuredView& view, double roll, float* rgb) {
         const Box& f = t.full_size;
-        draw(t.by_reduction[0], view, roll, image.get(), {box_width(f), box_height(f)}, {static_cast<double>(f[0]), static_cast<double>(f[1])}, 1.0,
-             {f[0] - t.all[0], f[1] - t.all[1]}, box_width(t.all));
+        const auto bw = static_cast<std::size_t>(box_width(f)), bh = static_cast<std::size_t>(box_height(f));
+        clear(image, bw * bh * 3);
+        draw(t.by_reduction[0], view, roll, image.get(), {box_width(f), box_height(f)}, {static_cast<double>(f[0]), static_cast<double>(f[1])}, 1.0);
+        const std::vector<float> lit = read_back(image, bw * bh * 3);
+        for (std::size_t y = 0; y < bh; ++y) {
+            float* out = rgb + ((static_cast<std::size_t>(f[1]) + y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(f[0])) * 3;
+            const float* in = lit.data() + y * bw * 3;
+            for (std::size_t k = 0; k < bw * 3; ++k) out[k] += in[k];
+        }
     }
 
-    // Smooth ghosts at a reduction: drawn on the reduced grid, then added upsampled into the image buffer
-    // (box `all`).
-    void draw_reduced(const std::vector<float>& table, const measured::MeasuredView& view, double roll, const measured::ReducedGrid& grid, const Box& all) {
-        const std::vector<float> zeros(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height) * 3, 0.0f);
-        glBindBuffer(GL_SHADER_STORAGE_BUFFER, samples.get());
-        glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(zeros.size() * sizeof(float)), zeros.data(), GL_STREAM_COPY);
-        draw(table, view, roll, samples.get(), {grid.width, grid.height}, {grid.pixel_of(0), grid.pixel_of(0)}, grid.reduction, {0, 0}, grid.width);
-        glUseProgram(upsample.get());
-        glUniform2i(upsample.uniform("size"), box_width(all), box_height(all));
-        glUniform2i(upsample.uniform("offset"), all[0], all[1]);
-        glUniform2i(upsample.uniform("grid"), grid.width, grid.height);
-        glUniform1f(upsample.uniform("reduction"), static_cast<float>(grid.reduction));
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, image.get());
-        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, samples.get());
-        glDispatchCompute(static_cast<GLuint>((box_width(all) + 15) / 16), static_cast<GLuint>((box_height(all) + 15) / 16), 1);
-        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    // Smooth ghosts at a reduction: drawn on the reduced grid, which alone is read back and added
+    // upsampled into rgb (measured::add_upsampled; no full-size image crosses to or from the GPU).
+    void add_reduced(const std::vector<float>& table, const measured::MeasuredView& view, double roll, const measured::ReducedGrid& grid, float* rgb) {
+        const std::size_t floats = static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height) * 3;
+        clear(samples, floats);
+        draw(table, view, roll, samples.get(), {grid.width, grid.height}, {grid.pixel_of(0), grid.pixel_of(0)}, grid.reduction);
+        measured::add_upsampled(grid, read_back(samples, floats).data(), view, rgb);
     }
 };
 
@@ -232,27 +206,13 @@ MeasuredRenderer::~MeasuredRenderer() = default;
 void MeasuredRenderer::render_add(const measured::MeasuredLens& lens, const measured::MeasuredView& view, std::array<double, 3> scale, float* rgb) {
     const auto [field, roll] = measured::field_and_roll(view.angle_x_deg, view.angle_y_deg);
     const GhostTables t = ghost_tables(lens, view, field, roll, scale);
-    if (box_width(t.all) <= 0) return;
+    if (t.distances.empty()) return;
     glBindBuffer(GL_SHADER_STORAGE_BUFFER, state_->distances.get());
     glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(t.distances.size() * sizeof(float)), t.distances.data(), GL_STREAM_DRAW);
-    // The ghosts are drawn into a cleared buffer of their box alone, read back and added on the CPU: no
-    // upload of the image, and a read-back of the lit box only.
-    const auto bw = static_cast<std::size_t>(box_width(t.all)), bh = static_cast<std::size_t>(box_height(t.all));
-    glBindBuffer(GL_SHADER_STORAGE_BUFFER, state_->image.get());
-    glBufferData(GL_SHADER_STORAGE_BUFFER, static_cast<GLsizeiptr>(bw * bh * 3 * sizeof(float)), nullptr, GL_STREAM_READ);
-    glClearBufferData(GL_SHADER_STORAGE_BUFFER, GL_R32F, GL_RED, GL_FLOAT, nullptr);
-    if (!t.by_reduction[0].empty()) state_->draw_full(t, view, roll);
+    if (!t.by_reduction[0].empty()) state_->add_full_size(t, view, roll, rgb);
     for (std::size_t k = 1; k < t.by_reduction.size(); ++k)
-        if (!t.by_reduction[k].empty()) state_->draw_reduced(t.by_reduction[k], view, roll, measured::reduced_grid(view, 1 << k), t.all);
-    std::vector<float> lit(bw * bh * 3);
-    glBindBuffer(GL_SHADER_STORAGE_BUFFER, state_->image.get());
-    glGetBufferSubData(GL_SHADER_STORAGE_BUFFER, 0, static_cast<GLsizeiptr>(lit.size() * sizeof(float)), lit.data());
+        if (!t.by_reduction[k].empty()) state_->add_reduced(t.by_reduction[k], view, roll, measured::reduced_grid(view, 1 << k), rgb);
     check_gl("measured ghosts");
-    for (std::size_t y = 0; y < bh; ++y) {
-        float* out = rgb + ((static_cast<std::size_t>(t.all[1]) + y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(t.all[0])) * 3;
-        const float* in = lit.data() + y * bw * 3;
-        for (std::size_t k = 0; k < bw * 3; ++k) out[k] += in[k];
-    }
 }
 
 }  // namespace lensfx::gpu
