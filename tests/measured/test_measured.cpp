@@ -189,6 +189,28 @@ TEST(MeasuredRender, ReducedGlowMatchesFullSizeAndTheGpu) {
     }
 }
 
+// More ghosts than one draw's uniform block holds (64): the GPU draws them in blocks, all of them.
+TEST(MeasuredRender, GpuDrawsMoreGhostsThanOneBlock) {
+    const gpu::Context context(gpu::Platform::Surfaceless);
+    gpu::MeasuredRenderer renderer(context);
+    MeasuredLens lens;
+    for (int k = 0; k < 70; ++k) {
+        MeasuredGhost g;
+        g.angle_min_deg = 0.0, g.angle_max_deg = 20.0;
+        const GhostParams p = disc_ghost(-15.0 + 0.45 * k, 0.4 + 0.01 * k, {1e-3, 2e-3, 1e-3});
+        for (int i = 0; i < kParamCount; ++i) g.poly[static_cast<std::size_t>(i)] = {p[i], 0.0, 0.0};
+        lens.ghosts.push_back(g);
+    }
+    const MeasuredView view{6.0, 2.0, 36.0, 24.0, 240, 160};
+    std::vector<float> cpu(240 * 160 * 3, 0.0f), gpu(240 * 160 * 3, 0.0f), first(240 * 160 * 3, 0.0f);
+    render_add(lens, view, {1, 1, 1}, cpu.data());
+    renderer.render_add(lens, view, {1, 1, 1}, gpu.data());
+    lens.ghosts.resize(64);
+    render_add(lens, view, {1, 1, 1}, first.data());
+    EXPECT_LT(relative_l1(gpu, cpu, 0.0f), 1e-3);
+    EXPECT_GT(relative_l1(first, cpu, 0.0f), 0.05);  // the last six ghosts are a visible part of the image
+}
+
 // Ghosts of several shapes (a disc, a diamond with sharp corners, a near square, a lopsided one), large
 // in the frame (the table coarser than the pixels), each with a bright rim: drawn from their distance
 // tables against the exact Bezier search per pixel.
