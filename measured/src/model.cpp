@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace lensfx::measured {
 
@@ -71,6 +72,7 @@ constexpr double kMinSize = 1e-4;  // mm
 
 double pixel_x_mm(const MeasuredView& view, double px) { return (px + 0.5 - 0.5 * view.width) * view.sensor_width_mm / view.width; }
 double pixel_y_mm(const MeasuredView& view, double py) { return (0.5 * view.height - (py + 0.5)) * view.sensor_height_mm / view.height; }
+double pixel_mm(const MeasuredView& view) { return std::min(view.sensor_width_mm / view.width, view.sensor_height_mm / view.height); }
 
 }  // namespace
 
@@ -128,6 +130,31 @@ std::array<double, 2> level_weights(const GhostParams& p, double d) {
 double intensity(const GhostParams& p, int c, double d) {
     const auto [a, b] = level_weights(p, d);
     return p[kBorderR + c] * a + p[kInsideR + c] * b;
+}
+
+double DistanceTable::at(double u, double v) const {
+    const double x = (u - u0) / du, y = std::abs(v) / dv;
+    if (!(x >= 0.0 && y >= 0.0 && x <= nu - 1.0 && y <= nv - 1.0)) return far;
+    const int i = std::min(static_cast<int>(x), nu - 2), j = std::min(static_cast<int>(y), nv - 2);
+    const double tx = x - i, ty = y - j;
+    const float* row = d.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(nu) + static_cast<std::size_t>(i);
+    const auto at = [&](int k) { return static_cast<double>(row[k]); };
+    const double top = at(0) + (at(1) - at(0)) * tx, bottom = at(nu) + (at(nu + 1) - at(nu)) * tx;
+    return top + (bottom - top) * ty;
+}
+
+DistanceTable distance_table(const GhostParams& p, double spacing_mm) {
+    DistanceTable t;
+    const double fo = std::max(p[kFallOutside], kMinSize);
+    const double u_extent = std::max(p[kLeft], kMinSize) + std::max(p[kRight], kMinSize) + 2.0 * fo, v_extent = std::max(p[kHeight], kMinSize) + fo;
+    const auto samples = [&](double extent, int cells) { return std::clamp(static_cast<int>(std::ceil(extent / std::max(spacing_mm, 1e-9))), 1, cells) + 1; };
+    t.nu = samples(u_extent, DistanceTable::kCells), t.nv = samples(v_extent, DistanceTable::kCells / 2);
+    t.u0 = -std::max(p[kLeft], kMinSize) - fo, t.du = u_extent / (t.nu - 1), t.dv = v_extent / (t.nv - 1), t.far = fo;
+    t.d.resize(static_cast<std::size_t>(t.nu) * static_cast<std::size_t>(t.nv));
+    for (int j = 0; j < t.nv; ++j)
+        for (int i = 0; i < t.nu; ++i)
+            t.d[static_cast<std::size_t>(j) * static_cast<std::size_t>(t.nu) + static_cast<std::size_t>(i)] = static_cast<float>(signed_distance(p, t.u0 + i * t.du, j * t.dv));
+    return t;
 }
 
 GhostParams MeasuredGhost::at(double angle_deg) const {
@@ -197,17 +224,32 @@ int reduction_for(const GhostParams& p, const MeasuredView& view) {
 
 namespace {
 
-// Adds ghost p (already scaled) at full size into the image.
+// The ghost's table for drawing at sample spacing `spacing_mm`, or none where the view asks for the exact search.
+std::optional<DistanceTable> table_for(const GhostParams& p, const MeasuredView& view, double spacing_mm) {
+    if (!view.distance_tables) return std::nullopt;
+    return distance_table(p, spacing_mm);
+}
+
+// Adds ghost p (scaled) at the distance d to the RGB at `out`; nothing beyond the fall-off outside.
+void shade(const GhostParams& p, double d, float* out) {
+    if (d >= p[kFallOutside]) return;
+    const auto [a, b] = level_weights(p, d);
+    for (int ch = 0; ch < 3; ++ch) out[ch] += static_cast<float>(p[kBorderR + ch] * a + p[kInsideR + ch] * b);
+}
+
+// Adds ghost p (already scaled) at full size into the image, over its pixel box.
 void add_full(const GhostParams& p, double roll, const MeasuredView& view, float* rgb) {
     const auto [x0, y0, x1, y1] = ghost_box(p, roll, view);
     if (x1 <= x0 || y1 <= y0) return;
-    std::vector<float> box(static_cast<std::size_t>(x1 - x0) * static_cast<std::size_t>(y1 - y0) * 3, 0.0f);
-    render_ghost_box(p, roll, view, x0, y0, x1, y1, box.data());
+    const std::optional<DistanceTable> table = table_for(p, view, pixel_mm(view));
+    const double c = std::cos(roll), s = std::sin(roll);
     for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x)
-            for (int ch = 0; ch < 3; ++ch)
-                rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(ch)] +=
-                    box[(static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(x1 - x0) + static_cast<std::size_t>(x - x0)) * 3 + static_cast<std::size_t>(ch)];
+        for (int x = x0; x < x1; ++x) {
+            const double xs = pixel_x_mm(view, x), ys = pixel_y_mm(view, y);
+            const double u = xs * c + ys * s - p[kPosition], v = -xs * s + ys * c;
+            shade(p, table ? table->at(u, v) : signed_distance(p, u, v),
+                  rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3);
+        }
 }
 
 }  // namespace
@@ -225,35 +267,57 @@ void render_reduced(const GhostParams& p, double roll, const MeasuredView& view,
     const double c = std::cos(roll), s = std::sin(roll);
     const auto [x0, y0, x1, y1] = ghost_box(p, roll, view);  // outside it the ghost is 0
     const double r = grid.reduction;
+    const std::optional<DistanceTable> table = table_for(p, view, r * pixel_mm(view));
     for (int j = 0; j < grid.height; ++j)
         for (int i = 0; i < grid.width; ++i) {
             if (grid.pixel_of(i) < x0 - r || grid.pixel_of(i) >= x1 + r || grid.pixel_of(j) < y0 - r || grid.pixel_of(j) >= y1 + r) continue;
             const double xs = pixel_x_mm(view, grid.pixel_of(i)), ys = pixel_y_mm(view, grid.pixel_of(j));
-            const auto [a, b] = level_weights(p, signed_distance(p, xs * c + ys * s - p[kPosition], -xs * s + ys * c));
-            float* out = samples + (static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) + static_cast<std::size_t>(i)) * 3;
-            for (int ch = 0; ch < 3; ++ch) out[ch] += static_cast<float>(p[kBorderR + ch] * a + p[kInsideR + ch] * b);
+            const double u = xs * c + ys * s - p[kPosition], v = -xs * s + ys * c;
+            shade(p, table ? table->at(u, v) : signed_distance(p, u, v),
+                  samples + (static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) + static_cast<std::size_t>(i)) * 3);
         }
 }
 
+namespace {
+
+// The grid's sample row j interpolated across to every image column (width x 3), from each column's left
+// sample and weight.
+void interpolate_row(const ReducedGrid& grid, const float* samples, int j, const std::vector<int>& left, const std::vector<float>& weight, float* out) {
+    const float* row = samples + static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) * 3;
+    for (std::size_t x = 0; x < left.size(); ++x) {
+        const float* a = row + static_cast<std::size_t>(left[x]) * 3;
+        for (std::size_t ch = 0; ch < 3; ++ch) out[x * 3 + ch] = a[ch] + (a[ch + 3] - a[ch]) * weight[x];
+    }
+}
+
+}  // namespace
+
 void add_upsampled(const ReducedGrid& grid, const float* samples, const MeasuredView& view, float* rgb) {
     const double r = grid.reduction;
+    const auto sample_of = [r](int pixel) { return (pixel - 0.5 * (r - 1)) / r + 1.0; };
+    const auto w = static_cast<std::size_t>(view.width);
+    std::vector<int> left(w);
+    std::vector<float> weight(w);
+    for (std::size_t x = 0; x < w; ++x) {
+        const double sx = sample_of(static_cast<int>(x));
+        left[x] = std::clamp(static_cast<int>(std::floor(sx)), 0, grid.width - 2);
+        weight[x] = static_cast<float>(sx - left[x]);
+    }
+    // Separable: the two sample rows around an image row, interpolated across once each, then down.
+    std::vector<float> upper(w * 3), lower(w * 3);
+    int upper_j = -1, lower_j = -1;
     for (int y = 0; y < view.height; ++y) {
-        const double sy = (y - 0.5 * (r - 1)) / r + 1.0;
+        const double sy = sample_of(y);
         const int j = std::clamp(static_cast<int>(std::floor(sy)), 0, grid.height - 2);
-        const double ty = sy - j;
-        for (int x = 0; x < view.width; ++x) {
-            const double sx = (x - 0.5 * (r - 1)) / r + 1.0;
-            const int i = std::clamp(static_cast<int>(std::floor(sx)), 0, grid.width - 2);
-            const double tx = sx - i;
-            const auto at = [&](int ii, int jj, int ch) {
-                return static_cast<double>(samples[(static_cast<std::size_t>(jj) * static_cast<std::size_t>(grid.width) + static_cast<std::size_t>(ii)) * 3 + static_cast<std::size_t>(ch)]);
-            };
-            for (int ch = 0; ch < 3; ++ch) {
-                const double top = at(i, j, ch) * (1.0 - tx) + at(i + 1, j, ch) * tx, bottom = at(i, j + 1, ch) * (1.0 - tx) + at(i + 1, j + 1, ch) * tx;
-                rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(ch)] +=
-                    static_cast<float>(top * (1.0 - ty) + bottom * ty);
-            }
+        const auto ty = static_cast<float>(sy - j);
+        if (upper_j != j) {
+            if (lower_j == j) std::swap(upper, lower), lower_j = -1;
+            else interpolate_row(grid, samples, j, left, weight, upper.data());
+            upper_j = j;
         }
+        if (lower_j != j + 1) interpolate_row(grid, samples, j + 1, left, weight, lower.data()), lower_j = j + 1;
+        float* out = rgb + static_cast<std::size_t>(y) * w * 3;
+        for (std::size_t k = 0; k < w * 3; ++k) out[k] += upper[k] + (lower[k] - upper[k]) * ty;
     }
 }
 

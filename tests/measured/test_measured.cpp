@@ -189,6 +189,57 @@ TEST(MeasuredRender, ReducedGlowMatchesFullSizeAndTheGpu) {
     }
 }
 
+// More ghosts than one draw's uniform block holds (64): the GPU draws them in blocks, all of them.
+TEST(MeasuredRender, GpuDrawsMoreGhostsThanOneBlock) {
+    const gpu::Context context(gpu::Platform::Surfaceless);
+    gpu::MeasuredRenderer renderer(context);
+    MeasuredLens lens;
+    for (int k = 0; k < 70; ++k) {
+        MeasuredGhost g;
+        g.angle_min_deg = 0.0, g.angle_max_deg = 20.0;
+        const GhostParams p = disc_ghost(-15.0 + 0.45 * k, 0.4 + 0.01 * k, {1e-3, 2e-3, 1e-3});
+        for (int i = 0; i < kParamCount; ++i) g.poly[static_cast<std::size_t>(i)] = {p[i], 0.0, 0.0};
+        lens.ghosts.push_back(g);
+    }
+    const MeasuredView view{6.0, 2.0, 36.0, 24.0, 240, 160};
+    std::vector<float> cpu(240 * 160 * 3, 0.0f), gpu(240 * 160 * 3, 0.0f), first(240 * 160 * 3, 0.0f);
+    render_add(lens, view, {1, 1, 1}, cpu.data());
+    renderer.render_add(lens, view, {1, 1, 1}, gpu.data());
+    lens.ghosts.resize(64);
+    render_add(lens, view, {1, 1, 1}, first.data());
+    EXPECT_LT(relative_l1(gpu, cpu, 0.0f), 1e-3);
+    EXPECT_GT(relative_l1(first, cpu, 0.0f), 0.05);  // the last six ghosts are a visible part of the image
+}
+
+// Ghosts of several shapes (a disc, a diamond with sharp corners, a near square, a lopsided one), large
+// in the frame (the table coarser than the pixels), each with a bright rim: drawn from their distance
+// tables against the exact Bezier search per pixel.
+TEST(MeasuredRender, DistanceTablesMatchTheExactSearch) {
+    MeasuredLens lens;
+    const std::array<std::array<double, 5>, 4> shapes{{{6, 6, 6, 0.5523, 0.5523}, {5, 7, 4, 0.0, 0.0}, {6, 6, 5, 1.0, 1.0}, {3, 9, 5, 0.2, 0.8}}};
+    for (const auto& [left, right, height, cl, cr] : shapes) {
+        GhostParams p = disc_ghost(1.0, 6.0, {2e-3, 1e-3, 3e-3});
+        p[kLeft] = left, p[kRight] = right, p[kHeight] = height, p[kCurveLeft] = cl, p[kCurveRight] = cr;
+        p[kInsideR] = 5e-4, p[kInsideG] = 1e-4, p[kInsideB] = 2e-4, p[kSlopeInside] = 2.0, p[kSlopeOutside] = 3.0;
+        MeasuredGhost g;
+        g.angle_min_deg = 0.0, g.angle_max_deg = 20.0;
+        for (int k = 0; k < kParamCount; ++k) g.poly[static_cast<std::size_t>(k)] = {p[k], 0.0, 0.0};
+        lens.ghosts.assign(1, g);
+        for (const auto& [ax, ay] : {std::pair{6.0, 0.0}, std::pair{5.0, -7.0}}) {
+            MeasuredView view{ax, ay, 36.0, 24.0, 480, 320};
+            std::vector<float> tables(480 * 320 * 3, 0.5f), exact(480 * 320 * 3, 0.5f);
+            render_add(lens, view, {1, 1, 1}, tables.data());
+            view.distance_tables = false;
+            render_add(lens, view, {1, 1, 1}, exact.data());
+            EXPECT_LT(relative_l1(tables, exact, 0.5f), 3e-3) << left << "," << right << "," << height << "," << cl << " at " << ax << "," << ay;
+        }
+        // Beyond its grid the table gives the fall-off outside: dark.
+        const DistanceTable t = distance_table(p, 0.1);
+        EXPECT_EQ(t.at(right + p[kFallOutside] + 0.1, 0.0), p[kFallOutside]);
+        EXPECT_NEAR(t.at(0.0, 0.0), signed_distance(p, 0.0, 0.0), 0.02);
+    }
+}
+
 TEST(MeasuredPredict, EstimatorsOfAKnownImage) {
     std::vector<float> flare(4 * 4 * 3, 0.0f);
     for (int c = 0; c < 3; ++c) flare[static_cast<std::size_t>(c)] = 1.0f;  // one pixel of luminance 1

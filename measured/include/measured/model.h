@@ -47,6 +47,20 @@ double intensity(const GhostParams& p, int c, double d);
 // The weights (a, b) with intensity = Ib * a + Ii * b at distance d: the levels enter linearly.
 std::array<double, 2> level_weights(const GhostParams& p, double d);
 
+// A ghost's signed distance sampled on a grid over its own frame, for drawing: u from -(L + Fo) to R + Fo,
+// |v| from 0 to h + Fo, at most kCells x kCells / 2 cells and none finer than the spacing asked for.
+// Bilinear lookups stand in for the Bezier search of signed_distance (the distance is smooth across the
+// border, so the edge stays sharp); beyond the grid the ghost is dark (the distance is Fo).
+struct DistanceTable {
+    static constexpr int kCells = 64;
+    double u0 = 0.0, du = 1.0, dv = 1.0;
+    int nu = 0, nv = 0;    // samples along u and v
+    std::vector<float> d;  // nv rows of nu samples, row j at |v| = j dv
+    double far = 0.0;      // the distance beyond the grid
+    [[nodiscard]] double at(double u, double v) const;
+};
+DistanceTable distance_table(const GhostParams& p, double spacing_mm);
+
 // A ghost over a range of field angles: each parameter c0 + c1 a + c2 a^2 (a in degrees).
 struct MeasuredGhost {
     double angle_min_deg = 0.0;
@@ -86,6 +100,7 @@ struct MeasuredView {
     int width = 0;
     int height = 0;
     int max_reduction = 8;  // smooth ghosts drawn at most this much reduced (1: every ghost at full size)
+    bool distance_tables = true;  // drawn from each ghost's DistanceTable (false: the exact Bezier search per pixel)
 };
 
 // The field angle (degrees off the axis) and roll (radians, 0 = light to the right, counter-clockwise) of
