@@ -37,19 +37,8 @@ void add(const RgbView& dst, const ConstRgbView& src, const Region& region) {
     }
 }
 
-namespace {
-
-// Where output pixel i of n samples a source of sn pixels stretched over the n: neighbours i0 and i1, and
-// i1's share f.
-struct Tap {
-    int i0, i1;
-    float f;
-};
-// a to b by f; a itself at f = 0 (so an infinite b there leaves no NaN).
-float blend(float a, float b, float f) { return f == 0.0f ? a : a + f * (b - a); }
-
-std::vector<Tap> bilinear_taps(int n, int sn) {
-    std::vector<Tap> out(static_cast<std::size_t>(n));
+std::vector<BilinearTap> bilinear_taps(int n, int sn) {
+    std::vector<BilinearTap> out(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
         const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
         const int i0 = std::min(static_cast<int>(u), sn - 1);
@@ -58,11 +47,16 @@ std::vector<Tap> bilinear_taps(int n, int sn) {
     return out;
 }
 
+namespace {
+
+// a to b by f; a itself at f = 0 (so an infinite b there leaves no NaN).
+float blend(float a, float b, float f) { return f == 0.0f ? a : a + f * (b - a); }
+
 // A source's rows widened to the output's columns (the taps `xs`), two held at a time: an output row blends two
 // of them, and the next output row mostly needs the same two.
 class WidenedRows {
 public:
-    WidenedRows(const ConstRgbView& src, std::vector<Tap> xs) : src_(src), xs_(std::move(xs)) {
+    WidenedRows(const ConstRgbView& src, std::vector<BilinearTap> xs) : src_(src), xs_(std::move(xs)) {
         for (auto& row : rows_) row.resize(xs_.size() * 3);
     }
     // Source row `row` (0 = its top) widened; `keep`: a row the caller still needs, not evicted for this one.
@@ -83,7 +77,7 @@ public:
 
 private:
     const ConstRgbView& src_;
-    std::vector<Tap> xs_;
+    std::vector<BilinearTap> xs_;
     std::vector<float> rows_[2];
     int held_[2] = {-1, -1};
 };
@@ -93,12 +87,12 @@ private:
 void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region) {
     const Region r = intersection(region, dst.region());
     if (r.empty() || src.width <= 0 || src.height <= 0) return;
-    const std::vector<Tap> all_xs = bilinear_taps(region.width(), src.width);
-    const std::vector<Tap> ys = bilinear_taps(region.height(), src.height);
+    const std::vector<BilinearTap> all_xs = bilinear_taps(region.width(), src.width);
+    const std::vector<BilinearTap> ys = bilinear_taps(region.height(), src.height);
     WidenedRows rows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0), all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)});
     const auto n = static_cast<std::size_t>(r.width()) * 3;
     for (int y = r.y0; y < r.y1; ++y) {
-        const Tap t = ys[static_cast<std::size_t>(y - region.y0)];
+        const BilinearTap t = ys[static_cast<std::size_t>(y - region.y0)];
         const float* a = rows.row(t.i0, t.i1);
         const float* b = rows.row(t.i1, t.i0);
         float* to = dst.at(r.x0, y);

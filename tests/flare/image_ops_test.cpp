@@ -63,6 +63,18 @@ TEST(ImageOps, AddResizedBlendsBetweenPixelCentresAndHoldsTheEdges) {
         for (std::size_t c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(dst[x * 3 + c], 1.0f + expected[x] * src[3 + c]) << x << " " << c;
 }
 
+TEST(ImageOps, BilinearTapsHoldTheEdgesAndStayInsideTheSource) {
+    const std::vector<BilinearTap> taps = bilinear_taps(4, 2);
+    ASSERT_EQ(taps.size(), 4u);
+    EXPECT_EQ(taps[0].i0, 0);  // before the first centre: held
+    EXPECT_EQ(taps[0].f, 0.0f);
+    EXPECT_EQ(taps[1].i1, 1);
+    EXPECT_EQ(taps[1].f, 0.25f);
+    EXPECT_EQ(taps[3].i0, 1);  // beyond the last: held, no pixel past the source
+    EXPECT_EQ(taps[3].i1, 1);
+    for (const BilinearTap& t : bilinear_taps(7, 3)) EXPECT_TRUE(t.i0 >= 0 && t.i1 <= 2 && t.f >= 0.0f && t.f < 1.0f);
+}
+
 TEST(ImageOps, AddResizedAtTheSameSizeIsAdd) {
     const auto value = [](int x, int y, int c) { return static_cast<float>(x * 7 + y * 3 + c) * 0.125f; };
     const std::vector<float> src = image_of(5, 4, value);
