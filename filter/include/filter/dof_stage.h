@@ -74,8 +74,8 @@ private:
 };
 
 // The stages of --dof: the blur (before the flare) and, when the flare runs too, the compose (after it);
-// both null without --dof. The lens, zoom, f-stop, sensor and field of view are the flare's. `flare_runs`
-// is set to whether the flare stage should run (--lens given and not --dof-only).
+// both null without --dof. The lens (realize_lens: zoom, f-stop, blades, coatings), sensor and field of view
+// are the flare's. `flare_runs` is set to whether the flare stage should run (--lens given and not --dof-only).
 // A deep EXR as a flat frame (R, G, B, A, Z as float, each pixel's samples composited front to back,
 // Z the nearest sample's): the pipeline's view of a deep input; the lens blur reads its samples again.
 Frame read_deep_exr_frame(const std::string& path, const MemoryBudget& budget);
