@@ -30,8 +30,10 @@ uniform int samples, chromatic, open_scene;
 uniform int bands, achromatic;     // table channels (RGB's 3 or spectral bands), the one nearest 550 nm
 uniform vec3 band_weight[128];     // what each band's gathered colour adds to R, G, B
 uniform int band;                  // the band this dispatch traces
-uniform int ray_first, ray_count;  // its chunk of each pixel's rays
-uniform int fresh, fold;           // the band's first chunk (start from 0), its last (fold it into result)
+uniform int ray_first, ray_count;  // rays of each pixel this dispatch traces
+uniform int chunk_end;             // the end of the chunk they belong to (a retry pass traces one ray of it)
+uniform int fresh;                 // the band's first chunk (start from 0)
+uniform sampler2D tile_rays;       // rays per pixel of each 8 x 8 work group (renderer.cpp tile_ray_counts)
 uniform int retry_pass;            // only pixels marked in `retry`
 uniform int budget_check;          // 2: the trip count of the loop that tells whether the budget ran out
 uniform ivec2 grid;
@@ -163,10 +165,10 @@ bool budget_spent() {
 
 // This chunk of one band's rays at p, added to what the band gathered in earlier chunks (the weighted sum
 // of RGBA, the sum of weights); false when the loop budget ran out on the way (nothing added then).
-bool gather_chunk(vec2 p, int offset, inout vec4 sum, inout float weight) {
+bool gather_chunk(vec2 p, int offset, int end, inout vec4 sum, inout float weight) {
     vec4 s = sum;
     float w_sum = weight;
-    for (int k = ray_first; k < ray_first + ray_count; ++k) {
+    for (int k = ray_first; k < end; ++k) {
         vec4 line;
         float w = fetch_ray(band, p, (offset + k) % samples, line);
         if (w > 0.0) { s += w * trace(line); w_sum += w; }
@@ -196,6 +198,12 @@ void main() {
     ivec2 pix = ivec2(gl_GlobalInvocationID.xy);
     if (pix.x >= size.x || pix.y >= size.y) return;
     if (retry_pass != 0 && imageLoad(retry, pix).x == 0) return;
+    int pixel_rays = int(texelFetch(tile_rays, pix / 8, 0).r);
+    if (ray_first >= pixel_rays) return;  // this pixel's rays are all traced
+    // the pixel's own chunk ends at its last ray; its last chunk is folded into the result
+    int end = min(ray_first + ray_count, pixel_rays);
+    bool fold = chunk_end >= pixel_rays && end == min(chunk_end, pixel_rays);
+    if (fresh == 0 && imageLoad(band_weight_sum, pix).x < 0.0) return;  // taken whole in the band's first chunk
     vec2 p = vec2(pix) + 0.5;
     int offset = int(hash(uvec2(pix + origin)) % uint(samples));  // as for the uncropped raster
     for (int k = 0; k < samples; ++k) {  // the first valid ray gives where the rays converge
@@ -204,6 +212,7 @@ void main() {
             vec4 colour;
             if (reach_px >= 0.0 && uniform_colour(line.xz + line.yw * focus_w, colour)) {
                 imageStore(result, pix, colour);
+                imageStore(band_weight_sum, pix, vec4(-1.0));  // the band's later chunks skip this pixel
                 return;
             }
             break;
@@ -215,10 +224,10 @@ void main() {
     if (one_blur && band != achromatic) return;
     vec4 sum = fresh != 0 ? vec4(0.0) : imageLoad(band_sum, pix);
     float weight = fresh != 0 ? 0.0 : imageLoad(band_weight_sum, pix).x;
-    if (!gather_chunk(p, offset, sum, weight)) {  // kept as it was before this chunk; the renderer retries
+    if (!gather_chunk(p, offset, end, sum, weight)) {  // kept as it was before this chunk; the renderer retries
         imageStore(retry, pix, ivec4(1));
         atomicAdd(retries, 1u);
-    } else if (fold != 0) {
+    } else if (fold) {
         fold_band(pix, sum, weight, one_blur);
         return;
     }

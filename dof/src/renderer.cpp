@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
+#include <numeric>
 #include <stdexcept>
 
 #include <epoxy/gl.h>
@@ -17,6 +19,7 @@ namespace lensfx::dof {
 namespace {
 
 constexpr int kMaxBands = 128;  // band_weight's size in the shader
+constexpr int kTile = 8;        // the shader's work group side: one ray count per group
 
 int next_pow2(int n) {
     int p = 1;
@@ -140,13 +143,6 @@ std::vector<std::array<float, 4>> marked_lines(const RayTable& table) {
     return lines;
 }
 
-// How far from where a pixel's first ray crosses focus_w any of its rays can meet a surface: the widest
-// blur of the scene's depth range, plus twice the table's focus spread (the first ray's own offset, and
-// the others').
-double uniform_reach_px(const LayerStack& layers, const RayTable& table) {
-    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
-    return table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w)) + 2.0 * table.focus_spread;
-}
 
 // An image the trace reads and writes between dispatches, cleared to 0.
 gpu::GlObject work_image(GLenum format, int w, int h) {
@@ -175,25 +171,25 @@ public:
         glUniform1i(program_.uniform("budget_check"), 2);
     }
 
-    // Rays [first, first + count) of `band` at every pixel; fold: the band's last chunk. Returns how many
-    // pixels ran out of loop budget (traced again ray by ray).
-    std::size_t trace(int band, int first, int count, bool fold) {
+    // Rays [first, first + count) of `band` at every pixel that has that many (tile_ray_counts); a pixel's
+    // last chunk is folded into the result. Returns how many pixels ran out of loop budget (traced again
+    // ray by ray).
+    std::size_t trace(int band, int first, int count) {
         glUniform1i(program_.uniform("band"), band);
-        std::size_t retried = dispatch(first, count, first == 0, fold, false);
+        glUniform1i(program_.uniform("chunk_end"), first + count);
+        std::size_t retried = dispatch(first, count, first == 0, false);
         if (retried == 0) return 0;
         for (int k = first; k < first + count; ++k)
-            if (dispatch(k, 1, false, fold && k == first + count - 1, true) != 0)
-                throw std::runtime_error("lens blur: one lens ray ran past the GL driver's loop limit");
+            if (dispatch(k, 1, false, true) != 0) throw std::runtime_error("lens blur: one lens ray ran past the GL driver's loop limit");
         glClearTexImage(retry_.get(), 0, GL_RED_INTEGER, GL_INT, nullptr);
         return retried;
     }
 
 private:
-    std::size_t dispatch(int first, int count, bool fresh, bool fold, bool retry_pass) {
+    std::size_t dispatch(int first, int count, bool fresh, bool retry_pass) {
         glUniform1i(program_.uniform("ray_first"), first);
         glUniform1i(program_.uniform("ray_count"), count);
         glUniform1i(program_.uniform("fresh"), fresh ? 1 : 0);
-        glUniform1i(program_.uniform("fold"), fold ? 1 : 0);
         glUniform1i(program_.uniform("retry_pass"), retry_pass ? 1 : 0);
         glDispatchCompute(static_cast<GLuint>((width_ + 7) / 8), static_cast<GLuint>((height_ + 7) / 8), 1);
         glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
@@ -212,6 +208,59 @@ private:
 };
 
 }  // namespace
+
+namespace {
+
+// Per 8 x 8-pixel cell (the pyramid's level 3), the widest blur radius (px) of its surfaces; 0 if empty.
+std::vector<double> cell_blur_radii(const std::vector<float>& level3, int cells, const RayTable& table) {
+    std::vector<double> radius(static_cast<std::size_t>(cells), 0.0);
+    for (std::size_t c = 0; c < radius.size(); ++c) {
+        const double lo = level3[2 * c], hi = level3[2 * c + 1];
+        if (lo <= hi) radius[c] = table.max_slope * std::max(std::abs(hi - table.focus_w), std::abs(lo - table.focus_w));
+    }
+    return radius;
+}
+
+// Distance (px) between the 8 x 8 cells (ax, ay) and (bx, by), 0 when they touch.
+double cell_gap(int ax, int ay, int bx, int by) {
+    const auto gap = [](int a, int b) { return std::max(0, (std::abs(a - b) - 1) * kTile); };
+    return std::hypot(gap(ax, bx), gap(ay, by));
+}
+
+}  // namespace
+
+double uniform_reach_px(const LayerStack& layers, const RayTable& table) {
+    const double w_near = 1.0 / static_cast<double>(layers.nearest()), w_far = 1.0 / static_cast<double>(layers.farthest());
+    return table.max_slope * std::max(std::abs(w_near - table.focus_w), std::abs(w_far - table.focus_w)) + 2.0 * table.focus_spread;
+}
+
+std::vector<float> tile_ray_counts(const std::vector<std::vector<float>>& pyramid, int padded_w, int padded_h, int width, int height,
+                                   const RayTable& table, double reach_px, int min_rays, int max_rays, double spacing_px) {
+    const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+    min_rays = std::max(1, min_rays), max_rays = std::max(min_rays, max_rays);
+    std::vector<float> counts(static_cast<std::size_t>(tiles_x) * static_cast<std::size_t>(tiles_y), static_cast<float>(min_rays));
+    if (max_rays == min_rays || !(spacing_px > 0.0)) return counts;
+    // the pyramid's level of kTile-wide cells (2^3), or its 1 x 1 top when the layers are at most 4 x 4
+    const std::size_t level = std::min<std::size_t>(3, pyramid.size() - 1);
+    const int lw = std::max(1, padded_w >> level);
+    const std::vector<double> radius = cell_blur_radii(pyramid[level], lw * std::max(1, padded_h >> level), table);
+    const double slack = 2.0 * table.focus_spread;  // where the rays converge may lie off the pixel
+    const int span = static_cast<int>(std::ceil((reach_px + slack) / kTile)) + 1;
+    for (int ty = 0; ty < tiles_y; ++ty)
+        for (int tx = 0; tx < tiles_x; ++tx) {
+            // the widest blur disc reaching this tile: every cell whose own blur spans the gap to it
+            double widest = 0.0;
+            for (int cy = std::max(0, ty - span); cy <= std::min(tiles_y - 1, ty + span); ++cy)
+                for (int cx = std::max(0, tx - span); cx <= std::min(tiles_x - 1, tx + span); ++cx) {
+                    const double r = radius[static_cast<std::size_t>(cy) * static_cast<std::size_t>(lw) + static_cast<std::size_t>(cx)];
+                    if (r > widest && cell_gap(tx, ty, cx, cy) <= r + slack) widest = r;
+                }
+            // rays a disc of diameter 2 widest needs to land spacing_px apart: its area over a spacing disc's
+            const double d = 2.0 * widest / spacing_px, wanted = std::ceil(0.25 * std::numbers::pi * d * d);
+            counts[static_cast<std::size_t>(ty * tiles_x + tx)] = static_cast<float>(std::clamp(wanted, double(min_rays), double(max_rays)));
+        }
+    return counts;
+}
 
 std::vector<float> achromatic_cells(const RayTable& t, double w_near, double w_far, double tolerance_px) {
     const int cw = t.grid_x - 1, ch = t.grid_y - 1;
@@ -271,9 +320,14 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     gpu::GlObject out = work_image(GL_RGBA32F, layers.width, layers.height);
 
     glUseProgram(prog);
-    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), cells.get(), cmin.get(), cmax.get()};
-    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "achromatic_cell", "colour_min", "colour_max"};
-    for (GLuint u = 0; u < 7; ++u) {
+    const int max_rays = std::clamp(settings.max_rays, settings.rays, table.samples);
+    const std::vector<float> tile_rays = tile_ray_counts(pyramid, pw, ph, layers.width, layers.height, table, reach, settings.rays, max_rays,
+                                                         settings.ray_spacing_px);
+    const int tiles_x = (layers.width + kTile - 1) / kTile, tiles_y = (layers.height + kTile - 1) / kTile;
+    gpu::GlObject tiles = mip_texture(GL_R32F, GL_RED, tiles_x, tiles_y, {tile_rays});
+    const GLuint units[] = {hiz.get(), layer_w.get(), layer_rgba.get(), line.get(), cells.get(), cmin.get(), cmax.get(), tiles.get()};
+    const char* names[] = {"hiz", "layer_w", "layer_rgba", "ray_line", "achromatic_cell", "colour_min", "colour_max", "tile_rays"};
+    for (GLuint u = 0; u < 8; ++u) {
         glBindTextureUnit(u, units[u]);
         glUniform1i(state_->program.uniform(names[u]), static_cast<GLint>(u));
     }
@@ -299,12 +353,12 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     glUniform2i(p.uniform("grid"), table.grid_x, table.grid_y);
     glUniform2f(p.uniform("cell"), static_cast<float>(table.cell_w), static_cast<float>(table.cell_h));
     ChunkedTrace chunks(state_->program, layers.width, layers.height);
-    const int rays = std::clamp(settings.rays, 1, table.samples), chunk = std::max(1, settings.rays_per_dispatch);
+    const int rays = static_cast<int>(*std::max_element(tile_rays.begin(), tile_rays.end())), chunk = std::max(1, settings.rays_per_dispatch);
     last_retried_ = 0;
+    last_rays_ = std::accumulate(tile_rays.begin(), tile_rays.end(), 0.0) / static_cast<double>(tile_rays.size());
     for (int b = 0; b < table.channels; ++b) {
         if (!settings.chromatic && b != table.achromatic) continue;
-        for (int first = 0; first < rays; first += chunk)
-            last_retried_ += chunks.trace(b, first, std::min(chunk, rays - first), first + chunk >= rays);
+        for (int first = 0; first < rays; first += chunk) last_retried_ += chunks.trace(b, first, std::min(chunk, rays - first));
     }
     glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
     std::vector<float> rgba(4 * static_cast<std::size_t>(layers.width) * static_cast<std::size_t>(layers.height));

@@ -71,6 +71,9 @@ void add_dof_options(CLI::App& app, DofSettings& s) {
     app.add_option("--depth-scale", s.depth_scale, "Metres per depth unit")->capture_default_str()->group(group)->check(CLI::PositiveNumber);
     app.add_option("--deep", s.deep, "Deep EXR files (comma-separated, merged) whose samples are the scene's layers")->group(group);
     app.add_option("--dof-rays", s.rays, "Lens rays per pixel and channel")->capture_default_str()->group(group)->check(CLI::Range(1, 1024));
+    app.add_option("--dof-max-rays", s.max_rays, "Up to this many where the blur is wide, so its rays land 2.5 px apart (default 4 x --dof-rays, at most 256)")
+        ->group(group)
+        ->check(CLI::Range(1, 4096));
     app.add_flag("!--no-chromatic-blur", s.chromatic, "Trace green's rays for all channels (3x faster, no chromatic blur)")->group(group);
     app.add_option("--tilt", s.tilt, "Sensor tilt AX,AY in degrees (tilt-shift, Scheimpflug)")
         ->group(group)
@@ -182,6 +185,8 @@ struct DofStage::State {
     double layers_ms = 0, rays_ms = 0, trace_ms = 0;
 
     std::string cache_dir() const;
+    // lens rays per pixel where the blur is widest (--dof-max-rays; default 4 x --dof-rays, at most 256)
+    int max_rays() const { return std::max(settings.rays, settings.max_rays > 0 ? settings.max_rays : std::min(4 * settings.rays, 256)); }
 
     dof::Camera camera_for(const Frame& frame) const;
     dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work) const;
@@ -281,7 +286,7 @@ void DofStage::process(Frame& frame) {
     const dof::Camera camera = s.camera_for(frame);
     if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||
         camera.centre_y != s.camera.centre_y) {
-        s.table = dof::cached_ray_table(camera, std::max(64, 4 * s.settings.rays), kRayGrid, s.cache_dir(), &s.table_source);
+        s.table = dof::cached_ray_table(camera, std::max(64, s.max_rays()), kRayGrid, s.cache_dir(), &s.table_source);
         s.camera = camera;
     }
     s.rays_ms = ms_since(t0);
@@ -300,6 +305,7 @@ void DofStage::process(Frame& frame) {
     if (!s.renderer) s.renderer = std::make_unique<dof::Renderer>();
     dof::TraceSettings trace;
     trace.rays = s.settings.rays;
+    trace.max_rays = s.max_rays();
     trace.chromatic = s.settings.chromatic;
     trace.origin_x = work.x, trace.origin_y = work.y;
     const int alpha_channel = channel_index(frame, "A");

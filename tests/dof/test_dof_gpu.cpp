@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numbers>
 
 #include <dof/reference.h>
 #include <dof/renderer.h>
@@ -227,6 +228,73 @@ TEST_F(DofGpu, AChunkThatRunsOutOfLoopBudgetIsTracedAgain) {
         EXPECT_GT(renderer.last_retried(), 0u) << "512 rays in one invocation run out on llvmpipe";
     }
     EXPECT_EQ(one_dispatch, chunked);
+}
+
+// More rays where the blur is wide (TraceSettings::max_rays): a near bar's blur gets them, the error against
+// the reference falls, and the in-focus checker's tiles, which keep the minimum, are the fixed-count
+// render's exactly.
+TEST_F(DofGpu, MoreRaysWhereTheBlurIsWideLowerTheErrorThereOnly) {
+    constexpr int w = 160, h = 48, tile = 8;
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    std::vector<float> rgb(3 * n), depth(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+        const bool bar = x >= 16 && x < 40;
+        depth[i] = bar ? 1.0f : 3.0f;  // the bar near, the checker at the focus
+        const float v = bar ? 2.0f : ((x / 4 + y / 4) % 2 ? 0.8f : 0.1f);
+        rgb[3 * i] = v, rgb[3 * i + 1] = 0.9f * v, rgb[3 * i + 2] = 0.7f * v;
+    }
+    const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
+    const RayTable table = make_ray_table(bench_camera(w, h), 256, 9);
+    const std::vector<float> ref = render_reference(scene, table);
+    TraceSettings fixed;
+    fixed.rays = 8;
+    const std::vector<float> few = renderer.render(scene, table, fixed);
+    EXPECT_DOUBLE_EQ(renderer.last_rays(), 8.0);
+    TraceSettings adaptive = fixed;
+    adaptive.max_rays = table.samples;
+    const std::vector<float> more = renderer.render(scene, table, adaptive);
+    EXPECT_GT(renderer.last_rays(), 8.0);
+    EXPECT_LT(renderer.last_rays(), 0.9 * table.samples) << "only where the blur is wide";
+    EXPECT_LT(relative_l1(more, ref), 0.6 * relative_l1(few, ref));
+
+    int pw = 0, ph = 0;
+    const auto pyramid = minmax_pyramid(scene, pw, ph);
+    const std::vector<float> counts = tile_ray_counts(pyramid, pw, ph, w, h, table, uniform_reach_px(scene, table), 8, table.samples, 2.0);
+    int kept = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            if (counts[static_cast<std::size_t>((y / tile) * ((w + tile - 1) / tile) + x / tile)] != 8.0f) continue;
+            ++kept;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const std::size_t i = 3 * static_cast<std::size_t>(y * w + x) + c;
+                ASSERT_EQ(more[i], few[i]) << "pixel " << x << "," << y;
+            }
+        }
+    EXPECT_GT(kept, 0) << "the sky's tiles keep the minimum";
+}
+
+// The ray count per tile follows the widest blur near it: the count of a disc that wide at the spacing,
+// clamped; no spacing, or no room above the minimum, gives the minimum everywhere.
+TEST(DofTileRays, FollowTheWidestBlurNearTheTile) {
+    constexpr int w = 256, h = 16;
+    const RayTable table = make_ray_table(bench_camera(w, h), 64, 5);
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    std::vector<float> rgb(3 * n, 0.5f), depth(n);
+    for (std::size_t i = 0; i < n; ++i) depth[i] = (i % w) < 16 ? 1.0f : 3.0f;  // a near strip, then the focus
+    const LayerStack scene = layers_from_flat(rgb.data(), depth.data(), w, h);
+    int pw = 0, ph = 0;
+    const auto pyramid = minmax_pyramid(scene, pw, ph);
+    const double reach = uniform_reach_px(scene, table);
+    const std::vector<float> counts = tile_ray_counts(pyramid, pw, ph, w, h, table, reach, 4, 64, 2.0);
+    ASSERT_EQ(counts.size(), 64u);
+    const double d = 2.0 * table.max_slope * std::abs(1.0 - table.focus_w);  // the near strip's blur, px
+    const float near = static_cast<float>(std::clamp(std::ceil(std::numbers::pi / 4.0 * (d / 2.0) * (d / 2.0)), 4.0, 64.0));
+    EXPECT_GT(near, 4.0f);
+    EXPECT_EQ(counts[0], near);
+    EXPECT_EQ(counts[31], 4.0f) << "beyond the strip's blur, everything is in focus";
+    for (float c : tile_ray_counts(pyramid, pw, ph, w, h, table, reach, 4, 64, 0.0)) EXPECT_EQ(c, 4.0f);
+    for (float c : tile_ray_counts(pyramid, pw, ph, w, h, table, reach, 64, 8, 2.0)) EXPECT_EQ(c, 64.0f);
 }
 
 TEST(DofPyramid, EveryLevelBoundsTheLayersBelowIt) {

@@ -16,6 +16,10 @@ namespace lensfx::dof {
 
 struct TraceSettings {
     int rays = 32;           // lens rays per pixel and channel (taken from the table, per-pixel offset)
+    // More rays where the blur is wide: up to max_rays (at most the table's samples; rays or less: rays
+    // everywhere), as many as land ray_spacing_px apart over the widest blur disc near the pixel's tile.
+    int max_rays = 0;
+    double ray_spacing_px = 2.5;
     bool chromatic = true;   // each channel through its own wavelength's rays; false: green's for all
     int start_level = 2;     // hierarchy level a ray starts at
     int max_iterations = 2048;
@@ -47,18 +51,29 @@ public:
     double last_ms() const { return last_ms_; }  // upload + trace + read back of the last render
     // Pixel chunks of the last render that ran out of the driver's loop budget and were traced again.
     std::size_t last_retried() const { return last_retried_; }
+    double last_rays() const { return last_rays_; }  // mean lens rays per pixel and band of the last render
 
 private:
     struct State;
     std::unique_ptr<State> state_;
     double last_ms_ = 0.0;
     std::size_t last_retried_ = 0;
+    double last_rays_ = 0.0;
 };
 
 // The min-max pyramid the trace skips with: level L holds, per cell of 2^L x 2^L pixels (the raster padded
 // to powers of two), (lowest, highest) inverse depth 1/back .. 1/front over every layer; empty cells
 // (1e30, -1e30). Level 0 first.
 std::vector<std::vector<float>> minmax_pyramid(const LayerStack& layers, int& padded_w, int& padded_h);
+// How far from where a pixel's first ray crosses focus_w any of its rays can meet a surface: the widest
+// blur of the layers' depth range, plus twice the table's focus spread (the first ray's own offset, and
+// the others').
+double uniform_reach_px(const LayerStack& layers, const RayTable& table);
+// Lens rays per pixel for each 8 x 8-pixel tile (the trace's work group; row-major, ceil(width / 8) by
+// ceil(height / 8)): the widest blur disc of any surface within reach_px of the tile (the pyramid's depth
+// range there), over the area of a disc of spacing_px, between min_rays and max_rays.
+std::vector<float> tile_ray_counts(const std::vector<std::vector<float>>& pyramid, int padded_w, int padded_h, int width, int height,
+                                   const RayTable& table, double reach_px, int min_rays, int max_rays, double spacing_px);
 // Per cell between the table's grid points (grid_x - 1 by grid_y - 1), 1 where at all four corners every
 // band's ray of every sample passes exactly where the achromatic band's does and stays within
 // tolerance_px of it for inverse depths w_far .. w_near; else 0.

@@ -25,6 +25,7 @@ struct DofSettings {
     double depth_scale = 1.0;          // metres per depth unit
     std::string deep;                  // deep EXR files (comma-separated) whose samples are the layers
     int rays = 32;                     // lens rays per pixel and channel
+    int max_rays = 0;                  // where the blur is wide, up to this many (0: 4 x rays, at most 256)
     bool chromatic = true;
     std::string tilt;                  // "AX,AY" degrees of sensor tilt (Scheimpflug)
     std::vector<std::string> focus_points;  // "X,Y,METRES" each (display-window pixels): a focal surface
@@ -38,7 +39,7 @@ struct DofSettings {
     MemoryBudget memory;               // --memory-limit: deep inputs are sized against it
 };
 
-// --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --no-chromatic-blur, --tilt, --focus-point,
+// --dof, --focus, --depth-channel, --depth-scale, --deep, --dof-rays, --dof-max-rays, --no-chromatic-blur, --tilt, --focus-point,
 // --dof-only.
 void add_dof_options(CLI::App& app, DofSettings& settings);
 
