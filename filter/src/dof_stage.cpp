@@ -12,11 +12,9 @@
 #include <dof/deep_exr.h>
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
-#include <filter/colour/matrix.h>
 #include <filter/option_checks.h>
 #include <flare/cache.h>
 #include <flare/flare.h>
-#include <optics/lens_file.h>
 #include <optics/system.h>
 
 #include "stopwatch.h"
@@ -212,7 +210,7 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     c.centre_y = spec.full_y + 0.5 * spec.full_height - spec.y;
     const double efl = dof::focus_of(system, c.focus_m).efl_mm;
     c.sensor_width_mm = settings.fov_deg ? 2.0 * efl * std::tan(0.5 * *settings.fov_deg * std::acos(-1.0) / 180.0)
-                                         : std::stod(settings.sensor.substr(0, settings.sensor.find('x')));
+                                         : parse_sensor(settings.sensor)[0];
     if (!settings.tilt.empty()) {
         const auto t = parse_pair(settings.tilt, "--tilt");
         c.tilt_x_deg = t[0], c.tilt_y_deg = t[1];
@@ -224,9 +222,7 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
         c.focus_points.push_back(p);
     }
     if (settings.bands != 0) {  // mixed into the working space's R, G, B, as the flare's bands
-        const auto rgb_to_xyz = primaries ? primaries() : std::nullopt;
-        const optics::Mat3 xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
-        for (const flare::SpectralPass& p : flare::spectral_passes(settings.bands, xyz_to_rgb)) c.bands.push_back({p.wavelength_nm, p.weight});
+        for (const flare::SpectralPass& p : flare::spectral_passes(settings.bands, working_xyz_to_rgb(primaries))) c.bands.push_back({p.wavelength_nm, p.weight});
     }
     return c;
 }
@@ -260,10 +256,9 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
 DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool flare_follows, FlareStage::PrimariesSource working_rgb_to_xyz)
     : state_(std::make_unique<State>()) {
     State& s = *state_;
-    if (settings.lens.empty()) throw std::runtime_error("--dof needs --lens");
+    if (settings.lens.lens.empty()) throw std::runtime_error("--dof needs --lens");
     if (!settings.focus_m) throw std::runtime_error("--dof needs --focus METRES");
-    const optics::Lens lens = optics::load_lens(settings.lens);
-    s.system = optics::realize(lens, settings.zoom.empty() ? 0.0 : optics::parse_zoom(lens, settings.zoom), settings.fstop);
+    s.system = realize_lens(settings.lens).system;
     if (!settings.deep.empty()) {
         std::vector<dof::DeepImage> images;
         for (const std::string& f : split_commas(settings.deep)) images.push_back(dof::read_deep_exr(f, settings.memory));
@@ -381,8 +376,7 @@ DofStages make_dof_stages(DofSettings settings, const FlareSettings& flare, std:
                           FlareStage::PrimariesSource working_rgb_to_xyz) {
     flare_runs = !flare.lens.empty() && !(settings.enabled && settings.dof_only);
     if (!settings.enabled) return {};
-    settings.lens = flare.lens, settings.zoom = flare.zoom, settings.sensor = flare.sensor;
-    settings.fstop = flare.fstop, settings.fov_deg = flare.fov_deg;
+    settings.lens = flare, settings.sensor = flare.sensor, settings.fov_deg = flare.fov_deg;
     settings.cache_dir = flare.accel.cache_dir;
     settings.bands = flare.bands;
     settings.memory = flare.memory;

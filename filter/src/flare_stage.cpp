@@ -24,12 +24,10 @@
 #include <detect/tracker.h>
 #include <flare/cache.h>
 #include <flare/direct_power.h>
+#include <flare/flare.h>
 #include <flare/footprint.h>
 #include <flare/starburst_cache.h>
 #include <gpu/band_filter.h>
-#include <gpu/acceleration.h>
-#include <gpu/context.h>
-#include <flare/flare.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/measured_renderer.h>
 #include <measured/model_file.h>
@@ -42,8 +40,8 @@
 #include <optics/system.h>
 #include <optics/tracer.h>
 
-#include <filter/float_range.h>
-#include <filter/image_ops.h>
+#include <flare/float_range.h>
+#include <flare/image_ops.h>
 #include <filter/output_files.h>
 #include <filter/visibility.h>
 
@@ -53,7 +51,14 @@
 
 namespace lensfx::filter {
 
+using flare::ConstRgbView;
 using flare::FootprintGroup;
+using flare::Region;
+using flare::RgbView;
+using flare::add;
+using flare::nonzero_region;
+using flare::scaled_within_float;
+using flare::to_float_within;
 using flare::add_extended_starburst;
 using flare::convolve_footprint;
 using flare::footprint_groups;
@@ -68,6 +73,11 @@ double min_light_fade(double relative, double min_light) {
     if (!(min_light > 0.0)) return 1.0;
     const double t = std::clamp((relative - min_light) / min_light, 0.0, 1.0);
     return t * t * (3.0 - 2.0 * t);
+}
+
+optics::Mat3 working_xyz_to_rgb(const FlareStage::PrimariesSource& working_rgb_to_xyz) {
+    const auto rgb_to_xyz = working_rgb_to_xyz ? working_rgb_to_xyz() : std::nullopt;
+    return rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
 }
 
 namespace {
@@ -321,9 +331,8 @@ struct FlareStage::State {
     // The working space's primaries and the passes in them; asked once, at the first light.
     void resolve_primaries() {
         if (xyz_to_rgb) return;
-        const auto rgb_to_xyz = primaries_source ? primaries_source() : std::nullopt;
-        xyz_to_rgb = rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
-        gpu::FlareView view;
+        xyz_to_rgb = working_xyz_to_rgb(primaries_source);
+        flare::FlareView view;
         view.bands = settings.bands;
         view.xyz_to_rgb = *xyz_to_rgb;
         passes = view.passes();
@@ -414,7 +423,7 @@ struct FlareStage::State {
     // strength; the point lights' ghosts drawn together at the end (one clear and read-back).
     FrameTally add_model(const std::vector<detect::Light>& found, const FlareGeometry& geo, std::vector<float>& rgb) {
         FrameTally tally;
-        gpu::FlareView view = flare_view(geo);  // each light sets the angles
+        flare::FlareView view = flare_view(geo);  // each light sets the angles
         std::vector<gpu::ScaledLight> point_lights;
         for (const detect::Light& light : found) {
             auto t = Clock::now();
@@ -443,8 +452,8 @@ struct FlareStage::State {
     }
 
     // The frame as the lens sees it: sensor, pixels, bands and the working space's primaries.
-    gpu::FlareView flare_view(const FlareGeometry& geo) const {
-        gpu::FlareView view;
+    flare::FlareView flare_view(const FlareGeometry& geo) const {
+        flare::FlareView view;
         view.sensor_width_mm = geo.sensor_width_mm;
         view.sensor_height_mm = geo.sensor_height_mm;
         view.width = geo.width;
@@ -530,7 +539,7 @@ struct FlareStage::State {
 
     // A light's ghosts added into `rgb` group by group (each convolved with its footprint), or with
     // --band-filter one render per band; false for a point light, left to be drawn with the frame's others.
-    bool add_light_ghosts(const detect::Light& light, const std::array<float, 3>& scale, gpu::FlareView& view, std::vector<float>& rgb,
+    bool add_light_ghosts(const detect::Light& light, const std::array<float, 3>& scale, flare::FlareView& view, std::vector<float>& rgb,
                           FrameTally& tally) {
         auto t = Clock::now();
         const std::vector<FootprintGroup> groups = ghost_groups(light, view.sensor_width_mm / view.width);
@@ -544,8 +553,8 @@ struct FlareStage::State {
             t = Clock::now();
             if (settings.band_filter) {
                 view.only_ghosts = group.ghosts;
-                gpu::FlareImage flare = gpu::render_band_filtered(
-                    system, view, [&](const gpu::FlareView& one) { return renderer->render(system, one, render_options); });
+                flare::FlareImage flare = gpu::render_band_filtered(
+                    system, view, [&](const flare::FlareView& one) { return renderer->render(system, one, render_options); });
                 view.only_ghosts.clear();
                 if (flare.width != view.width || flare.height != view.height)
                     throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
@@ -571,7 +580,8 @@ struct FlareStage::State {
                 convolve_footprint(group_rgb, view.width, view.height, *light.shape, group.magnification);
                 tally.extended_ms += ms_since(t);
             }
-            for (std::size_t i = 0; i < display_px * 3; ++i) rgb[i] = added_within_float(rgb[i], group_rgb[i]);
+            const RgbView display{rgb.data(), 0, 0, view.width, view.height};
+            add(display, ConstRgbView{group_rgb.data(), 0, 0, view.width, view.height}, display.region());
         }
         return true;
     }

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <set>
 #include <string>
@@ -163,6 +164,28 @@ TEST(DofFilter, SpectralBandsMixIntoTheWorkingSpacesPrimaries) {
     // one blur for all channels: the working space (each file's own) changes nothing
     EXPECT_LT(compare(" --no-chromatic-blur"), 1e-5);
     EXPECT_GT(compare(" --bands 7"), 1e-3) << "the working space's primaries weigh the bands";
+}
+
+// The blur's lens is the flare's (realize_lens): --blades shapes its iris, under the same rule.
+TEST(DofFilter, BladesShapeTheBlurAsTheyDoTheFlare) {
+    const auto dir = lensfx::test::scratch_dir("dof_blades");
+    const std::string in = point_exr(dir, true);
+    const std::string dof = " --dof --dof-only --lens cooke-triplet --fstop 5.6 --focus 1 --sensor 6 --dof-rays 16 --cache-dir none";
+    const auto blur = [&](const std::string& blades, const std::string& name) {
+        const std::string out = (dir / name).string();
+        const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + blades);
+        EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+        int w = 0, h = 0;
+        return read_channel(out, "G", w, h);
+    };
+    const std::vector<float> round = blur(" --blades 0", "round.exr"), five = blur(" --blades 5", "five.exr");
+    ASSERT_EQ(round.size(), five.size());
+    double total = 0.0, moved = 0.0;
+    for (std::size_t i = 0; i < round.size(); ++i) total += double{round[i]}, moved += std::abs(double{round[i]} - double{five[i]});
+    EXPECT_GT(moved / total, 0.05) << moved / total << ": a pentagonal iris spreads the point differently from a round one";
+    const auto refused = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + (dir / "two.exr").string() + dof + " --blades 2");
+    EXPECT_NE(refused.exit_code, 0);
+    EXPECT_NE(refused.stderr_text.find("--blades 2: 0 (round) or 3 to 64"), std::string::npos) << refused.stderr_text;
 }
 
 TEST(DofFilter, MissingDepthIsAOneLineError) {

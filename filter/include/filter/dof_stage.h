@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filter/flare_settings.h>
 #include <filter/flare_stage.h>
 #include <filter/frame.h>
 #include <filter/gpu_session.h>
@@ -29,9 +30,10 @@ struct DofSettings {
     std::string tilt;                  // "AX,AY" degrees of sensor tilt (Scheimpflug)
     std::vector<std::string> focus_points;  // "X,Y,METRES" each (display-window pixels): a focal surface
     bool dof_only = false;             // blur without the flare
-    // Shared with the flare (FlareSettings): the one lens of the run.
-    std::string lens, zoom, sensor = "36";
-    std::optional<double> fstop, fov_deg;
+    // Shared with the flare (FlareSettings): the one lens of the run, realized as the flare's (realize_lens).
+    LensChoice lens;
+    std::string sensor = "36";
+    std::optional<double> fov_deg;
     std::string cache_dir;             // --cache-dir: the ray table's file (empty: the default, "none": no file)
     int bands = 0;                     // --bands: 0 RGB (650/550/450 nm), else spectral bands (CIE 1931, Rec. 709)
     MemoryBudget memory;               // --memory-limit: deep inputs are sized against it
@@ -73,8 +75,8 @@ private:
 };
 
 // The stages of --dof: the blur (before the flare) and, when the flare runs too, the compose (after it);
-// both null without --dof. The lens, zoom, f-stop, sensor and field of view are the flare's. `flare_runs`
-// is set to whether the flare stage should run (--lens given and not --dof-only).
+// both null without --dof. The lens (realize_lens: zoom, f-stop, blades, coatings), sensor and field of view
+// are the flare's. `flare_runs` is set to whether the flare stage should run (--lens given and not --dof-only).
 // A deep EXR as a flat frame (R, G, B, A, Z as float, each pixel's samples composited front to back,
 // Z the nearest sample's): the pipeline's view of a deep input; the lens blur reads its samples again.
 Frame read_deep_exr_frame(const std::string& path, const MemoryBudget& budget);

@@ -60,4 +60,8 @@ private:
     std::unique_ptr<State> state_;
 };
 
+// The working space's XYZ -> RGB as the optics core's rows: the inverse of what `working_rgb_to_xyz` gives,
+// or Rec. 709's when it is null or gives nothing (the flare's and the lens blur's spectral weights).
+optics::Mat3 working_xyz_to_rgb(const FlareStage::PrimariesSource& working_rgb_to_xyz);
+
 }  // namespace lensfx::filter

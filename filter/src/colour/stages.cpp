@@ -7,7 +7,7 @@
 #include <fmt/core.h>
 
 #include <filter/colour/quantise.h>
-#include <filter/float_range.h>
+#include <flare/float_range.h>
 
 namespace lensfx::colour {
 
@@ -122,7 +122,7 @@ void ColourOutputStage::process(filter::Frame& frame) {
     const double ev = session_->options().exposure_ev;
     if (ev != 0.0) {
         const float s = static_cast<float>(std::exp2(ev));
-        for (float& v : frame.rgb) v = filter::scaled_within_float(v, s);
+        for (float& v : frame.rgb) v = flare::scaled_within_float(v, s);
     }
     apply(p.to_scene_output(), gpu_scene_, px);
     if (!p.to_scene_output().is_identity()) record_device(frame, ran_on_gpu_);

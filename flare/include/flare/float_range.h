@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-namespace lensfx::filter {
+namespace lensfx::flare {
 
 inline constexpr float kFloatMax = std::numeric_limits<float>::max();
 
@@ -27,4 +27,4 @@ inline float to_float_within(double v) {
     return static_cast<float>(std::isfinite(v) ? std::fmax(-double(kFloatMax), std::fmin(double(kFloatMax), v)) : v);
 }
 
-}  // namespace lensfx::filter
+}  // namespace lensfx::flare

@@ -5,8 +5,9 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <vector>
 
-namespace lensfx::filter {
+namespace lensfx::flare {
 
 // A rectangle of pixels [x0, x1) x [y0, y1) (rows from the top), as OIIO's ROI without channels or depth.
 struct Region {
@@ -41,4 +42,17 @@ Region nonzero_region(const ConstRgbView& image);
 // dst += src over `region` (clipped to both views), each sum held within float range (added_within_float).
 void add(const RgbView& dst, const ConstRgbView& src, const Region& region);
 
-}  // namespace lensfx::filter
+// Where output pixel i of n samples a source of sn pixels stretched over the n (add_resized's mapping, pixel
+// centres aligned, edges held): neighbours i0 and i1, and i1's share f.
+struct BilinearTap {
+    int i0, i1;
+    float f;
+};
+std::vector<BilinearTap> bilinear_taps(int n, int sn);
+
+// dst += src resized bilinearly to cover `region` of dst's pixel space (src's pixel centres spread evenly over
+// it, its edge pixels held beyond the outer centres, as OIIO's resize maps display windows), over the part of
+// `region` inside dst; each sum held within float range. A reduced render enlarged into a full-size image.
+void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region);
+
+}  // namespace lensfx::flare

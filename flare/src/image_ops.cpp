@@ -1,0 +1,103 @@
+// RGB float image operations (flare/image_ops.h).
+#include <flare/image_ops.h>
+
+#include <flare/float_range.h>
+
+#include <utility>
+#include <vector>
+
+namespace lensfx::flare {
+
+Region nonzero_region(const ConstRgbView& image) {
+    Region box{image.x + image.width, image.y + image.height, image.x, image.y};
+    for (int y = image.y; y < image.y + image.height; ++y) {
+        const float* row = image.at(image.x, y);
+        auto lit = [&](int i) { return row[i * 3] != 0.0f || row[i * 3 + 1] != 0.0f || row[i * 3 + 2] != 0.0f; };
+        int first = 0;
+        while (first < image.width && !lit(first)) ++first;
+        if (first == image.width) continue;
+        int last = image.width - 1;
+        while (!lit(last)) --last;
+        box.x0 = std::min(box.x0, image.x + first);
+        box.x1 = std::max(box.x1, image.x + last + 1);
+        box.y0 = std::min(box.y0, y);
+        box.y1 = y + 1;
+    }
+    return box.empty() ? Region{} : box;
+}
+
+void add(const RgbView& dst, const ConstRgbView& src, const Region& region) {
+    const Region r = intersection(intersection(region, dst.region()), src.region());
+    if (r.empty()) return;
+    const auto n = static_cast<std::size_t>(r.width()) * 3;
+    for (int y = r.y0; y < r.y1; ++y) {
+        float* to = dst.at(r.x0, y);
+        const float* from = src.at(r.x0, y);
+        for (std::size_t i = 0; i < n; ++i) to[i] = added_within_float(to[i], from[i]);
+    }
+}
+
+std::vector<BilinearTap> bilinear_taps(int n, int sn) {
+    std::vector<BilinearTap> out(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
+        const int i0 = std::min(static_cast<int>(u), sn - 1);
+        out[static_cast<std::size_t>(i)] = {i0, std::min(i0 + 1, sn - 1), static_cast<float>(u - i0)};
+    }
+    return out;
+}
+
+namespace {
+
+// a to b by f; a itself at f = 0 (so an infinite b there leaves no NaN).
+float blend(float a, float b, float f) { return f == 0.0f ? a : a + f * (b - a); }
+
+// A source's rows widened to the output's columns (the taps `xs`), two held at a time: an output row blends two
+// of them, and the next output row mostly needs the same two.
+class WidenedRows {
+public:
+    WidenedRows(const ConstRgbView& src, std::vector<BilinearTap> xs) : src_(src), xs_(std::move(xs)) {
+        for (auto& row : rows_) row.resize(xs_.size() * 3);
+    }
+    // Source row `row` (0 = its top) widened; `keep`: a row the caller still needs, not evicted for this one.
+    const float* row(int row, int keep) {
+        for (std::size_t k = 0; k < 2; ++k)
+            if (held_[k] == row) return rows_[k].data();
+        const std::size_t k = held_[0] == keep ? 1 : 0;
+        const float* in = src_.at(src_.x, src_.y + row);
+        float* out = rows_[k].data();
+        for (std::size_t x = 0; x < xs_.size(); ++x) {
+            const float* a = in + static_cast<std::size_t>(xs_[x].i0) * 3;
+            const float* b = in + static_cast<std::size_t>(xs_[x].i1) * 3;
+            for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] = blend(a[c], b[c], xs_[x].f);
+        }
+        held_[k] = row;
+        return out;
+    }
+
+private:
+    const ConstRgbView& src_;
+    std::vector<BilinearTap> xs_;
+    std::vector<float> rows_[2];
+    int held_[2] = {-1, -1};
+};
+
+}  // namespace
+
+void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region) {
+    const Region r = intersection(region, dst.region());
+    if (r.empty() || src.width <= 0 || src.height <= 0) return;
+    const std::vector<BilinearTap> all_xs = bilinear_taps(region.width(), src.width);
+    const std::vector<BilinearTap> ys = bilinear_taps(region.height(), src.height);
+    WidenedRows rows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0), all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)});
+    const auto n = static_cast<std::size_t>(r.width()) * 3;
+    for (int y = r.y0; y < r.y1; ++y) {
+        const BilinearTap t = ys[static_cast<std::size_t>(y - region.y0)];
+        const float* a = rows.row(t.i0, t.i1);
+        const float* b = rows.row(t.i1, t.i0);
+        float* to = dst.at(r.x0, y);
+        for (std::size_t i = 0; i < n; ++i) to[i] = added_within_float(to[i], blend(a[i], b[i], t.f));
+    }
+}
+
+}  // namespace lensfx::flare

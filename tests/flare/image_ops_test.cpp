@@ -1,0 +1,121 @@
+// The composite's image operations (flare/image_ops.h): regions, nonzero_region, add and add_resized between
+// views placed at different origins, clipped to both and held within float range.
+#include <limits>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <flare/image_ops.h>
+
+namespace lensfx::flare {
+namespace {
+
+TEST(ImageOps, NonzeroRegionIsTheLitBoxInThePixelSpace) {
+    std::vector<float> rgb(5 * 4 * 3, 0.0f);
+    const ConstRgbView view{rgb.data(), 10, 20, 5, 4};
+    EXPECT_TRUE(nonzero_region(view).empty());
+    rgb[(1 * 5 + 3) * 3 + 2] = 0.5f;   // (3, 1): blue only
+    rgb[(2 * 5 + 1) * 3 + 0] = -1.0f;  // (1, 2): negative counts as lit
+    const Region r = nonzero_region(view);
+    EXPECT_EQ(r.x0, 11);
+    EXPECT_EQ(r.y0, 21);
+    EXPECT_EQ(r.x1, 14);
+    EXPECT_EQ(r.y1, 23);
+}
+
+TEST(ImageOps, AddCoversTheOverlapOnlyAndSaturates) {
+    std::vector<float> dst(4 * 3 * 3, 1.0f);  // at (2, 1), 4 x 3
+    std::vector<float> src(3 * 3 * 3, 0.0f);  // at (0, 0), 3 x 3: overlaps columns 2, rows 1..2
+    for (std::size_t i = 0; i < src.size(); ++i) src[i] = static_cast<float>(i);
+    const float big = std::numeric_limits<float>::max();
+    dst[0] = big;  // (2, 1) red: the largest float plus the largest float stays finite
+    src[(1 * 3 + 2) * 3] = big;
+    const RgbView to{dst.data(), 2, 1, 4, 3};
+    const ConstRgbView from{src.data(), 0, 0, 3, 3};
+    add(to, from, from.region());
+    EXPECT_EQ(dst[0], big);                             // held, not inf
+    EXPECT_EQ(dst[1], 1.0f + src[(1 * 3 + 2) * 3 + 1]);  // (2, 1) green
+    EXPECT_EQ(dst[(1 * 4 + 0) * 3 + 2], 1.0f + src[(2 * 3 + 2) * 3 + 2]);  // (2, 2) blue
+    EXPECT_EQ(dst[3], 1.0f);                            // (3, 1): outside the source
+    EXPECT_EQ(dst[(2 * 4 + 0) * 3], 1.0f);              // (2, 3): below it
+    // A region that misses either view adds nothing.
+    add(to, from, Region{0, 0, 2, 3});
+    EXPECT_EQ(dst[3], 1.0f);
+}
+
+// An image of w x h whose pixel (x, y) channel c holds value(x, y, c).
+template <typename Value>
+std::vector<float> image_of(int w, int h, Value value) {
+    std::vector<float> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c) rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(c)] = value(x, y, c);
+    return rgb;
+}
+
+TEST(ImageOps, AddResizedBlendsBetweenPixelCentresAndHoldsTheEdges) {
+    // A 2 x 1 ramp (0, 1) over 4 x 1: output centres at source positions -0.25, 0.25, 0.75, 1.25.
+    const std::vector<float> src{0.0f, 0.0f, 0.0f, 1.0f, 2.0f, 4.0f};
+    std::vector<float> dst(4 * 3, 1.0f);
+    add_resized(RgbView{dst.data(), 0, 0, 4, 1}, ConstRgbView{src.data(), 0, 0, 2, 1}, Region{0, 0, 4, 1});
+    const float expected[4] = {0.0f, 0.25f, 0.75f, 1.0f};
+    for (std::size_t x = 0; x < 4; ++x)
+        for (std::size_t c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(dst[x * 3 + c], 1.0f + expected[x] * src[3 + c]) << x << " " << c;
+}
+
+TEST(ImageOps, BilinearTapsHoldTheEdgesAndStayInsideTheSource) {
+    const std::vector<BilinearTap> taps = bilinear_taps(4, 2);
+    ASSERT_EQ(taps.size(), 4u);
+    EXPECT_EQ(taps[0].i0, 0);  // before the first centre: held
+    EXPECT_EQ(taps[0].f, 0.0f);
+    EXPECT_EQ(taps[1].i1, 1);
+    EXPECT_EQ(taps[1].f, 0.25f);
+    EXPECT_EQ(taps[3].i0, 1);  // beyond the last: held, no pixel past the source
+    EXPECT_EQ(taps[3].i1, 1);
+    for (const BilinearTap& t : bilinear_taps(7, 3)) EXPECT_TRUE(t.i0 >= 0 && t.i1 <= 2 && t.f >= 0.0f && t.f < 1.0f);
+}
+
+TEST(ImageOps, AddResizedAtTheSameSizeIsAdd) {
+    const auto value = [](int x, int y, int c) { return static_cast<float>(x * 7 + y * 3 + c) * 0.125f; };
+    const std::vector<float> src = image_of(5, 4, value);
+    std::vector<float> resized(6 * 6 * 3, 0.5f), added = resized;
+    const ConstRgbView from{src.data(), 1, 2, 5, 4};
+    add_resized(RgbView{resized.data(), 0, 0, 6, 6}, from, from.region());
+    add(RgbView{added.data(), 0, 0, 6, 6}, from, from.region());
+    EXPECT_EQ(resized, added);
+}
+
+TEST(ImageOps, AddResizedOverARegionBeyondTheImageAddsTheOverlapOnly) {
+    // A 3 x 3 source over a 12 x 12 region starting at (-4, -4), into a whole 8 x 8 image and into a 3 x 2 one
+    // at (5, 6): the small one gets exactly the whole one's pixels there; nothing else changes.
+    const std::vector<float> src = image_of(3, 3, [](int x, int y, int c) { return static_cast<float>(1 + x + 3 * y + c); });
+    const ConstRgbView from{src.data(), 0, 0, 3, 3};
+    const Region region{-4, -4, 8, 8};
+    std::vector<float> whole(8 * 8 * 3, 0.0f), part(3 * 2 * 3, 0.0f);
+    add_resized(RgbView{whole.data(), 0, 0, 8, 8}, from, region);
+    add_resized(RgbView{part.data(), 5, 6, 3, 2}, from, region);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 3; ++x)
+            for (int c = 0; c < 3; ++c)
+                EXPECT_EQ(part[static_cast<std::size_t>((y * 3 + x) * 3 + c)], whole[static_cast<std::size_t>(((y + 6) * 8 + x + 5) * 3 + c)]);
+    // Pixel (0, 0) is the region's (4, 4): source position 4.5 x 3 / 12 - 0.5 = 0.625 both ways, where the
+    // linear source holds 1 + 0.625 + 3 x 0.625 in red.
+    EXPECT_FLOAT_EQ(whole[0], 1.0f + 0.625f + 3.0f * 0.625f);
+    std::vector<float> untouched(4 * 3, 2.0f);
+    add_resized(RgbView{untouched.data(), 8, 0, 2, 2}, from, region);  // beside the region
+    EXPECT_EQ(untouched, std::vector<float>(4 * 3, 2.0f));
+}
+
+TEST(ImageOps, AddResizedSaturatesAndLeavesNoNaNBesideAnInfinitePixel) {
+    const float big = std::numeric_limits<float>::max(), inf = std::numeric_limits<float>::infinity();
+    const std::vector<float> src{big, big, inf, 0.0f, 0.0f, 0.0f};  // 2 x 1
+    std::vector<float> dst(2 * 3, big);
+    add_resized(RgbView{dst.data(), 0, 0, 2, 1}, ConstRgbView{src.data(), 0, 0, 2, 1}, Region{0, 0, 2, 1});
+    EXPECT_EQ(dst[0], big);   // big + big held
+    EXPECT_EQ(dst[2], inf);   // an infinite input passes through
+    EXPECT_EQ(dst[3], big);   // its neighbour, at its own centre, is not NaN
+    EXPECT_EQ(dst[5], big);
+}
+
+}  // namespace
+}  // namespace lensfx::flare
