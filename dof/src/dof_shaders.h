@@ -31,7 +31,6 @@ uniform int bands, achromatic;     // table channels (RGB's 3 or spectral bands)
 uniform vec3 band_weight[128];     // what each band's gathered colour adds to R, G, B
 uniform int band;                  // the band this dispatch traces
 uniform int ray_first, ray_count;  // rays of each pixel this dispatch traces
-uniform int chunk_end;             // the end of the chunk they belong to (a retry pass traces one ray of it)
 uniform int fresh;                 // the band's first chunk (start from 0)
 uniform sampler2D tile_rays;       // rays per pixel of each 8 x 8 work group (renderer.cpp tile_ray_counts)
 uniform int retry_pass;            // only pixels marked in `retry`
@@ -200,9 +199,9 @@ void main() {
     if (retry_pass != 0 && imageLoad(retry, pix).x == 0) return;
     int pixel_rays = int(texelFetch(tile_rays, pix / 8, 0).r);
     if (ray_first >= pixel_rays) return;  // this pixel's rays are all traced
-    // the pixel's own chunk ends at its last ray; its last chunk is folded into the result
+    // the pixel's own chunk ends at its last ray, and the dispatch that traces that ray folds the band
     int end = min(ray_first + ray_count, pixel_rays);
-    bool fold = chunk_end >= pixel_rays && end == min(chunk_end, pixel_rays);
+    bool fold = end == pixel_rays;
     if (fresh == 0 && imageLoad(band_weight_sum, pix).x < 0.0) return;  // taken whole in the band's first chunk
     vec2 p = vec2(pix) + 0.5;
     int offset = int(hash(uvec2(pix + origin)) % uint(samples));  // as for the uncropped raster

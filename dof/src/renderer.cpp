@@ -143,7 +143,6 @@ std::vector<std::array<float, 4>> marked_lines(const RayTable& table) {
     return lines;
 }
 
-
 // An image the trace reads and writes between dispatches, cleared to 0.
 gpu::GlObject work_image(GLenum format, int w, int h) {
     gpu::GlObject t = make_texture(GL_TEXTURE_2D);
@@ -176,7 +175,6 @@ public:
     // ray by ray).
     std::size_t trace(int band, int first, int count) {
         glUniform1i(program_.uniform("band"), band);
-        glUniform1i(program_.uniform("chunk_end"), first + count);
         std::size_t retried = dispatch(first, count, first == 0, false);
         if (retried == 0) return 0;
         for (int k = first; k < first + count; ++k)
@@ -206,10 +204,6 @@ private:
     int width_, height_;
     gpu::GlObject band_sum_, band_weight_, retry_, counter_;
 };
-
-}  // namespace
-
-namespace {
 
 // Per 8 x 8-pixel cell (the pyramid's level 3), the widest blur radius (px) of its surfaces; 0 if empty.
 std::vector<double> cell_blur_radii(const std::vector<float>& level3, int cells, const RayTable& table) {
@@ -320,8 +314,8 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
     gpu::GlObject out = work_image(GL_RGBA32F, layers.width, layers.height);
 
     glUseProgram(prog);
-    const int max_rays = std::clamp(settings.max_rays, settings.rays, table.samples);
-    const std::vector<float> tile_rays = tile_ray_counts(pyramid, pw, ph, layers.width, layers.height, table, reach, settings.rays, max_rays,
+    const int min_rays = std::clamp(settings.rays, 1, table.samples), max_rays = std::clamp(settings.max_rays, min_rays, table.samples);
+    const std::vector<float> tile_rays = tile_ray_counts(pyramid, pw, ph, layers.width, layers.height, table, reach, min_rays, max_rays,
                                                          settings.ray_spacing_px);
     const int tiles_x = (layers.width + kTile - 1) / kTile, tiles_y = (layers.height + kTile - 1) / kTile;
     gpu::GlObject tiles = mip_texture(GL_R32F, GL_RED, tiles_x, tiles_y, {tile_rays});
