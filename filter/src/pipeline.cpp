@@ -350,7 +350,6 @@ struct FrameSource {
     }
 };
 
-// The reader's wait for memory, expecting the size of the frame before; then what the frame holds.
 // The stages' buffers for frames of `spec` counted in `held`, as soon as a frame of that size is read (before
 // the next is): the most any frame so far needs, since what a stage keeps for the next frame (or a driver
 // keeps for it) does not shrink.
@@ -360,6 +359,8 @@ void hold_stage_buffers(FrameBytes::Hold& held, const std::vector<Stage*>& stage
     if (bytes > held.bytes()) held.resize(bytes);
 }
 
+// The reader's wait for memory, expecting the size of the frame before; then what the frame holds, and
+// the stages' buffers for frames of its size.
 class ReadBudget {
 public:
     ReadBudget(FrameBytes& held, const std::vector<Stage*>& stages, bool wants_rgb)
