@@ -128,6 +128,11 @@ void check_input_files(const FlareSettings& s) {
 
 namespace {
 
+// A light's per-channel ghost scale in the renderer's precision.
+std::array<double, 3> as_double(const std::array<float, 3>& v) {
+    return {static_cast<double>(v[0]), static_cast<double>(v[1]), static_cast<double>(v[2])};
+}
+
 // Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
 // `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
 // frame directly; the GL targets (RGBA float at full size and at 1/2..1/16, read back in bands) for
@@ -439,7 +444,7 @@ struct FlareStage::State {
             if (!parts.ghosts) continue;
             view.angle_x_deg = ax;
             view.angle_y_deg = ay;
-            const gpu::ScaledLight scaled{ax, ay, {(*scale)[0], (*scale)[1], (*scale)[2]}};
+            const gpu::ScaledLight scaled{ax, ay, as_double(*scale)};
             if (!add_light_ghosts(light, *scale, view, rgb, tally)) point_lights.push_back(scaled);
         }
         if (!point_lights.empty()) {
@@ -546,7 +551,7 @@ struct FlareStage::State {
         if (is_extended(light)) tally.extended_ms += ms_since(t);
         const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
         if (as_point && !settings.band_filter) return false;
-        const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, {scale[0], scale[1], scale[2]}};
+        const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
         const std::size_t display_px = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
         std::vector<float> group_rgb;  // the group's ghosts, before its footprint
         for (const FootprintGroup& group : groups) {
