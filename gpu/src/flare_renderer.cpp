@@ -27,6 +27,8 @@
 #include <gpu/gl.h>
 #include <gpu/render_resources.h>
 
+#include <flare/image_ops.h>
+
 #include "flare_shaders.h"
 
 namespace lensfx::gpu {
@@ -402,82 +404,67 @@ void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, co
     }
 }
 
-// The Mitchell-Netravali cubic (B = C = 1/3) at offset x in source pixels: smoother than bilinear (its
-// gradient is continuous, so a reduced ghost's shading has no creases at the source pixels' centres) with
-// lobes under 4% below zero. Cooke-triplet at (14, 9), 960x640 (bench_flare): structure error 0.732, against
-// bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render time the same within noise.
-double mitchell(double x) {
-    constexpr double B = 1.0 / 3.0, C = 1.0 / 3.0;
-    x = std::abs(x);
-    if (x < 1.0) return ((12 - 9 * B - 6 * C) * x * x * x + (-18 + 12 * B + 6 * C) * x * x + (6 - 2 * B)) / 6.0;
-    if (x < 2.0) return ((-B - 6 * C) * x * x * x + (6 * B + 30 * C) * x * x + (-12 * B - 48 * C) * x + (8 * B + 24 * C)) / 6.0;
-    return 0.0;
-}
-
-// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, upsampled with the Mitchell
-// cubic (pixel centres aligned, edge pixels repeated beyond the border; what each target adds is clamped at
-// 0, so the lobes never darken the plate). Separably: each source row is widened to w RGB pixels once, and
-// each output row adds, for every source, a blend of four widened rows (a loop the compiler vectorises),
-// so the image is read and written once.
-void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
-    struct Tap {
-        int i[4];
-        float f[4];
-    };
-    auto taps = [](int n, int sn) {
-        std::vector<Tap> out(static_cast<std::size_t>(n));
-        for (int i = 0; i < n; ++i) {
-            const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
-            const int i0 = std::min(static_cast<int>(u), sn - 1);
-            Tap& t = out[static_cast<std::size_t>(i)];
-            for (int j = 0; j < 4; ++j) t.i[j] = std::clamp(i0 - 1 + j, 0, sn - 1);
-            for (int j = 0; j < 4; ++j) t.f[j] = static_cast<float>(mitchell(u - i0 - (j - 1)));
-        }
-        return out;
-    };
-    const std::size_t row_values = static_cast<std::size_t>(w) * 3;
-    struct Source {
-        BandReader* readback;
-        std::vector<Tap> xs, ys;
-        std::vector<float> wide[4];  // four widened source rows
-        int held[4] = {-1, -1, -1, -1};  // which rows they hold
-    };
-    std::vector<Source> srcs;
-    for (BandReader& r : sources) {
-        Source src{&r, taps(w, r.width()), taps(h, r.height()), {}};
-        for (auto& v : src.wide) v.assign(row_values, 0.0f);
-        srcs.push_back(std::move(src));
+// A reduced target's rows widened to the image's w columns through the Mitchell cubic (flare::mitchell_taps),
+// four held at a time: an output row blends four of them, and the next output row mostly needs the same four.
+class WidenedTarget {
+public:
+    WidenedTarget(BandReader& readback, int w, int h)
+        : readback_(&readback), xs_(flare::mitchell_taps(w, readback.width())), ys_(flare::mitchell_taps(h, readback.height())) {
+        for (auto& row : rows_) row.assign(static_cast<std::size_t>(w) * 3, 0.0f);
     }
-    auto widened = [&](Source& src, int row, const Tap& needed) -> const float* {
+    // The taps of image row y (from the top; GL rows run bottom-up).
+    const flare::CubicTap& taps_of(int y) const { return ys_[ys_.size() - 1 - static_cast<std::size_t>(y)]; }
+    // Target row `row` widened; a row `needed` names is not evicted for it.
+    const float* row(int row, const flare::CubicTap& needed) {
         for (int k = 0; k < 4; ++k)
-            if (src.held[k] == row) return src.wide[k].data();
+            if (held_[k] == row) return rows_[k].data();
         int k = 0;
         for (; k < 4; ++k) {
-            const int r = src.held[k];
+            const int r = held_[k];
             if (r != needed.i[0] && r != needed.i[1] && r != needed.i[2] && r != needed.i[3]) break;
         }
-        const float* in = src.readback->row(row);
-        float* out = src.wide[k].data();
-        for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
-            const Tap& t = src.xs[x];
+        const float* in = readback_->row(row);
+        float* out = rows_[k].data();
+        for (std::size_t x = 0; x < xs_.size(); ++x) {
+            const flare::CubicTap& t = xs_[x];
             for (std::size_t c = 0; c < 3; ++c) {
                 float v = 0.0f;
                 for (int j = 0; j < 4; ++j) v += t.f[j] * in[static_cast<std::size_t>(t.i[j]) * 4 + c];
                 out[x * 3 + c] = v;
             }
         }
-        src.held[k] = row;
+        held_[k] = row;
         return out;
-    };
+    }
+
+private:
+    BandReader* readback_;
+    std::vector<flare::CubicTap> xs_, ys_;
+    std::vector<float> rows_[4];
+    int held_[4] = {-1, -1, -1, -1};
+};
+
+// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, enlarged with the Mitchell
+// cubic (flare::mitchell_taps: pixel centres aligned, edge pixels repeated beyond the border; what each target
+// adds is clamped at 0, so the lobes never darken the plate). Cooke-triplet at (14, 9), 960x640 (bench_flare):
+// structure error 0.732, against bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render
+// time the same within noise. Separably, and every target per output row, so the image is read and written
+// once: each output row adds, for every target, a blend of four widened rows (a loop the compiler vectorises).
+// Not flare::add_resized: the targets are read from GL in bands, never whole (the 1/2 target of an 8K frame
+// is 127 MB).
+void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
+    std::vector<WidenedTarget> srcs;
+    for (BandReader& r : sources) srcs.emplace_back(r, w, h);
+    const std::size_t row_values = static_cast<std::size_t>(w) * 3;
     std::vector<float> blend(row_values);
     for (int y = 0; y < h; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
-        for (Source& src : srcs) {
-            const Tap& t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
+        for (WidenedTarget& src : srcs) {
+            const flare::CubicTap& t = src.taps_of(y);
             std::fill(blend.begin(), blend.end(), 0.0f);
             for (int j = 3; j >= 0; --j) {
                 if (t.f[j] == 0.0f) continue;
-                const float* a = widened(src, t.i[j], t);
+                const float* a = src.row(t.i[j], t);
                 const float f = t.f[j];
                 for (std::size_t i = 0; i < row_values; ++i) blend[i] += f * a[i];
             }
