@@ -137,5 +137,24 @@ TEST(ImageOps, AddResizedIntoZerosIsOpenCvsBilinearResize) {
     }
 }
 
+// The Mitchell taps sample where the bilinear ones do: at the same size each pixel is its own centre (weights
+// 1/18, 16/18, 1/18 over its neighbours), and enlarged the four weights sum to one over pixels of the source.
+TEST(ImageOps, MitchellTapsShareTheBilinearMappingAndSumToOne) {
+    for (const CubicTap& t : mitchell_taps(3, 3)) {
+        EXPECT_NEAR(t.f[0], 1.0 / 18.0, 1e-7);
+        EXPECT_NEAR(t.f[1], 16.0 / 18.0, 1e-7);
+        EXPECT_NEAR(t.f[2], 1.0 / 18.0, 1e-7);
+        EXPECT_EQ(t.f[3], 0.0f);
+    }
+    const std::vector<BilinearTap> bilinear = bilinear_taps(11, 4);
+    const std::vector<CubicTap> cubic = mitchell_taps(11, 4);
+    for (std::size_t i = 0; i < cubic.size(); ++i) {
+        const CubicTap& t = cubic[i];
+        EXPECT_EQ(t.i[1], bilinear[i].i0);
+        EXPECT_NEAR(t.f[0] + t.f[1] + t.f[2] + t.f[3], 1.0, 1e-6);
+        for (int j = 0; j < 4; ++j) EXPECT_TRUE(t.i[j] >= 0 && t.i[j] <= 3);
+    }
+}
+
 }  // namespace
 }  // namespace lensfx::flare
