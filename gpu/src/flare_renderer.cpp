@@ -3,17 +3,16 @@
 #include <gpu/ghost_cap.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
-#include <bit>
 #include <cstdio>
 #include <map>
 #include <cmath>
 #include <limits>
-#include <numbers>
-#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include <epoxy/gl.h>
 #include <fmt/core.h>
