@@ -546,6 +546,10 @@ private:
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings);
+    void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
+    void shade_uniforms(int res, int reduce);
+    void dispatch_batched(const Program& program, GLuint groups, GLuint n);
+    void raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
     void find_unknown_peaks(std::vector<GhostEstimate>& coarse, const GhostSequences& seq, const optics::Vec3& direction,
                             const Aperture& aperture);
@@ -652,21 +656,38 @@ UploadedSequences& FlareRenderer::Drawing::sequences(std::size_t p) {
     return it->second;
 }
 
+// The trace program bound with what every dispatch over a (res+1)^2 grid sets: the grid, the entrance
+// rectangles' rotation and the light's direction.
+void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const optics::Vec3& direction) {
+    const Program& trace = s_.programs.trace;
+    glUseProgram(trace.get());
+    glUniform1i(trace.uniform("grid"), res);
+    glUniform2f(trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)), static_cast<float>(std::sin(rotation)));
+    glUniform3f(trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y), static_cast<float>(direction.z));
+    glUniform1i(trace.uniform("table_size"), kTableSize);
+}
+
+// The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
+// the grid, the splat limit of the level's pixels, and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce) {
+    const Program& shade = s_.programs.shade;
+    glUseProgram(shade.get());
+    glUniform1i(shade.uniform("grid"), res);
+    glUniform1f(shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
+    glUniform1i(shade.uniform("iris_sdf"), 0);
+    glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
+}
+
 // One ghost's (res+1)^2 ray grid over `rect` (turned by `rotation`) traced into the bound vertex buffer.
 void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction,
                                             int first_step, int step_count, std::size_t vertex_offset) {
-    glUseProgram(s_.programs.trace.get());
+    trace_uniforms(res, rotation, direction);
     glUniform1i(s_.programs.trace.uniform("step_offset"), first_step);
     glUniform1i(s_.programs.trace.uniform("step_count"), step_count);
     glUniform1ui(s_.programs.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
-    glUniform1i(s_.programs.trace.uniform("grid"), res);
     glUniform4f(s_.programs.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
                 static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-    glUniform2f(s_.programs.trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)),
-                static_cast<float>(std::sin(rotation)));
-    glUniform3f(s_.programs.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
-                static_cast<float>(direction.z));
-    glUniform1i(s_.programs.trace.uniform("table_size"), kTableSize);
     const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
     glDispatchCompute(groups, groups, 1);
 }
@@ -675,18 +696,14 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // triangles that are rasterised at 1/reduce of the image.
 // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
 void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings) {
-    glUniform1i(s_.programs.shade.uniform("grid"), res);
+    shade_uniforms(res, reduce);
     glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
-    glUniform1f(s_.programs.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
     glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
     glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
-    glUniform1i(s_.programs.shade.uniform("ringing"), options_.ringing ? 1 : 0);
-    glUniform1i(s_.programs.shade.uniform("iris_sdf"), 0);
-    glUniform1f(s_.programs.shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
     const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
     glDispatchCompute(groups, groups, 1);
 }
@@ -1027,50 +1044,47 @@ void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts
 // drawn as instances, each one's values from its GhostJob.
 void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
     const auto n = static_cast<GLuint>(ghosts.size());
-    const auto rays = static_cast<long long>(grid + 1) * (grid + 1);
     if (band_ == 0) {
         s_.report.stats.ghosts_drawn += static_cast<int>(n);
-        s_.report.stats.rays += rays * n;
+        s_.report.stats.rays += static_cast<long long>(grid + 1) * (grid + 1) * n;
         s_.report.stats.ghosts_reduced += reduce > 1 ? static_cast<int>(n) : 0;
     }
     upload_jobs(ghosts, grid, reduce, pd);
-    const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    glUseProgram(s_.programs.trace.get());
-    glUniform1i(s_.programs.trace.uniform("batched"), 1);
-    glUniform1i(s_.programs.trace.uniform("grid"), grid);
-    glUniform2f(s_.programs.trace.uniform("rect_rotation"), static_cast<float>(std::cos(pd.rotation)), static_cast<float>(std::sin(pd.rotation)));
-    glUniform3f(s_.programs.trace.uniform("direction"), static_cast<float>(pd.direction.x), static_cast<float>(pd.direction.y),
-                static_cast<float>(pd.direction.z));
-    glUniform1i(s_.programs.trace.uniform("table_size"), kTableSize);
-    glDispatchCompute(groups, groups, n);
-    glUniform1i(s_.programs.trace.uniform("batched"), 0);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    glUseProgram(s_.programs.shade.get());
-    glUniform1i(s_.programs.shade.uniform("batched"), 1);
-    glUniform1i(s_.programs.shade.uniform("grid"), grid);
-    glUniform1f(s_.programs.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
+    trace_uniforms(grid, pd.rotation, pd.direction);
+    dispatch_batched(s_.programs.trace, groups, n);
+    shade_uniforms(grid, reduce);
     glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
-    glUniform1i(s_.programs.shade.uniform("ringing"), options_.ringing ? 1 : 0);
-    glUniform1i(s_.programs.shade.uniform("iris_sdf"), 0);
-    glUniform1f(s_.programs.shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
-    glDispatchCompute(groups, groups, n);
-    glUniform1i(s_.programs.shade.uniform("batched"), 0);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    bind_level(reduce);
-    const GhostDrawValues v = draw_values(ghosts.front(), pd, reduce);  // the level's values are every ghost's
-    glUseProgram(s_.programs.raster.get());
-    glUniform1i(s_.programs.raster.uniform("batched"), 1);
-    glUniform1i(s_.programs.raster.uniform("grid"), grid);
-    glUniform2f(s_.programs.raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
-    glUniform1f(s_.programs.raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
-    glUniform1f(s_.programs.raster.uniform("splat_area"), static_cast<float>(kSplatArea));
-    glUniform1i(s_.programs.raster.uniform("iris_sdf"), 0);
-    glUniform1f(s_.programs.raster.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
-    glUniform1i(s_.programs.raster.uniform("rim_mode"), 0);
-    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
-    glUniform1i(s_.programs.raster.uniform("batched"), 0);
+    dispatch_batched(s_.programs.shade, groups, n);
+    raster_instanced(draw_values(ghosts.front(), pd, reduce), n, grid, reduce);  // the level's values are every ghost's
     check_gl(fmt::format("drawing {} faint ghosts at {} nm", n, pd.pass.wavelength_nm));
+}
+
+// The bound compute program dispatched over n ghosts' grids (groups x groups each) in batched mode, then the
+// vertices' barrier.
+void FlareRenderer::Drawing::dispatch_batched(const Program& program, GLuint groups, GLuint n) {
+    glUniform1i(program.uniform("batched"), 1);
+    glDispatchCompute(groups, groups, n);
+    glUniform1i(program.uniform("batched"), 0);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+}
+
+// n traced and shaded grids of one level drawn as instances into its target; `v`: the level's values.
+void FlareRenderer::Drawing::raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce) {
+    bind_level(reduce);
+    const Program& raster = s_.programs.raster;
+    glUseProgram(raster.get());
+    glUniform1i(raster.uniform("batched"), 1);
+    glUniform1i(raster.uniform("grid"), grid);
+    glUniform2f(raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
+    glUniform1f(raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
+    glUniform1f(raster.uniform("splat_area"), static_cast<float>(kSplatArea));
+    glUniform1i(raster.uniform("iris_sdf"), 0);
+    glUniform1f(raster.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
+    glUniform1i(raster.uniform("rim_mode"), 0);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
+    glUniform1i(raster.uniform("batched"), 0);
 }
 
 // The jobs of draw_instanced's ghosts into the jobs buffer, bound for the shaders.
