@@ -495,6 +495,85 @@ GhostParams whole_frame(const FitOptions& o) {
     return p;
 }
 
+// A track's parameters as degree-2 polynomials fitted to all its frames at once: the per-frame fits trade
+// size against fall-off and level (a small core with a wide outer fall-off, or the ghost's own outline),
+// and a walk can take one way in some frames and the other in the rest; a polynomial through such a mix
+// draws neither between the samples. Each of the free parameters is held by its values at the track's
+// first, middle and last angle (a polynomial through them), started from the least-squares polynomial of
+// the per-frame fits and descended on the mean of the frames' costs (each frame's crop as the walk's, the
+// levels solved per frame); the frames' fits are then replaced by it.
+class TrackPolynomial {
+public:
+    TrackPolynomial(Track& track, const std::vector<Prepared>& frames, const FitOptions& o, std::size_t free) : track_(track), free_(free) {
+        for (const auto& [f, p] : track.fitted) {
+            const Detection* seen = detection_in(track, f);
+            costs_.emplace_back(frames[static_cast<std::size_t>(f)], track.glow ? whole_frame(o) : seen ? seen->seed : p, o, track.glow);
+            angles_.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
+        }
+        nodes_ = {angles_.front(), 0.5 * (angles_.front() + angles_.back()), angles_.back()};
+        const MeasuredGhost start = to_polynomials(track, frames);
+        for (std::size_t k = 0; k < free_; ++k)
+            for (std::size_t j = 0; j < 3; ++j) {
+                const auto& c = start.poly[k];
+                values_.push_back(c[0] + nodes_[j] * (c[1] + nodes_[j] * c[2]));
+            }
+    }
+
+    // Coordinate descent on the node values (per-parameter steps, the learning rate halved when a pass
+    // finds nothing), then the frames' fits set to the result with their levels solved.
+    void descend(int iterations, double pixel) {
+        if (angles_.size() < 3 || !(nodes_[2] > nodes_[0])) return;
+        const auto steps = parameter_steps(pixel);
+        double current = cost(values_), rate = 1.0;
+        for (int it = 0; it < iterations && rate > 1.0 / 16; ++it) {
+            bool improved = false;
+            for (std::size_t i = 0; i < values_.size(); ++i)
+                for (double sign : {1.0, -1.0}) {
+                    std::vector<double> trial = values_;
+                    trial[i] += sign * rate * steps[i / 3];
+                    if (const double c = cost(trial); c < current) {
+                        values_ = std::move(trial), current = c, improved = true;
+                        break;
+                    }
+                }
+            if (!improved) rate *= 0.5;
+        }
+        for (std::size_t i = 0; i < costs_.size(); ++i) {
+            GhostParams p = at(values_, i);
+            if (!costs_[i].empty()) costs_[i](p);
+            track_.fitted[i].second = p;
+        }
+    }
+
+private:
+    // Frame i's parameters with the free ones from the node values (Lagrange through the three nodes).
+    GhostParams at(const std::vector<double>& values, std::size_t i) const {
+        GhostParams p = track_.fitted[i].second;
+        const double a = angles_[i], n0 = nodes_[0], n1 = nodes_[1], n2 = nodes_[2];
+        const std::array<double, 3> basis{(a - n1) * (a - n2) / ((n0 - n1) * (n0 - n2)), (a - n0) * (a - n2) / ((n1 - n0) * (n1 - n2)),
+                                          (a - n0) * (a - n1) / ((n2 - n0) * (n2 - n1))};
+        for (std::size_t k = 0; k < free_; ++k) p[static_cast<int>(k)] = values[k * 3] * basis[0] + values[k * 3 + 1] * basis[1] + values[k * 3 + 2] * basis[2];
+        return p;
+    }
+
+    double cost(const std::vector<double>& values) {
+        double sum = 0.0;
+        int n = 0;
+        for (std::size_t i = 0; i < costs_.size(); ++i) {
+            if (costs_[i].empty()) continue;
+            GhostParams p = at(values, i);
+            sum += costs_[i](p), ++n;
+        }
+        return n > 0 ? sum / n : 0.0;
+    }
+
+    Track& track_;
+    std::size_t free_;
+    std::vector<GhostCost> costs_;
+    std::vector<double> angles_, values_;
+    std::array<double, 3> nodes_{};
+};
+
 // One frame of a track's walk from several starts, all fitted in one crop and the lowest cost kept: the
 // walk's extrapolation and the neighbour's fit, each placed on the frame's detection, and the detection
 // itself (a glow: the neighbour's fit and the frame's moments). The crop is the detection's where there
@@ -549,6 +628,7 @@ void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptio
                                  p[kSlopeOutside], p[kBorderG], p[kInsideG]);
         o.progress(lines);
     }
+    TrackPolynomial(track, frames, o, free).descend(o.polynomial_iterations, pixel);
     settle_on_polynomials(track, frames, o);
 }
 
