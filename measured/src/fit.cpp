@@ -432,7 +432,9 @@ MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& fr
     std::vector<double> x;
     for (const auto& [f, p] : track.fitted) x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
     if (x.empty()) return g;
-    g.angle_min_deg = std::max(*std::min_element(x.begin(), x.end()), track.drawn_from), g.angle_max_deg = *std::max_element(x.begin(), x.end());
+    // A later piece of a split track takes over just after the shared frame, which its polynomial was fitted to.
+    g.angle_min_deg = track.drawn_from > -1e299 ? track.drawn_from : *std::min_element(x.begin(), x.end());
+    g.angle_max_deg = *std::max_element(x.begin(), x.end());
     for (int k = 0; k < kParamCount; ++k) {
         std::vector<double> y;
         for (const auto& fp : track.fitted) y.push_back(fp.second[k]);
