@@ -1,4 +1,4 @@
-// diag_measured OUT_DIR [LENS [SEED]]: the fit test's synthetic sweep (240x160, 72x48 mm, 0..16 degrees by 1,
+// diag_measured OUT_DIR [LENS [SEED [END]]]: the fit test's synthetic sweep (240x160, 72x48 mm, 0..END (16) degrees by 1,
 // background 1e-4, noise 2e-5), the fit, then for the test's angles the true ghosts beside the fitted
 // model's (PPM: true | fitted | |difference|, one gain per row) with the figures of measured_fit_test and
 // the physical lens's ghosts by power: what the fit misses and where.
@@ -87,8 +87,9 @@ int main(int argc, char** argv) {
 
     std::mt19937_64 random(argc > 3 ? std::stoul(argv[3]) : 19);
     std::normal_distribution<double> noise(0.0, 2e-5);
+    const int end = argc > 4 ? std::stoi(argv[4]) : 16;
     std::vector<measured::SweepFrame> frames;
-    for (int i = 0; i <= 16; ++i) {
+    for (int i = 0; i <= end; ++i) {
         measured::SweepFrame f{kW, kH, truth(i, 0.0), static_cast<double>(i)};
         for (float& v : f.rgb) v = static_cast<float>(static_cast<double>(v) + 1e-4 + noise(random));
         frames.push_back(std::move(f));
@@ -96,7 +97,7 @@ int main(int argc, char** argv) {
     {
         // Each 16x16 block's smallest noise-free mean (G) over the sweep: is any block dark at some angle?
         std::vector<double> lowest(15 * 10, 1e9);
-        for (int i = 0; i <= 16; ++i) {
+        for (int i = 0; i <= end; ++i) {
             const auto t = truth(i, 0.0);
             for (int b = 0; b < 150; ++b) {
                 double s = 0.0;
@@ -183,7 +184,7 @@ int main(int argc, char** argv) {
         }
     }
     std::vector<double> predicted, physical;
-    for (double a = 0.0; a <= 16.0; a += 1.0) {
+    for (double a = 0.0; a <= end; a += 1.0) {
         predicted.push_back(measured::estimate(fitted(a, 0.0), kW, kH, {1e-3f}, 1.0).total);
         physical.push_back(sum(truth(a, 0.0)));
         fmt::print("  {:4.1f} deg: predicted total {:.4g}, physical sum {:.4g}\n", a, predicted.back(), physical.back());

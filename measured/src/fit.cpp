@@ -70,6 +70,8 @@ struct Track {
     std::vector<Detection> seen;
     std::vector<std::pair<int, GhostParams>> fitted;  // frame, parameters
     bool glow = false;  // a wide soft glow over the whole frame (fitted to what the ghosts leave), not a ghost
+    double drawn_from = -1e300;  // a later piece of a split track: drawn after the angle where the one before ends
+    std::vector<Track> pieces;   // the later pieces of a track split by split_by_level
 };
 
 double pixel_mm(const FitOptions& o, int width) { return o.sensor_width_mm / width; }
@@ -175,7 +177,7 @@ std::vector<Track> link(const std::vector<std::vector<Detection>>& per_frame, do
             if (best >= 0) taken[static_cast<std::size_t>(best)] = 1, t.seen.push_back(per_frame[f][static_cast<std::size_t>(best)]);
         }
         for (std::size_t i = 0; i < per_frame[f].size(); ++i)
-            if (!taken[i]) tracks.push_back({{per_frame[f][i]}, {}, false});
+            if (!taken[i]) tracks.push_back(Track{{per_frame[f][i]}, {}, false, -1e300, {}});
     }
     return tracks;
 }
@@ -430,7 +432,9 @@ MeasuredGhost to_polynomials(const Track& track, const std::vector<Prepared>& fr
     std::vector<double> x;
     for (const auto& [f, p] : track.fitted) x.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
     if (x.empty()) return g;
-    g.angle_min_deg = *std::min_element(x.begin(), x.end()), g.angle_max_deg = *std::max_element(x.begin(), x.end());
+    // A later piece of a split track takes over just after the shared frame, which its polynomial was fitted to.
+    g.angle_min_deg = track.drawn_from > -1e299 ? track.drawn_from : *std::min_element(x.begin(), x.end());
+    g.angle_max_deg = *std::max_element(x.begin(), x.end());
     for (int k = 0; k < kParamCount; ++k) {
         std::vector<double> y;
         for (const auto& fp : track.fitted) y.push_back(fp.second[k]);
@@ -495,6 +499,99 @@ GhostParams whole_frame(const FitOptions& o) {
     return p;
 }
 
+// A track's parameters as degree-2 polynomials fitted to all its frames at once: the per-frame fits trade
+// size against fall-off and level (a small core with a wide outer fall-off, or the ghost's own outline),
+// and a walk can take one way in some frames and the other in the rest; a polynomial through such a mix
+// draws neither between the samples. Each of the free parameters is held by its values at the track's
+// first, middle and last angle (a polynomial through them), started from the least-squares polynomial of
+// the per-frame fits and descended on the mean of the frames' costs (each frame's crop as the walk's, the
+// levels solved per frame); the frames' fits are then replaced by it.
+class TrackPolynomial {
+public:
+    TrackPolynomial(Track& track, const std::vector<Prepared>& frames, const FitOptions& o, std::size_t free) : track_(track), free_(free) {
+        for (const auto& [f, p] : track.fitted) {
+            const Detection* seen = detection_in(track, f);
+            costs_.emplace_back(frames[static_cast<std::size_t>(f)], track.glow ? whole_frame(o) : seen ? seen->seed : p, o, track.glow);
+            angles_.push_back(frames[static_cast<std::size_t>(f)].angle_deg);
+        }
+        nodes_ = {angles_.front(), 0.5 * (angles_.front() + angles_.back()), angles_.back()};
+        const MeasuredGhost start = to_polynomials(track, frames);
+        for (std::size_t k = 0; k < free_; ++k)
+            for (std::size_t j = 0; j < 3; ++j) {
+                const auto& c = start.poly[k];
+                values_.push_back(c[0] + nodes_[j] * (c[1] + nodes_[j] * c[2]));
+            }
+    }
+
+    // Coordinate descent on the node values (per-parameter steps, the learning rate halved when a pass
+    // finds nothing), then the frames' fits set to the result with their levels solved.
+    // The mean cost of the frames' own fits (what the walk reached): the polynomial's against it says how
+    // well one polynomial stands for the track.
+    double walk_cost() {
+        double sum = 0.0;
+        int n = 0;
+        for (std::size_t i = 0; i < costs_.size(); ++i) {
+            if (costs_[i].empty()) continue;
+            GhostParams p = track_.fitted[i].second;
+            sum += costs_[i](p), ++n;
+        }
+        return n > 0 ? sum / n : 0.0;
+    }
+    double polynomial_cost() { return cost(values_); }
+
+    void descend(int iterations, double pixel) {
+        if (angles_.size() < 3 || !(nodes_[2] > nodes_[0])) return;
+        const auto steps = parameter_steps(pixel);
+        double current = cost(values_), rate = 1.0;
+        for (int it = 0; it < iterations && rate > 1.0 / 16; ++it) {
+            bool improved = false;
+            for (std::size_t i = 0; i < values_.size(); ++i)
+                for (double sign : {1.0, -1.0}) {
+                    std::vector<double> trial = values_;
+                    trial[i] += sign * rate * steps[i / 3];
+                    if (const double c = cost(trial); c < current) {
+                        values_ = std::move(trial), current = c, improved = true;
+                        break;
+                    }
+                }
+            if (!improved) rate *= 0.5;
+        }
+        for (std::size_t i = 0; i < costs_.size(); ++i) {
+            GhostParams p = at(values_, i);
+            if (!costs_[i].empty()) costs_[i](p);
+            track_.fitted[i].second = p;
+        }
+    }
+
+private:
+    // Frame i's parameters with the free ones from the node values (Lagrange through the three nodes).
+    GhostParams at(const std::vector<double>& values, std::size_t i) const {
+        GhostParams p = track_.fitted[i].second;
+        const double a = angles_[i], n0 = nodes_[0], n1 = nodes_[1], n2 = nodes_[2];
+        const std::array<double, 3> basis{(a - n1) * (a - n2) / ((n0 - n1) * (n0 - n2)), (a - n0) * (a - n2) / ((n1 - n0) * (n1 - n2)),
+                                          (a - n0) * (a - n1) / ((n2 - n0) * (n2 - n1))};
+        for (std::size_t k = 0; k < free_; ++k) p[static_cast<int>(k)] = values[k * 3] * basis[0] + values[k * 3 + 1] * basis[1] + values[k * 3 + 2] * basis[2];
+        return p;
+    }
+
+    double cost(const std::vector<double>& values) {
+        double sum = 0.0;
+        int n = 0;
+        for (std::size_t i = 0; i < costs_.size(); ++i) {
+            if (costs_[i].empty()) continue;
+            GhostParams p = at(values, i);
+            sum += costs_[i](p), ++n;
+        }
+        return n > 0 ? sum / n : 0.0;
+    }
+
+    Track& track_;
+    std::size_t free_;
+    std::vector<GhostCost> costs_;
+    std::vector<double> angles_, values_;
+    std::array<double, 3> nodes_{};
+};
+
 // One frame of a track's walk from several starts, all fitted in one crop and the lowest cost kept: the
 // walk's extrapolation and the neighbour's fit, each placed on the frame's detection, and the detection
 // itself (a glow: the neighbour's fit and the frame's moments). The crop is the detection's where there
@@ -519,6 +616,33 @@ std::optional<GhostParams> fit_frame(const Track& track, const std::vector<Prepa
         if (c < best_cost) best_cost = c, best = p;
     }
     return descend(cost, best, o.track_iterations - first_passes, 0.5, pixel, free);
+}
+
+// A ghost's brightest level (G, border or inside).
+double peak_level(const GhostParams& p) { return std::max(p[kBorderG], p[kInsideG]); }
+
+// The walk's fits in pieces where one degree-2 polynomial of the levels cannot follow them: a ghost whose
+// peak level changes by more than FitOptions::max_level_ratio over its track (the disc ghost of the test's
+// lens shrinks to a bright point nearing 20 degrees, its level rising some 200 times from 4 degrees) is
+// split at the frame nearest the geometric mean of its extremes, the pieces sharing that frame, each again
+// split where it needs to be. Each piece keeps at least 3 frames and the later one 4 (it gives up the
+// shared frame once fitted).
+std::vector<Track> split_by_level(const Track& track, const FitOptions& o) {
+    const auto& fits = track.fitted;
+    if (track.glow || fits.size() < 6) return {track};
+    double low = 1e300, high = 0.0;
+    for (const auto& fp : fits) low = std::min(low, peak_level(fp.second)), high = std::max(high, peak_level(fp.second));
+    if (!(low > 0.0) || high / low <= o.max_level_ratio) return {track};
+    const double middle = std::sqrt(low * high);
+    std::size_t at = 2;
+    for (std::size_t i = 2; i + 3 < fits.size(); ++i)
+        if (std::abs(std::log(peak_level(fits[i].second) / middle)) < std::abs(std::log(peak_level(fits[at].second) / middle))) at = i;
+    Track first = track, second = track;
+    first.fitted.assign(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(at) + 1);
+    second.fitted.assign(fits.begin() + static_cast<std::ptrdiff_t>(at), fits.end());
+    std::vector<Track> pieces = split_by_level(first, o);
+    for (Track& t : split_by_level(second, o)) pieces.push_back(std::move(t));
+    return pieces;
 }
 
 // Fits one track: its key frame from the detection, then frame by frame away from it in both directions.
@@ -549,7 +673,22 @@ void fit_track(Track& track, const std::vector<Prepared>& frames, const FitOptio
                                  p[kSlopeOutside], p[kBorderG], p[kInsideG]);
         o.progress(lines);
     }
-    settle_on_polynomials(track, frames, o);
+    std::vector<Track> pieces = split_by_level(track, o);
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
+        TrackPolynomial polynomial(pieces[i], frames, o, free);
+        const double walk = polynomial.walk_cost();
+        polynomial.descend(o.polynomial_iterations, pixel);
+        if (o.progress && std::getenv("LENSFX_FIT_DEBUG"))
+            o.progress(fmt::format("track (key frame {}) piece {}/{}: frames {}..{}, walk cost {:.4f}, polynomial cost {:.4f}", key.frame, i + 1, pieces.size(),
+                                   pieces[i].fitted.front().first, pieces[i].fitted.back().first, walk, polynomial.polynomial_cost()));
+        settle_on_polynomials(pieces[i], frames, o);
+        if (i > 0) {  // the frame it shares with the piece before is that one's
+            pieces[i].drawn_from = frames[static_cast<std::size_t>(pieces[i].fitted.front().first)].angle_deg + 1e-6;
+            pieces[i].fitted.erase(pieces[i].fitted.begin());
+        }
+    }
+    track = std::move(pieces.front());
+    track.pieces.assign(std::make_move_iterator(pieces.begin() + 1), std::make_move_iterator(pieces.end()));
 }
 
 // sum |frame - model| / sum |frame| over the pixels `model_of` lights, outside the light's own image.
@@ -746,6 +885,10 @@ FitResult fit_sweep(const std::vector<SweepFrame>& input, const FitOptions& o) {
     std::vector<Track> tracks = link(per_frame, o.sensor_width_mm / input[0].width);
     std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.seen.size()) < o.min_frames; });
     fit_tracks(tracks, frames, o);
+    std::vector<Track> later_pieces;
+    for (Track& t : tracks)
+        for (Track& piece : t.pieces) later_pieces.push_back(std::move(piece));
+    for (Track& piece : later_pieces) tracks.push_back(std::move(piece));
     std::erase_if(tracks, [&](const Track& t) { return static_cast<int>(t.fitted.size()) < o.min_frames; });
     fit_glows(tracks, frames, o);
 

@@ -28,6 +28,8 @@ struct FitOptions {
     double edge_weight = 0.5;        // of the edge cost against the MSE (both relative to the frame's own)
     int key_iterations = 120;        // gradient-descent passes at a ghost's key frame
     int track_iterations = 30;        // at the frames tracked from it (seeded by the neighbour's fit)
+    int polynomial_iterations = 20;   // passes of the track's polynomials fitted to all its frames at once (0: none)
+    double max_level_ratio = 64.0;   // a ghost's peak level changing more over its track: fitted in pieces
     int max_ghosts = 16;
     int glows = 2;                   // wide soft glows fitted to what the ghosts leave (faint ghosts wider than the frame)
     double min_snr = 6.0;            // a ghost's level on the axis against the noise (after smoothing)
