@@ -117,6 +117,8 @@ DeepImage read_deep_exr(const std::string& path, const MemoryBudget& budget) {
         throw std::runtime_error(fmt::format("{}: {}", path, e.what()));
     } catch (const std::runtime_error& e) {
         throw std::runtime_error(fmt::format("{}: {}", path, e.what()));
+    } catch (const std::exception& e) {  // what else OpenEXR lets out of a damaged file (std::length_error...)
+        throw std::runtime_error(fmt::format("{}: damaged EXR: OpenEXR's reader failed ({})", path, e.what()));
     }
 }
 

@@ -17,6 +17,7 @@
 #include <flare/flare.h>
 #include <optics/system.h>
 
+#include "exr_io.h"
 #include "stopwatch.h"
 #include "text_pairs.h"
 
@@ -262,7 +263,14 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
     s.system = realize_lens(settings.lens).system;
     if (!settings.deep.empty()) {
         std::vector<dof::DeepImage> images;
-        for (const std::string& f : split_commas(settings.deep)) images.push_back(dof::read_deep_exr(f, settings.memory));
+        for (const std::string& f : split_commas(settings.deep)) {
+            try {
+                check_exr_header(f);  // before OpenEXR reads what the headers declare
+            } catch (const std::runtime_error& e) {
+                throw std::runtime_error(fmt::format("--deep {}: {}", f, e.what()));
+            }
+            images.push_back(dof::read_deep_exr(f, settings.memory));
+        }
         s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images, settings.memory);
     }
     if (!settings.tilt.empty()) parse_pair(settings.tilt, "--tilt");  // a bad value fails before the first frame

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <new>
 #include <optional>
 #include <stdexcept>
 
@@ -171,9 +172,11 @@ std::int64_t little_endian_int(const unsigned char* b) {
                                      static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24);
 }
 
-// Refuses a data window or tile size beyond what lensfx reads, from the attribute's value at the file's
-// position (its size already checked against its type).
-void check_window_value(std::FILE* f, const std::string& name, const std::string& type) {
+// Refuses a data window or tile size beyond what lensfx reads, and a chunk count the file cannot hold (one
+// 8-byte offset a chunk; OpenEXR sizes its offset table by it, and a negative count threw std::length_error
+// out of its constructor), from the attribute's value at the file's position (its size already checked
+// against its type).
+void check_declared_value(std::FILE* f, const std::string& name, const std::string& type, long file_size) {
     unsigned char b[16];
     if (type == "box2i" && name == "dataWindow" && std::fread(b, 1, 16, f) == 16) {
         const std::int64_t width = little_endian_int(b + 8) - little_endian_int(b) + 1;
@@ -184,6 +187,11 @@ void check_window_value(std::FILE* f, const std::string& name, const std::string
         const auto side = [](const unsigned char* p) { return static_cast<std::int64_t>(static_cast<std::uint32_t>(little_endian_int(p))); };
         if (side(b) > kMaxExrTileSide || side(b + 4) > kMaxExrTileSide)
             throw std::runtime_error(fmt::format("tiles of {}x{} are beyond the {} pixels a side lensfx reads", side(b), side(b + 4), kMaxExrTileSide));
+    } else if (type == "int" && name == "chunkCount" && std::fread(b, 1, 4, f) == 4) {
+        const std::int64_t chunks = little_endian_int(b);
+        if (chunks < 0 || chunks > file_size / 8)
+            throw std::runtime_error(fmt::format("header attribute \"chunkCount\" declares {} chunks, which a file of {} bytes cannot hold",
+                                                 chunks, file_size));
     }
 }
 
@@ -191,10 +199,9 @@ void check_window_value(std::FILE* f, const std::string& name, const std::string
 // it, and reads channel lists and fixed-size values by their own layout whatever the size declared, so an
 // 800-byte file could make it allocate and clear gigabytes for seconds (found by fuzz/fuzz_exr_reader.cpp).
 // Walks the headers first: each declared size must fit in the file and agree with the attribute's own
-// layout, and the data window and tiles must be of a size lensfx reads (check_window_value). Throws
+// layout, and the data window and tiles must be of a size lensfx reads (check_declared_value). Throws
 // std::runtime_error naming the attribute; a layout cut short is left to OpenEXR to report.
-void check_attribute_sizes(const std::string& path) {
-    File f(std::fopen(path.c_str(), "rb"), &std::fclose);
+void check_attribute_sizes(const File& f) {
     unsigned char start[8];
     if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return;
     const long file_size = std::ftell(f.get());
@@ -217,13 +224,31 @@ void check_attribute_sizes(const std::string& path) {
                 throw std::runtime_error(fmt::format("header attribute \"{}\" of type {} declares {} bytes, which do not fit the file ({} left) or the type",
                                                      *name, *type, size, left));
             if (std::fseek(f.get(), value, SEEK_SET) != 0) return;
-            check_window_value(f.get(), *name, *type);
+            check_declared_value(f.get(), *name, *type, file_size);
             if (std::fseek(f.get(), value + size, SEEK_SET) != 0) return;
         }
     }
 }
 
+// OpenEXR's own errors (Iex), and what else its reader lets out of a damaged file (std::length_error,
+// std::bad_alloc from a size it took from the file), as the std::runtime_error callers expect.
+[[noreturn]] void rethrow_reader_error() {
+    try {
+        throw;
+    } catch (const std::runtime_error&) {
+        throw;
+    } catch (const Iex::BaseExc& e) {
+        throw std::runtime_error(e.what());
+    } catch (const std::bad_alloc&) {
+        throw std::runtime_error("out of memory while OpenEXR read the file (a damaged header?)");
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("damaged EXR: OpenEXR's reader failed ({})", e.what()));
+    }
+}
+
 }  // namespace
+
+void check_exr_header(const std::string& path) { check_attribute_sizes(File(std::fopen(path.c_str(), "rb"), &std::fclose)); }
 
 bool is_exr_file(const std::string& path) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
@@ -276,11 +301,11 @@ Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, cons
 
 Frame read_exr(const std::string& path, const MemoryBudget& budget) {
     try {
-        check_attribute_sizes(path);
+        check_exr_header(path);
         Imf::MultiPartInputFile file(path.c_str(), Imf::globalThreadCount());
         return read_exr_file(file, path, budget);
-    } catch (const Iex::BaseExc& e) {
-        throw std::runtime_error(e.what());
+    } catch (...) {
+        rethrow_reader_error();
     }
 }
 
@@ -289,8 +314,8 @@ Frame read_exr_memory(const std::string& bytes, const std::string& source, const
         MemoryInput in(bytes);
         Imf::MultiPartInputFile file(in, Imf::globalThreadCount());
         return read_exr_file(file, source, budget);
-    } catch (const Iex::BaseExc& e) {
-        throw std::runtime_error(e.what());
+    } catch (...) {
+        rethrow_reader_error();
     }
 }
 

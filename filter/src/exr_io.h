@@ -22,6 +22,11 @@ public:
 // Whether the file starts with the EXR magic number.
 bool is_exr_file(const std::string& path);
 
+// Checks an EXR's headers before OpenEXR reads them (OpenEXR 3.1 allocates what a header declares): every
+// attribute's size fits the file and its type, the data window and tiles are of a size lensfx reads, the
+// chunk count fits the file. Throws std::runtime_error naming the attribute; read_exr runs it.
+void check_exr_header(const std::string& path);
+
 // Reads the first part of an EXR at its full resolution (tiles and mip levels: level 0 as scanlines).
 // Channels keep their types (half, float, uint) and come R, G, B, A first within each layer, as
 // OpenImageIO orders them. Throws std::runtime_error for damaged, deep or subsampled files, and

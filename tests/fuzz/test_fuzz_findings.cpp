@@ -202,3 +202,33 @@ TEST(FuzzFindings, ExrDataWindowBeyondWhatLensfxReadsIsRefusedBeforeOpenExrOpens
     }
     std::remove(path.c_str());
 }
+
+// fuzz_exr_reader (CI, stop 17's run): a deep EXR whose chunkCount attribute was negative (0xfff70003).
+// OpenEXR sized its offset table by it and threw std::length_error out of its constructor, which escaped
+// every catch of Iex and std::runtime_error (the target aborted; lensfx printed "vector::_M_default_append").
+// The header walk now refuses a chunk count the file cannot hold, and whatever else OpenEXR's reader
+// throws becomes a std::runtime_error.
+TEST(FuzzFindings, ExrChunkCountBeyondTheFileIsRefusedBeforeOpenExrSizesItsTable) {
+    const std::string path = std::string(LENSFX_SOURCE_DIR) + "/fuzz/corpus/exr_reader/finding-chunk-count.exr";
+    try {
+        (void)filter::read_image(path);
+        FAIL() << "accepted";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("\"chunkCount\" declares -589821 chunks"), std::string::npos) << e.what();
+    }
+}
+
+// Every EXR finding read from a stream (stdin), which lensfx's own header parser (stream.cpp) reads before
+// OpenEXR: a std::runtime_error (one lensfx line), never another exception or a crash.
+TEST(FuzzFindings, ExrFindingsOnAStreamAreRefusedAsErrors) {
+    for (const char* name : {"finding-chunk-count.exr", "finding-attribute-size.exr", "finding-chlist-overrun.exr", "finding-deep-window.exr"}) {
+        std::ostringstream read;
+        read << std::ifstream(std::string(LENSFX_SOURCE_DIR) + "/fuzz/corpus/exr_reader/" + name, std::ios::binary).rdbuf();
+        std::string bytes = read.str();
+        ASSERT_FALSE(bytes.empty()) << name;
+        std::FILE* in = ::fmemopen(bytes.data(), bytes.size(), "rb");
+        ASSERT_NE(in, nullptr);
+        EXPECT_THROW((void)filter::read_exr_stream(in), std::runtime_error) << name;
+        std::fclose(in);
+    }
+}
