@@ -85,6 +85,48 @@ TEST(Footprint, GroupsFollowEachGhostsBlurAndMagnification) {
     EXPECT_EQ(sharp.at(-2.0), (std::vector<std::pair<int, int>>{{2, 0}}));
 }
 
+// A few lit pixels in a large image are convolved over the part the kernel reaches from them only: the same
+// values as the whole of a small image holding them, 0 everywhere else, also where the part meets the border.
+TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
+    const detect::Shape bar = [] {
+        detect::Shape b;
+        b.width = 6;
+        b.height = 2;
+        b.cell = 2.0;
+        b.origin_x = 0.0;
+        b.origin_y = -2.0;
+        b.weights.assign(12, 1.0f / 12.0f);
+        return b;
+    }();
+    const int w = 600, h = 400, sw = 71, sh = 25;  // the small image: the light at its centre, and the kernel's reach
+    for (const auto& [lx, ly] : {std::pair{300, 200}, std::pair{2, 397}}) {
+        std::vector<float> large(static_cast<std::size_t>(w * h * 3), 0.0f);
+        std::vector<float> small(static_cast<std::size_t>(sw * sh * 3), 0.0f);
+        const int ox = lx - sw / 2, oy = ly - sh / 2;  // the small image's corner in the large one
+        for (const auto& [dx, dy] : {std::pair{0, 0}, std::pair{3, 1}}) {
+            if (lx + dx >= w || ly + dy >= h) continue;
+            large[static_cast<std::size_t>((ly + dy) * w + lx + dx) * 3 + 1] = 2.0f;
+            small[static_cast<std::size_t>((ly + dy - oy) * sw + lx + dx - ox) * 3 + 1] = 2.0f;
+        }
+        flare::convolve_footprint(large, w, h, bar, 2.0);
+        flare::convolve_footprint(small, sw, sh, bar, 2.0);
+        double worst = 0.0, outside = 0.0, sum = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const double v = large[static_cast<std::size_t>(y * w + x) * 3 + 1];
+                sum += v;
+                const int sx = x - ox, sy = y - oy;
+                if (sx >= 0 && sy >= 0 && sx < sw && sy < sh)
+                    worst = std::max(worst, std::abs(v - static_cast<double>(small[static_cast<std::size_t>(sy * sw + sx) * 3 + 1])));
+                else
+                    outside = std::max(outside, std::abs(v));
+            }
+        EXPECT_GT(sum, 0.5) << "light at " << lx << "," << ly;
+        EXPECT_LT(worst, 1e-6) << "light at " << lx << "," << ly;
+        EXPECT_EQ(outside, 0.0) << "light at " << lx << "," << ly;
+    }
+}
+
 TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     // A 40 px square footprint at magnification -5 (a 200 px kernel): done at a quarter of the size.
     detect::Shape square;
