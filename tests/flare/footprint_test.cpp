@@ -32,8 +32,10 @@ std::pair<double, double> centroid_x(const std::vector<float>& rgb, int width, i
 
 }  // namespace
 
-TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
-    // A bar 12 px wide, 4 px tall, to the right of the light (cells of 2 px): its centre 6 px right.
+namespace {
+
+// A bar 12 px wide, 4 px tall, to the right of the light (cells of 2 px): its centre 6 px right.
+detect::Shape right_bar() {
     detect::Shape bar;
     bar.width = 6;
     bar.height = 2;
@@ -41,6 +43,13 @@ TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
     bar.origin_x = 0.0;
     bar.origin_y = -2.0;
     bar.weights.assign(12, 1.0f / 12.0f);
+    return bar;
+}
+
+}  // namespace
+
+TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
+    const detect::Shape bar = right_bar();
     const int w = 121, h = 41;
     for (const double m : {1.0, 2.0, -1.5, 0.5, -0.25}) {
         std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
@@ -88,16 +97,7 @@ TEST(Footprint, GroupsFollowEachGhostsBlurAndMagnification) {
 // A few lit pixels in a large image are convolved over the part the kernel reaches from them only: the same
 // values as the whole of a small image holding them, 0 everywhere else, also where the part meets the border.
 TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
-    const detect::Shape bar = [] {
-        detect::Shape b;
-        b.width = 6;
-        b.height = 2;
-        b.cell = 2.0;
-        b.origin_x = 0.0;
-        b.origin_y = -2.0;
-        b.weights.assign(12, 1.0f / 12.0f);
-        return b;
-    }();
+    const detect::Shape bar = right_bar();
     const int w = 600, h = 400, sw = 71, sh = 25;  // the small image: the light at its centre, and the kernel's reach
     for (const auto& [lx, ly] : {std::pair{300, 200}, std::pair{2, 397}}) {
         std::vector<float> large(static_cast<std::size_t>(w * h * 3), 0.0f);

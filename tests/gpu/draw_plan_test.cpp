@@ -65,6 +65,15 @@ std::vector<GhostEstimate> five_estimates(double pixel_mm) {
     return e;
 }
 
+// The level of detail's settings of these tests: base grid 32 at pixel_mm; and all five ghosts selected.
+DetailSettings detail_32(double pixel_mm) {
+    DetailSettings detail;
+    detail.base_grid = 32;
+    detail.pixel_mm = pixel_mm;
+    return detail;
+}
+GhostSelection five_ghosts() { return GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {}); }
+
 TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
     const double pixel_mm = 0.01;
     const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
@@ -94,10 +103,8 @@ TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
 TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const double pixel_mm = 0.01;
     std::vector<GhostEstimate> e = five_estimates(pixel_mm);
-    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
-    DetailSettings detail;
-    detail.base_grid = 32;
-    detail.pixel_mm = pixel_mm;
+    const GhostSelection selection = five_ghosts();
+    DetailSettings detail = detail_32(pixel_mm);
     std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Spiky, SceneVerdict::Draw,
                                           SceneVerdict::Cull, SceneVerdict::Cull};
     // Ghost 1 sharp and Spiky (caustics: a spike far above the coarse estimate could show): coarsened, but it
@@ -144,10 +151,8 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
 TEST(PlanPass, FaintGhostsWithAnOpenOutlineGetACoarserGrid) {
     const double pixel_mm = 0.01;
     std::vector<GhostEstimate> e = five_estimates(pixel_mm);
-    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
-    DetailSettings detail;
-    detail.base_grid = 32;
-    detail.pixel_mm = pixel_mm;
+    const GhostSelection selection = five_ghosts();
+    const DetailSettings detail = detail_32(pixel_mm);
     const std::vector<SceneVerdict> verdicts = {SceneVerdict::Faint, SceneVerdict::Faint, SceneVerdict::Draw,
                                                 SceneVerdict::Cull, SceneVerdict::Faint};
     e[0].failed_edge = 0.0;
