@@ -259,10 +259,12 @@ std::vector<float> tile_ray_counts(const std::vector<std::vector<float>>& pyrami
 std::vector<float> achromatic_cells(const RayTable& t, double w_near, double w_far, double tolerance_px) {
     const int cw = t.grid_x - 1, ch = t.grid_y - 1;
     std::vector<float> one(static_cast<std::size_t>(cw) * static_cast<std::size_t>(ch), 1.0f);
+    const auto to_double = [](float v) { return static_cast<double>(v); };
     const auto apart = [&](const std::array<float, 4>& a, const std::array<float, 4>& b) {
         double d = 0.0;
         for (double w : {w_near, w_far})
-            d = std::max(d, std::hypot(double{a[0]} - double{b[0]} + (double{a[1]} - double{b[1]}) * w, double{a[2]} - double{b[2]} + (double{a[3]} - double{b[3]}) * w));
+            d = std::max(d, std::hypot(to_double(a[0]) - to_double(b[0]) + (to_double(a[1]) - to_double(b[1])) * w,
+                                       to_double(a[2]) - to_double(b[2]) + (to_double(a[3]) - to_double(b[3])) * w));
         return d;
     };
     // whether grid point (gx, gy)'s every band ray passes where the achromatic one does and stays within tolerance of it

@@ -165,6 +165,13 @@ void write_outputs(flare::FlareImage& image, const FlareArgs& args) {
     if (!args.preview.empty()) write_preview(image, args.preview, args.preview_exposure);
 }
 
+// The image and its ghosts' powers times --ghost-gain, each value held at the largest float.
+void scale_ghosts(flare::FlareImage& image, double gain) {
+    for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * gain, static_cast<double>(std::numeric_limits<float>::max())));
+    for (flare::GhostPower& g : image.ghosts)
+        for (double& p : g.power) p *= gain;
+}
+
 // A measured lens (kind = "measured"): its fitted ghosts, scaled from its capture by paper equation 2.
 void run_measured_flare(const FlareArgs& args) {
     const flare::FlareView view = flare_view(args);
@@ -173,20 +180,22 @@ void run_measured_flare(const FlareArgs& args) {
     if (args.iso) target.iso = *args.iso;
     if (args.shutter) target.exposure_s = *args.shutter;
     flare::FlareImage image = render_measured_flare(args.lens, view, target, args.reference, args.gpu);
-    for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
+    scale_ghosts(image, args.ghost_gain);
     write_outputs(image, args);
 }
 
-void run_flare(const FlareArgs& args) {
-    if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
-    if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
-    const optics::System system = realize_lens(args).system;
-    flare::FlareView view = flare_view(args);
+// The image, the GL targets at full and reduced sizes and a band of read-back rows, and the lens's ghost
+// tables, against --memory-limit before any of them is made.
+MemoryBudget checked_memory(const FlareArgs& args, const optics::System& system, const flare::FlareView& view) {
     const MemoryBudget memory = memory_budget_option(args.memory_limit);
-    // The image, the GL targets at full and reduced sizes and a band of read-back rows.
     memory.check(bytes_of(view.width, view.height, 3 * sizeof(float) + 16.0 * (1.0 + 1.0 / 3)),
                  fmt::format("a {}x{} flare image", view.width, view.height));
     gpu::check_ghost_tables(system, view.passes().size(), memory);
+    return memory;
+}
+
+// --ghost I,J (1-based surfaces, repeatable) as the view's ghosts (0-based).
+void add_only_ghosts(const FlareArgs& args, const optics::System& system, flare::FlareView& view) {
     for (const std::string& g : args.ghosts) {
         const auto [a, b] = parse_pair(g, ',', "--ghost");
         const int count = static_cast<int>(system.interfaces.size());
@@ -196,7 +205,79 @@ void run_flare(const FlareArgs& args) {
         }
         view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
     }
+}
 
+// The ghosts by the dense CPU reference (--reference), band-filtered with --band-filter.
+flare::FlareImage reference_ghosts(const FlareArgs& args, const optics::System& system, const flare::FlareView& view) {
+    flare::ReferenceOptions options;
+    options.rays = args.rays;
+    options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    options.per_ghost_power = args.list;
+    return args.band_filter
+               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return flare::render_reference(system, one, options); })
+               : flare::render_reference(system, view, options);
+}
+
+// The ghosts by the GPU renderer, band-filtered with --band-filter.
+flare::FlareImage gpu_ghosts(const FlareArgs& args, const optics::System& system, const flare::FlareView& view, const MemoryBudget& memory) {
+    const gpu::Context context(gpu::parse_platform(args.gpu));
+    gpu::FlareRenderer renderer(context);
+    gpu::GpuFlareOptions options;
+    options.grid = args.grid;
+    options.per_ghost_power = args.list;
+    options.accel = args.accel.acceleration();
+    options.ringing = args.ringing;
+    options.memory = memory;
+    if (!args.flare_look.empty())
+        options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
+    return args.band_filter
+               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return renderer.render(system, one, options); })
+               : renderer.render(system, view, options);
+}
+
+// The light's own diffraction pattern, whole (no recorded image holds its core here), carrying the power unit
+// irradiance delivers through the direct path (times --starburst-gain, as in the filter), centred where the
+// lens images the light.
+void add_light_starburst(const FlareArgs& args, const optics::System& system, const flare::FlareView& view, flare::FlareImage& image) {
+    const optics::Paraxial paraxial = optics::paraxial(system);
+    const double k = std::numbers::pi / 180.0;
+    const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
+    const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
+    const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
+    std::array<double, 3> energy = flare::direct_power(system, view.angle_x_deg, view.angle_y_deg);
+    for (double& e : energy) e *= args.starburst_gain;
+    const optics::StarburstPlacement at{(xs / view.sensor_width_mm + 0.5) * view.width,
+                                        (0.5 - ys / view.sensor_height_mm) * view.height, paraxial.f_number, 0.0};
+    optics::draw_starburst(starburst, system.aperture, args.starburst_scale, at, energy,
+                           {image.rgb.data(), view.width, view.height, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height});
+}
+
+// --list: each ghost's power on the image and their total.
+void print_ghost_list(const FlareArgs& args, const optics::System& system, const flare::FlareView& view, const flare::FlareImage& image,
+                      double ms) {
+    const auto total = image.total_power(view);
+    fmt::print("# {} at f/{:.3g}, light ({}, {}) deg, {} ghosts, {} ({:.1f} ms)\n", system.name,
+               optics::paraxial(system).f_number, view.angle_x_deg, view.angle_y_deg, image.ghosts.size(),
+               args.reference ? fmt::format("reference {}x{} rays", args.rays, args.rays)
+                              : fmt::format("gpu grid {}", args.grid),
+               ms);
+    fmt::print("# surfaces (1-based)   power R         power G         power B        (mm^2 per unit irradiance)\n");
+    for (const flare::GhostPower& g : image.ghosts) {
+        fmt::print("{:>4},{:<4}            {:<15.6e} {:<15.6e} {:<15.6e}\n", g.second + 1, g.first + 1,
+                   g.power[0], g.power[1], g.power[2]);
+    }
+    fmt::print("total                  {:<15.6e} {:<15.6e} {:<15.6e}\n", total[0], total[1], total[2]);
+}
+
+// A physical lens: its ghosts (reference or GPU) and the light's starburst, each as --parts asks and times
+// its gain; listed with --list.
+void run_flare(const FlareArgs& args) {
+    if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
+    if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
+    const optics::System system = realize_lens(args).system;
+    flare::FlareView view = flare_view(args);
+    const MemoryBudget memory = checked_memory(args, system, view);
+    add_only_ghosts(args, system, view);
     filter::FlareParts parts = filter::parse_parts(args.parts);
     parts.ghosts = parts.ghosts && args.ghost_gain > 0.0;  // as in the filter: a gain of 0 renders nothing
     parts.starburst = parts.starburst && args.starburst_gain > 0.0;
@@ -206,66 +287,13 @@ void run_flare(const FlareArgs& args) {
         image.width = view.width;
         image.height = view.height;
         image.rgb.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0f);
-    } else if (args.reference) {
-        flare::ReferenceOptions options;
-        options.rays = args.rays;
-        options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-        options.per_ghost_power = args.list;
-        image = args.band_filter
-                    ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return flare::render_reference(system, one, options); })
-                    : flare::render_reference(system, view, options);
     } else {
-        const gpu::Context context(gpu::parse_platform(args.gpu));
-        gpu::FlareRenderer renderer(context);
-        gpu::GpuFlareOptions options;
-        options.grid = args.grid;
-        options.per_ghost_power = args.list;
-        options.accel = args.accel.acceleration();
-        options.ringing = args.ringing;
-        options.memory = memory;
-        if (!args.flare_look.empty())
-            options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
-        image = args.band_filter
-                    ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return renderer.render(system, one, options); })
-                    : renderer.render(system, view, options);
+        image = args.reference ? reference_ghosts(args, system, view) : gpu_ghosts(args, system, view, memory);
+        if (args.ghost_gain != 1.0) scale_ghosts(image, args.ghost_gain);
     }
-    if (parts.ghosts && args.ghost_gain != 1.0) {
-        for (float& v : image.rgb) v = static_cast<float>(std::min(static_cast<double>(v) * args.ghost_gain, static_cast<double>(std::numeric_limits<float>::max())));
-        for (flare::GhostPower& g : image.ghosts)
-            for (double& p : g.power) p *= args.ghost_gain;
-    }
-    if (parts.starburst) {
-        // The light's own diffraction pattern, whole (no recorded image holds its core here), carrying the
-        // power unit irradiance delivers through the direct path (times --starburst-gain, as in the filter),
-        // centred where the lens images the light.
-        const optics::Paraxial paraxial = optics::paraxial(system);
-        const double k = std::numbers::pi / 180.0;
-        const double xs = paraxial.efl_mm * std::tan(view.angle_x_deg * k);
-        const double ys = paraxial.efl_mm * std::tan(view.angle_y_deg * k);
-        const optics::Starburst starburst = optics::make_starburst(system.aperture, starburst_options(args.pupil));
-        std::array<double, 3> energy = flare::direct_power(system, view.angle_x_deg, view.angle_y_deg);
-        for (double& e : energy) e *= args.starburst_gain;
-        const optics::StarburstPlacement at{(xs / view.sensor_width_mm + 0.5) * view.width,
-                                            (0.5 - ys / view.sensor_height_mm) * view.height, paraxial.f_number, 0.0};
-        optics::draw_starburst(starburst, system.aperture, args.starburst_scale, at, energy,
-                               {image.rgb.data(), view.width, view.height, view.sensor_width_mm / view.width, view.sensor_height_mm / view.height});
-    }
+    if (parts.starburst) add_light_starburst(args, system, view, image);
     const double ms = ms_since(start);
-
-    if (args.list) {
-        const auto total = image.total_power(view);
-        fmt::print("# {} at f/{:.3g}, light ({}, {}) deg, {} ghosts, {} ({:.1f} ms)\n", system.name,
-                   optics::paraxial(system).f_number, view.angle_x_deg, view.angle_y_deg, image.ghosts.size(),
-                   args.reference ? fmt::format("reference {}x{} rays", args.rays, args.rays)
-                                  : fmt::format("gpu grid {}", args.grid),
-                   ms);
-        fmt::print("# surfaces (1-based)   power R         power G         power B        (mm^2 per unit irradiance)\n");
-        for (const flare::GhostPower& g : image.ghosts) {
-            fmt::print("{:>4},{:<4}            {:<15.6e} {:<15.6e} {:<15.6e}\n", g.second + 1, g.first + 1,
-                       g.power[0], g.power[1], g.power[2]);
-        }
-        fmt::print("total                  {:<15.6e} {:<15.6e} {:<15.6e}\n", total[0], total[1], total[2]);
-    }
+    if (args.list) print_ghost_list(args, system, view, image, ms);
     write_outputs(image, args);
 }
 

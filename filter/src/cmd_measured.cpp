@@ -33,6 +33,7 @@
 #include <filter/flare_stage.h>
 
 #include "commands.h"
+#include "text_pairs.h"
 #include <filter/option_checks.h>
 
 namespace lensfx::filter {
@@ -47,18 +48,10 @@ constexpr double kMinSensorMm = 0.1, kMaxSensorMm = 1000.0;
 
 // The sensor of a sweep or a prediction: "36" (height from the image's aspect) or "36x24".
 std::array<double, 2> sensor_of(const std::string& text, int width, int height) {
-    const auto x = text.find('x');
-    try {
-        std::size_t used = 0;
-        const double w = std::stod(text.substr(0, x), &used);
-        if (used != (x == std::string::npos ? text.size() : x)) throw std::invalid_argument(text);
-        double h = w * height / width;
-        if (x != std::string::npos) {
-            h = std::stod(text.substr(x + 1), &used);
-            if (used != text.size() - x - 1) throw std::invalid_argument(text);
-        }
+    const bool has_height = text.find('x') != std::string::npos;
+    if (const auto wh = parse_pair_of<double>(has_height ? text : text + "x0", 'x')) {
+        const double w = (*wh)[0], h = has_height ? (*wh)[1] : w * height / width;
         if (w >= kMinSensorMm && h >= kMinSensorMm && w <= kMaxSensorMm && h <= kMaxSensorMm) return {w, h};
-    } catch (const std::exception&) {
     }
     throw CLI::ValidationError("--sensor", fmt::format("'{}': expected WIDTH or WIDTHxHEIGHT in mm, e.g. 36x24 ({:g} to {:g} each)", text,
                                                        kMinSensorMm, kMaxSensorMm));
@@ -66,13 +59,8 @@ std::array<double, 2> sensor_of(const std::string& text, int width, int height) 
 
 // "100x60" -> {100, 60}.
 std::array<int, 2> size_of(const std::string& text) {
-    const auto x = text.find('x');
-    try {
-        std::size_t used_w = 0, used_h = 0;
-        const int w = std::stoi(text.substr(0, x), &used_w), h = x == std::string::npos ? 0 : std::stoi(text.substr(x + 1), &used_h);
-        if (x != std::string::npos && used_w == x && used_h == text.size() - x - 1 && w >= 16 && h >= 16 && w <= 8192 && h <= 8192) return {w, h};
-    } catch (const std::exception&) {
-    }
+    const auto wh = parse_pair_of<int>(text, 'x');
+    if (wh && (*wh)[0] >= 16 && (*wh)[1] >= 16 && (*wh)[0] <= 8192 && (*wh)[1] <= 8192) return *wh;
     throw CLI::ValidationError("--size", fmt::format("'{}': expected WxH in pixels, 16 to 8192 each", text));
 }
 

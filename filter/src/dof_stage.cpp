@@ -248,7 +248,8 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     }
     dof::FlatLayerOptions options;
     // the hidden layer reaches as far as the widest blur of the frame's depth range
-    const double reach = t.max_slope * std::max(std::abs(1.0 / double{zmin} - t.focus_w), std::abs(1.0 / double{std::max(zmax, zmin)} - t.focus_w));
+    const double reach = t.max_slope * std::max(std::abs(1.0 / static_cast<double>(zmin) - t.focus_w),
+                                                std::abs(1.0 / static_cast<double>(std::max(zmax, zmin)) - t.focus_w));
     options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
     return dof::layers_from_flat(rgb.data(), depth.data(), work.width, work.height, options, alpha.empty() ? nullptr : alpha.data());
 }

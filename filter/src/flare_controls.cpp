@@ -73,6 +73,27 @@ void check_within_reach(const AddedLight& l, const ImageSpec& spec) {
                                              l.x, l.y, spec.full_width, spec.full_height));
 }
 
+// What `l` adds to the frame's plate (UnheldLight): pixels outside the data window are black.
+std::array<double, 3> unheld_flux(const AddedLight& l, const Frame& frame) {
+    const int dx0 = frame.spec.x - frame.spec.full_x, dy0 = frame.spec.y - frame.spec.full_y;
+    const Rect r = disc_bounds(l);
+    std::array<double, 3> flux{};
+    for (int y = r.y0; y < r.y1; ++y)
+        for (int x = r.x0; x < r.x1; ++x) {
+            const double a = covered_fraction(l, x, y);
+            const int fx = x - dx0, fy = y - dy0;
+            const bool inside = fx >= 0 && fy >= 0 && fx < frame.spec.width && fy < frame.spec.height;
+            const float* p = inside ? frame.rgb.data() + (static_cast<std::size_t>(fy) * static_cast<std::size_t>(frame.spec.width) +
+                                                          static_cast<std::size_t>(fx)) * 3
+                                    : nullptr;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const double plate = p && std::isfinite(p[c]) ? static_cast<double>(p[c]) : 0.0;
+                flux[c] += a * std::max(0.0, l.value - plate);
+            }
+        }
+    return flux;
+}
+
 double clamp01(float v) { return std::isfinite(v) ? std::clamp(static_cast<double>(v), 0.0, 1.0) : 0.0; }
 
 }  // namespace
@@ -112,7 +133,7 @@ void add_flare_control_options(CLI::App& app, FlareControls& c, const std::strin
     app.add_option("--matte-channel", c.matte_channel, "A channel of the input used as a matte (white: never a light)")->group(group);
     app.add_option("--add-light", c.add_lights,
                    "X,Y,VALUE[,RADIUS]: a disc of VALUE (radius 2 px) at display-window pixel X,Y lights the lens as if "
-                   "the plate held it; the plate is unchanged (repeatable)")
+                   "the plate held it; the plate is unchanged, the flare holds the disc where the plate lacks it (repeatable)")
         ->group(group)->check(parsed_by([](const std::string& t) { parse_added_light(t); }, "--add-light", "X,Y,VALUE[,RADIUS]"));
 }
 
@@ -228,7 +249,11 @@ detect::ImageView DetectionInput::view(const Frame& frame) {
                                       static_cast<std::size_t>(dx0 - region.x0)) * 3);
     if (!matte_.empty()) apply_matte(matte_for(frame), frame, region.x0, region.y0, width);
     if (!matte_channel_.empty()) apply_matte_channel(frame, region.x0, region.y0, width);
-    for (const AddedLight& l : lights_) paint_light(l, buffer_.data(), region.x0, region.y0, width, height);
+    unheld_.clear();
+    for (const AddedLight& l : lights_) {
+        paint_light(l, buffer_.data(), region.x0, region.y0, width, height);
+        unheld_.push_back({l, unheld_flux(l, frame)});
+    }
     detect::ImageView v;
     v.data = buffer_.data();
     v.width = width;

@@ -12,6 +12,7 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/core.h>
@@ -127,6 +128,11 @@ void check_input_files(const FlareSettings& s) {
 }
 
 namespace {
+
+// A light's per-channel ghost scale in the renderer's precision.
+std::array<double, 3> as_double(const std::array<float, 3>& v) {
+    return {static_cast<double>(v[0]), static_cast<double>(v[1]), static_cast<double>(v[2])};
+}
 
 // Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
 // `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
@@ -425,7 +431,9 @@ struct FlareStage::State {
         FrameTally tally;
         flare::FlareView view = flare_view(geo);  // each light sets the angles
         std::vector<gpu::ScaledLight> point_lights;
-        for (const detect::Light& light : found) {
+        const std::vector<std::vector<const UnheldLight*>> unheld = unheld_of(found);
+        for (std::size_t i = 0; i < found.size(); ++i) {
+            const detect::Light& light = found[i];
             auto t = Clock::now();
             const auto [ax, ay] = geo.angles_at(light.x, light.y);
             const std::optional<std::array<float, 3>> scale = ghost_scale(light, geo, ax, ay);
@@ -434,12 +442,13 @@ struct FlareStage::State {
             if (parts.starburst) {
                 t = Clock::now();
                 add_starburst(light, geo, rgb);
+                add_unheld_cores(light, unheld[i], geo, rgb);
                 tally.starburst_ms += ms_since(t);
             }
             if (!parts.ghosts) continue;
             view.angle_x_deg = ax;
             view.angle_y_deg = ay;
-            const gpu::ScaledLight scaled{ax, ay, {(*scale)[0], (*scale)[1], (*scale)[2]}};
+            const gpu::ScaledLight scaled{ax, ay, as_double(*scale)};
             if (!add_light_ghosts(light, *scale, view, rgb, tally)) point_lights.push_back(scaled);
         }
         if (!point_lights.empty()) {
@@ -498,30 +507,75 @@ struct FlareStage::State {
         return any ? std::optional(scale) : std::nullopt;
     }
 
-    // The light's diffraction pattern, carrying its recorded energy, centred on its image; its core is already in
-    // the recorded pixels, so only the spikes and rings are added. An extended light's is every point's pattern
-    // over its footprint (the direct image), less what its recorded pixels hold (footprint.h).
-    void add_starburst(const detect::Light& light, const FlareGeometry& geo, std::vector<float>& rgb) {
+    // The added lights each found light stands for (the nearest one whose disc it reaches, if any).
+    std::vector<std::vector<const UnheldLight*>> unheld_of(const std::vector<detect::Light>& found) const {
+        std::vector<std::vector<const UnheldLight*>> of(found.size());
+        for (const UnheldLight& u : detection_input.unheld()) {
+            std::optional<std::size_t> nearest;
+            double nearest_px = std::numeric_limits<double>::infinity();
+            for (std::size_t i = 0; i < found.size(); ++i) {
+                const double px = std::hypot(found[i].x - u.light.x, found[i].y - u.light.y);
+                const double reach = u.light.radius + std::max(found[i].extent.major, found[i].extent.minor) + 2.0;
+                if (px <= reach && px < nearest_px) nearest = i, nearest_px = px;
+            }
+            if (nearest) of[*nearest].push_back(&u);
+        }
+        return of;
+    }
+
+    // The starburst texture (computed or read from the cache at the first light).
+    const optics::Starburst& starburst_texture() {
         if (!starburst) {
             optics::StarburstOptions options = starburst_options;
             options.xyz_to_rgb = *xyz_to_rgb;
             starburst = flare::cached_starburst(system.aperture, options, flare::cache_dir_of(settings.accel.cache_dir));
         }
+        return *starburst;
+    }
+
+    // The radius (texels) of the pattern's core a light's recorded pixels hold; never more than its own pixel,
+    // or a small light would show a hole.
+    double core_texels(const FlareGeometry& geo) {
+        const optics::Starburst& sb = starburst_texture();
+        const double texel_px = sb.texel_per_fnumber_mm * f_number / (geo.sensor_width_mm / geo.width);
+        return std::min(optics::starburst_core_radius_texels(sb), 0.75 / texel_px);
+    }
+
+    static optics::SensorImage sensor_image(const FlareGeometry& geo, std::vector<float>& rgb) {
+        return {rgb.data(), geo.width, geo.height, geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height};
+    }
+
+    // The core of each added light the plate does not hold (UnheldLight), at its own place over its own disc,
+    // at physical strength times the light's fade: with what add_starburst draws, the whole pattern, so an
+    // added sun shows its disc. A light the plate holds adds nothing here (its pixels are its core).
+    void add_unheld_cores(const detect::Light& light, const std::vector<const UnheldLight*>& cores, const FlareGeometry& geo,
+                          std::vector<float>& rgb) {
+        for (const UnheldLight* u : cores) {
+            std::array<double, 3> energy{};
+            for (std::size_t c = 0; c < 3; ++c) energy[c] = std::min(u->flux[c] * geo.pixel_area_mm2() * light.weight, kMaxLightScale);
+            const optics::SourceEllipse disc{u->light.radius, u->light.radius, 0.0};
+            optics::draw_starburst_core(starburst_texture(), system.aperture, settings.starburst_scale,
+                                        {u->light.x, u->light.y, f_number, core_texels(geo), disc}, energy, sensor_image(geo, rgb));
+        }
+    }
+
+    // The light's diffraction pattern, carrying its recorded energy, centred on its image; its core is already in
+    // the recorded pixels, so only the spikes and rings are added. An extended light's is every point's pattern
+    // over its footprint (the direct image), less what its recorded pixels hold (footprint.h).
+    void add_starburst(const detect::Light& light, const FlareGeometry& geo, std::vector<float>& rgb) {
         const double gains = boost(light, is_extended(light));
         std::array<double, 3> energy{};
         for (std::size_t c = 0; c < 3; ++c)
             energy[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() * settings.starburst_gain * gains, kMaxLightScale);
-        // Never leave out more than the light's own pixel, or a small light would show a hole.
-        const double texel_px = starburst->texel_per_fnumber_mm * f_number / (geo.sensor_width_mm / geo.width);
-        const double core_texels = std::min(optics::starburst_core_radius_texels(*starburst), 0.75 / texel_px);
-        const optics::SensorImage image{rgb.data(), geo.width, geo.height, geo.sensor_width_mm / geo.width, geo.sensor_height_mm / geo.height};
+        const optics::SensorImage image = sensor_image(geo, rgb);
+        const double core = core_texels(geo);
         if (is_extended(light)) {
-            add_extended_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels}, energy,
+            add_extended_starburst(starburst_texture(), system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core}, energy,
                                    *light.shape, image);
         } else {
             // Spread over the light's own extent: a sun 8 px across has spikes 8 px wide.
             const optics::SourceEllipse source{light.extent.major, light.extent.minor, light.extent.angle_deg};
-            optics::draw_starburst(*starburst, system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core_texels, source},
+            optics::draw_starburst(starburst_texture(), system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core, source},
                                    energy, image);
         }
     }
@@ -546,7 +600,7 @@ struct FlareStage::State {
         if (is_extended(light)) tally.extended_ms += ms_since(t);
         const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
         if (as_point && !settings.band_filter) return false;
-        const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, {scale[0], scale[1], scale[2]}};
+        const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
         const std::size_t display_px = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
         std::vector<float> group_rgb;  // the group's ghosts, before its footprint
         for (const FootprintGroup& group : groups) {

@@ -7,6 +7,7 @@
 #include <map>
 #include <numbers>
 
+#include <flare/image_ops.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -136,7 +137,8 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
         reduced.origin_x /= factor;
         reduced.origin_y /= factor;
         convolve_footprint(small_rgb, sw, sh, reduced, m);
-        cv::resize(cv::Mat(sh, sw, CV_32FC3, small_rgb.data()), image, cv::Size(width, height), 0.0, 0.0, cv::INTER_LINEAR);
+        std::fill(rgb.begin(), rgb.end(), 0.0f);
+        add_resized(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small_rgb.data(), 0, 0, sw, sh}, Region{0, 0, width, height});
         return;
     }
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0));
@@ -247,15 +249,11 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
     reduced.origin_x /= factor;
     reduced.origin_y /= factor;
     convolve_footprint(small, sw, sh, reduced, 1.0);
-    cv::Mat full;
-    if (factor == 1) {
-        full = cv::Mat(sh, sw, CV_32FC3, small.data());
-    } else {
-        // Pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
-        cv::resize(cv::Mat(sh, sw, CV_32FC3, small.data()), full, cv::Size(sw * factor, sh * factor), 0.0, 0.0, cv::INTER_LINEAR);
-    }
+    // Enlarged to the frame, pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
+    std::vector<float> full(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3, 0.0f);
+    add_resized(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, Region{0, 0, sw * factor, sh * factor});
     for (int y = 0; y < height; ++y) {
-        const float* from = full.ptr<float>(y);
+        const float* from = full.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
         float* to = rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
         const double oy = y + 0.5 - cy;
         const bool rows_of_light = oy > footprint.y0 - footprint.cell && oy < footprint.y1 + footprint.cell;

@@ -3,6 +3,8 @@
 
 #include <flare/float_range.h>
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
 #include <vector>
 
@@ -37,12 +39,40 @@ void add(const RgbView& dst, const ConstRgbView& src, const Region& region) {
     }
 }
 
+namespace {
+
+// Where output pixel i of n lies on a source of sn pixels stretched over the n, pixel centres aligned and held
+// within the outer centres.
+double source_position(int i, int n, int sn) { return std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0); }
+
+}  // namespace
+
 std::vector<BilinearTap> bilinear_taps(int n, int sn) {
     std::vector<BilinearTap> out(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
-        const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
+        const double u = source_position(i, n, sn);
         const int i0 = std::min(static_cast<int>(u), sn - 1);
         out[static_cast<std::size_t>(i)] = {i0, std::min(i0 + 1, sn - 1), static_cast<float>(u - i0)};
+    }
+    return out;
+}
+
+double mitchell(double x) {
+    constexpr double B = 1.0 / 3.0, C = 1.0 / 3.0;
+    x = std::abs(x);
+    if (x < 1.0) return ((12 - 9 * B - 6 * C) * x * x * x + (-18 + 12 * B + 6 * C) * x * x + (6 - 2 * B)) / 6.0;
+    if (x < 2.0) return ((-B - 6 * C) * x * x * x + (6 * B + 30 * C) * x * x + (-12 * B - 48 * C) * x + (8 * B + 24 * C)) / 6.0;
+    return 0.0;
+}
+
+std::vector<CubicTap> mitchell_taps(int n, int sn) {
+    std::vector<CubicTap> out(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        const double u = source_position(i, n, sn);
+        const int i0 = std::min(static_cast<int>(u), sn - 1);
+        CubicTap& t = out[static_cast<std::size_t>(i)];
+        for (int j = 0; j < 4; ++j) t.i[j] = std::clamp(i0 - 1 + j, 0, sn - 1);
+        for (int j = 0; j < 4; ++j) t.f[j] = static_cast<float>(mitchell(u - i0 - (j - 1)));
     }
     return out;
 }

@@ -3,17 +3,16 @@
 #include <gpu/ghost_cap.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
-#include <bit>
 #include <cstdio>
 #include <map>
 #include <cmath>
 #include <limits>
-#include <numbers>
-#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include <epoxy/gl.h>
 #include <fmt/core.h>
@@ -25,6 +24,9 @@
 #include <gpu/acceleration.h>
 #include <gpu/draw_plan.h>
 #include <gpu/gl.h>
+#include <gpu/render_resources.h>
+
+#include <flare/image_ops.h>
 
 #include "flare_shaders.h"
 
@@ -32,8 +34,6 @@ namespace lensfx::gpu {
 namespace {
 
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
-constexpr int kIrisSize = 512;         // iris SDF texture side
-constexpr double kIrisExtent = 1.25;   // the texture spans [-extent, extent]^2 stop radii
 constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
 constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
@@ -70,7 +70,10 @@ struct GhostSequences {
 
 }  // namespace
 
-struct FlareRenderer::State {
+namespace {
+
+// The renderer's shader programs: the trace and shade compute passes and the raster and splat draws.
+struct GhostPrograms {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_trace_comp)}}};
     Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster",
@@ -79,108 +82,57 @@ struct FlareRenderer::State {
     Program splat{"ghost_splat",
                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
                    {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
+    // The two that draw a ghost's triangles and share its uniforms.
+    std::array<const Program*, 2> drawing() const { return {&raster, &splat}; }
+};
+
+// The buffers the passes read and write: the vertex array, the traced vertices (grown to the largest batch
+// asked for, never shrunk) and a batched draw's GhostJobs.
+struct DrawBuffers {
     GlObject vao = GlObject::vertex_array();
-    GlObject steps = GlObject::buffer();
-    GlObject tables = GlObject::buffer();
     GlObject vertices = GlObject::buffer();
     std::size_t vertices_bytes = 0;
-    GlObject jobs = GlObject::buffer();  // a batched draw's GhostJobs
-    GlObject iris = GlObject::texture();
-    std::optional<Aperture> iris_for;  // the aperture the texture currently holds
-    struct Sequences {
-        GhostSequences seq;
-        GlObject steps;
-        GlObject tables;
-    };
-    std::map<std::pair<std::uint64_t, double>, Sequences> sequences;  // per system/ghosts key and wavelength
-    std::map<std::uint64_t, BoundsTable> bounds_tables;                 // in memory, per key
-    bool fit_warned = false;  // ghosts_within_budget left ghosts out, and the user was told
-    // Render targets at full, 1/2, 1/4, 1/8 and 1/16 of the image size, kept while the image size stays.
-    std::optional<FloatTarget> targets[5];
+    GlObject jobs = GlObject::buffer();
 
-    // Which of targets[] holds 1/reduce of the image.
-    static std::size_t slot(int reduce) {
-        switch (reduce) {
-            case 1: return 0;
-            case 2: return 1;
-            case 4: return 2;
-            case 8: return 3;
-            case 16: return 4;
-            default: throw std::logic_error(fmt::format("no render target at 1/{} of the image", reduce));
-        }
+    void reserve_vertices(std::size_t bytes) {
+        if (bytes <= vertices_bytes) return;
+        vertices = GlObject::buffer();
+        glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
+        vertices_bytes = bytes;
     }
+};
 
-    // The full-size target for a band of `rows` rows of a width-wide image, in slot 0.
-    FloatTarget& full(int width, int rows) {
-        std::optional<FloatTarget>& t = targets[0];
-        if (!t || t->width() != width || t->height() != rows) t.emplace(width, rows);
-        return *t;
-    }
-    // The target at 1/reduce (1, 2, 4, 8 or 16) of width x height, made (or remade for a new size) on demand.
-    FloatTarget& target(int reduce, int width, int height) {
-        std::optional<FloatTarget>& t = targets[slot(reduce)];
-        const int w = (width + reduce - 1) / reduce;
-        const int h = (height + reduce - 1) / reduce;
-        if (!t || t->width() != w || t->height() != h) t.emplace(w, h);
-        return *t;
-    }
+// A pass's ghost sequences on the CPU and in the GL buffers the trace shader reads.
+struct UploadedSequences {
+    GhostSequences seq;
+    GlObject steps;
+    GlObject tables;
+};
+
+// What the renderer learns of a lens and keeps between renders: the ghost sequences per ghost selection and
+// wavelength, and the bounds tables (loaded from or saved to the cache folder).
+struct LensCaches {
+    std::map<std::pair<std::uint64_t, double>, UploadedSequences> sequences;  // per system/ghosts key and wavelength
+    std::map<std::uint64_t, BoundsTable> bounds_tables;                         // in memory, per key
+};
+
+// What the renderer tells of its renders: the last render's figures, and whether the user was told that the
+// memory budget left ghosts out.
+struct RenderReport {
     RenderStats stats;
+    bool fit_warned = false;
+};
 
-    // Ringing textures by (aperture, FrFT order): a few wavelengths' worth, computed once each.
-    struct Ringing {
-        Aperture aperture;
-        double alpha = 0.0;
-        GlObject texture = GlObject::texture();
-    };
-    std::vector<Ringing> ringing;
+}  // namespace
 
-    static bool same_iris(const Aperture& a, const Aperture& b) {
-        return a.blades == b.blades && a.rotation_deg == b.rotation_deg && a.blade_curvature == b.blade_curvature;
-    }
-
-    GLuint ringing_texture(const Aperture& aperture, double alpha) {
-        for (const Ringing& r : ringing)
-            if (r.alpha == alpha && same_iris(r.aperture, aperture)) return r.texture.get();
-        if (ringing.size() >= 16) ringing.erase(ringing.begin());
-        const std::vector<float> top_down = optics::ringing_aperture(aperture, kIrisSize, kIrisExtent, alpha);
-        std::vector<float> bottom_up(top_down.size());  // GL textures start at the bottom row (v = -extent)
-        for (int j = 0; j < kIrisSize; ++j)
-            std::copy_n(top_down.begin() + static_cast<std::ptrdiff_t>(kIrisSize - 1 - j) * kIrisSize, kIrisSize,
-                        bottom_up.begin() + static_cast<std::ptrdiff_t>(j) * kIrisSize);
-        Ringing r{aperture, alpha};
-        glTextureStorage2D(r.texture.get(), 1, GL_R32F, kIrisSize, kIrisSize);
-        glTextureSubImage2D(r.texture.get(), 0, 0, 0, kIrisSize, kIrisSize, GL_RED, GL_FLOAT, bottom_up.data());
-        glTextureParameteri(r.texture.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(r.texture.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(r.texture.get(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_BORDER);
-        glTextureParameteri(r.texture.get(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_BORDER);
-        check_gl("uploading the iris ringing texture");
-        ringing.push_back(std::move(r));
-        return ringing.back().texture.get();
-    }
-
-    void upload_iris(const Aperture& aperture) {
-        if (iris_for && same_iris(*iris_for, aperture)) return;
-        std::vector<float> sdf(static_cast<std::size_t>(kIrisSize) * kIrisSize);
-        const optics::IrisSdf iris_sdf(aperture);
-        for (int j = 0; j < kIrisSize; ++j) {
-            for (int i = 0; i < kIrisSize; ++i) {
-                const double u = kIrisExtent * (2.0 * (i + 0.5) / kIrisSize - 1.0);
-                const double v = kIrisExtent * (2.0 * (j + 0.5) / kIrisSize - 1.0);
-                sdf[static_cast<std::size_t>(j) * kIrisSize + static_cast<std::size_t>(i)] =
-                    static_cast<float>(iris_sdf(u, v));
-            }
-        }
-        iris = GlObject::texture();
-        glTextureStorage2D(iris.get(), 1, GL_R32F, kIrisSize, kIrisSize);
-        glTextureSubImage2D(iris.get(), 0, 0, 0, kIrisSize, kIrisSize, GL_RED, GL_FLOAT, sdf.data());
-        glTextureParameteri(iris.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(iris.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(iris.get(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(iris.get(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        check_gl("uploading the iris SDF texture");
-        iris_for = aperture;
-    }
+// What a FlareRenderer keeps between renders, in parts of one job each.
+struct FlareRenderer::State {
+    GhostPrograms programs;
+    DrawBuffers buffers;
+    IrisTextures iris;
+    LensCaches caches;
+    RenderTargets targets;
+    RenderReport report;
 };
 
 FlareRenderer::FlareRenderer(const Context& context) {
@@ -246,91 +198,111 @@ GhostSequences build_sequences(const TraceSystem& traced, const std::vector<Ghos
     return out;
 }
 
-// What a coarse pass over the entrance square learns of one ghost, from its vertices: where the rays
-// get through and land within sensor_radius_mm of the centre (the circle round the sensor, the same for
-// every azimuth of the light), their power, how uniform the unblocked cells' sensor areas are, the sensor
-// extent, how much of the rectangle passes, and how long the outlines are that the renderer resolves only
-// at its grid's cells: by failed rays and by the iris.
-GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& square, int stop_crossings,
-                              const Aperture& aperture, double cos_angle, double sensor_radius_mm) {
-    const double dx = (square.x1 - square.x0) / res;
-    const double dy = (square.y1 - square.y0) / res;
-    const std::size_t stride = static_cast<std::size_t>(res + 1);
-    enum : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3 };
-    std::vector<char> state(stride * stride, kBlocked);
-    const optics::IrisSdf iris_sdf(aperture);
-    GhostEstimate out;
+// A coarse pass's (res + 1)^2 traced vertices (12 floats each, ghost_trace_comp) over `square` of the
+// entrance plane, and the light's cos(angle): cell (ix, iy) spans dx x dy from (x0 + ix dx, y0 + iy dy).
+struct CoarseGrid {
+    const float* vertices;
+    int res;
+    PupilRect square;
+    double cos_angle;
+    double dx = (square.x1 - square.x0) / res;
+    double dy = (square.y1 - square.y0) / res;
+    std::size_t stride = static_cast<std::size_t>(res + 1);
+
+    std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix); }
+    const float* vertex(std::size_t index) const { return vertices + index * 12; }
+};
+
+// What each coarse ray did.
+enum VertexFate : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3 };
+
+// The coarse vertices sorted by fate, and what the passing ones span: on the entrance plane (`box`, and the
+// grid indices [ix0, ix1] x [iy0, iy1]) and on the sensor.
+struct CoarseFates {
+    std::vector<char> fate;
+    bool any = false;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
     PupilRect sensor{1e300, 1e300, -1e300, -1e300};
-    int ix0 = res, iy0 = res, ix1 = 0, iy1 = 0;
-    bool any = false;
-    for (int iy = 0; iy <= res; ++iy) {
-        for (int ix = 0; ix <= res; ++ix) {
-            const std::size_t index = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
-            const float* v = vertices + index * 12;
-            if (v[10] < 0.5f) {
-                state[index] = kFailed;
-                continue;
-            }
-            if (v[2] > 1.0f) continue;
-            if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) continue;
-            bool inside = true;
-            for (int k = 0; k < std::min(stop_crossings, 3) && inside; ++k) {
-                inside = iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0;
-            }
-            if (!inside) {
-                state[index] = kIrisBlocked;
-                continue;
-            }
-            state[index] = kPasses;
-            any = true;
-            out.power += static_cast<double>(v[3]) * dx * dy * cos_angle;
-            const double x = square.x0 + dx * ix;
-            const double y = square.y0 + dy * iy;
-            box = {std::min(box.x0, x), std::min(box.y0, y), std::max(box.x1, x), std::max(box.y1, y)};
-            ix0 = std::min(ix0, ix);
-            iy0 = std::min(iy0, iy);
-            ix1 = std::max(ix1, ix);
-            iy1 = std::max(iy1, iy);
+    int ix0 = 0, iy0 = 0, ix1 = 0, iy1 = 0;
+};
+
+// A vertex's fate: its ray failed, was clipped by a lens's rim, landed beyond sensor_radius_mm of the
+// centre (the circle round the sensor, the same for every azimuth of the light), was blocked by the iris at
+// one of its (at most three) stop crossings, or passes.
+VertexFate fate_of(const float* v, int stop_crossings, const optics::IrisSdf& iris_sdf, double sensor_radius_mm) {
+    if (v[10] < 0.5f) return kFailed;
+    if (v[2] > 1.0f) return kBlocked;
+    if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) return kBlocked;
+    for (int k = 0; k < std::min(stop_crossings, 3); ++k)
+        if (!(iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0)) return kIrisBlocked;
+    return kPasses;
+}
+
+// Every vertex's fate, the passing rays' bounds, and their power added to out.power.
+CoarseFates sort_vertices(const CoarseGrid& grid, int stop_crossings, const Aperture& aperture, double sensor_radius_mm,
+                          GhostEstimate& out) {
+    const optics::IrisSdf iris_sdf(aperture);
+    CoarseFates f{std::vector<char>(grid.stride * grid.stride, kBlocked)};
+    f.ix0 = f.iy0 = grid.res;
+    for (int iy = 0; iy <= grid.res; ++iy) {
+        for (int ix = 0; ix <= grid.res; ++ix) {
+            const std::size_t index = grid.index(ix, iy);
+            const float* v = grid.vertex(index);
+            f.fate[index] = fate_of(v, stop_crossings, iris_sdf, sensor_radius_mm);
+            if (f.fate[index] != kPasses) continue;
+            f.any = true;
+            out.power += static_cast<double>(v[3]) * grid.dx * grid.dy * grid.cos_angle;
+            const double x = grid.square.x0 + grid.dx * ix;
+            const double y = grid.square.y0 + grid.dy * iy;
+            f.box = {std::min(f.box.x0, x), std::min(f.box.y0, y), std::max(f.box.x1, x), std::max(f.box.y1, y)};
+            f.ix0 = std::min(f.ix0, ix);
+            f.iy0 = std::min(f.iy0, iy);
+            f.ix1 = std::max(f.ix1, ix);
+            f.iy1 = std::max(f.iy1, iy);
             const auto sx = static_cast<double>(v[0]);
             const auto sy = static_cast<double>(v[1]);
-            sensor = {std::min(sensor.x0, sx), std::min(sensor.y0, sy), std::max(sensor.x1, sx), std::max(sensor.y1, sy)};
+            f.sensor = {std::min(f.sensor.x0, sx), std::min(f.sensor.y0, sy), std::max(f.sensor.x1, sx), std::max(f.sensor.y1, sy)};
         }
     }
-    if (!any) return out;
-    out.rect = {std::max(square.x0, box.x0 - dx), std::max(square.y0, box.y0 - dy), std::min(square.x1, box.x1 + dx),
-                std::min(square.y1, box.y1 + dy)};
-    out.extent_mm = std::max(sensor.x1 - sensor.x0, sensor.y1 - sensor.y0);
-    out.sensor = sensor;
-    // Fill: the passing share of the coarse vertices within the rectangle (the passing box grown by a cell).
-    ix0 = std::max(0, ix0 - 1);
-    iy0 = std::max(0, iy0 - 1);
-    ix1 = std::min(res, ix1 + 1);
-    iy1 = std::min(res, iy1 + 1);
+    return f;
+}
+
+// The passing share of the coarse vertices within the passing box grown by a cell.
+double passing_share(const CoarseGrid& grid, const CoarseFates& f) {
+    const int ix0 = std::max(0, f.ix0 - 1), iy0 = std::max(0, f.iy0 - 1);
+    const int ix1 = std::min(grid.res, f.ix1 + 1), iy1 = std::min(grid.res, f.iy1 + 1);
     int passing = 0;
     for (int iy = iy0; iy <= iy1; ++iy)
-        for (int ix = ix0; ix <= ix1; ++ix)
-            passing += state[static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix)] == kPasses;
-    out.fill = static_cast<double>(passing) / ((ix1 - ix0 + 1) * (iy1 - iy0 + 1));
-    // Sensor areas of the cells whose four corners all get through (shoelace over the quadrilateral), and
-    // the cells the outline cuts (some corners pass) with a corner whose ray failed or the iris blocked.
-    double sum = 0.0;
-    double sum2 = 0.0;
-    int cells = 0;
-    int touched = 0;
-    int iris_cut = 0;
-    int failed_cut = 0;
-    for (int iy = 0; iy < res; ++iy) {
-        for (int ix = 0; ix < res; ++ix) {
-            const std::size_t a = static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix);
-            const std::size_t corner[4] = {a, a + 1, a + stride + 1, a + stride};
+        for (int ix = ix0; ix <= ix1; ++ix) passing += f.fate[grid.index(ix, iy)] == kPasses;
+    return static_cast<double>(passing) / ((ix1 - ix0 + 1) * (iy1 - iy0 + 1));
+}
+
+// A whole cell's sensor area (mm^2, shoelace over the quadrilateral of its corners' landing points).
+double cell_sensor_area(const CoarseGrid& grid, const std::size_t (&corner)[4]) {
+    double twice = 0.0;
+    for (int k = 0; k < 4; ++k) {
+        const float* p = grid.vertex(corner[k]);
+        const float* q = grid.vertex(corner[(k + 1) % 4]);
+        twice += static_cast<double>(p[0]) * static_cast<double>(q[1]) - static_cast<double>(q[0]) * static_cast<double>(p[1]);
+    }
+    return 0.5 * std::abs(twice);
+}
+
+// From the cells: the peak irradiance and the spread of the sensor areas of the cells whose four corners all
+// pass, and the outline's cells (some corners pass) with a corner whose ray failed or the iris blocked.
+void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostEstimate& out) {
+    double sum = 0.0, sum2 = 0.0;
+    int cells = 0, touched = 0, iris_cut = 0, failed_cut = 0;
+    for (int iy = 0; iy < grid.res; ++iy) {
+        for (int ix = 0; ix < grid.res; ++ix) {
+            const std::size_t a = grid.index(ix, iy);
+            const std::size_t corner[4] = {a, a + 1, a + grid.stride + 1, a + grid.stride};
             int pass = 0;
-            bool iris = false;
-            bool failed = false;
+            bool iris = false, failed = false;
             for (std::size_t c : corner) {
-                pass += state[c] == kPasses;
-                iris = iris || state[c] == kIrisBlocked;
-                failed = failed || state[c] == kFailed;
+                pass += fate[c] == kPasses;
+                iris = iris || fate[c] == kIrisBlocked;
+                failed = failed || fate[c] == kFailed;
             }
             if (pass == 0) continue;
             ++touched;
@@ -339,17 +311,11 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
                 failed_cut += failed;
                 continue;
             }
-            double twice = 0.0;
-            for (int k = 0; k < 4; ++k) {
-                const float* p = vertices + corner[k] * 12;
-                const float* q = vertices + corner[(k + 1) % 4] * 12;
-                twice += static_cast<double>(p[0]) * static_cast<double>(q[1]) - static_cast<double>(q[0]) * static_cast<double>(p[1]);
-            }
-            const double area = 0.5 * std::abs(twice);
+            const double area = cell_sensor_area(grid, corner);
             if (area > 0.0) {
                 double transmission = 0.0;
-                for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(vertices[c * 12 + 3]);
-                out.peak = std::max(out.peak, transmission * dx * dy * cos_angle / area);
+                for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(grid.vertex(c)[3]);
+                out.peak = std::max(out.peak, transmission * grid.dx * grid.dy * grid.cos_angle / area);
             } else {
                 out.peak = std::numeric_limits<double>::infinity();  // a cell folded flat: a caustic, never culled
             }
@@ -368,6 +334,24 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     } else {
         out.area_cv = 1e9;  // too few whole cells to judge: treat as sharp
     }
+}
+
+// What a coarse pass over the entrance square learns of one ghost, from its vertices: where the rays
+// get through and land within sensor_radius_mm of the centre, their power, how uniform the unblocked cells'
+// sensor areas are, the sensor extent, how much of the rectangle passes, and how long the outlines are that
+// the renderer resolves only at its grid's cells: by failed rays and by the iris.
+GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& square, int stop_crossings,
+                              const Aperture& aperture, double cos_angle, double sensor_radius_mm) {
+    const CoarseGrid grid{vertices, res, square, cos_angle};
+    GhostEstimate out;
+    const CoarseFates f = sort_vertices(grid, stop_crossings, aperture, sensor_radius_mm, out);
+    if (!f.any) return out;
+    out.rect = {std::max(square.x0, f.box.x0 - grid.dx), std::max(square.y0, f.box.y0 - grid.dy),
+                std::min(square.x1, f.box.x1 + grid.dx), std::min(square.y1, f.box.y1 + grid.dy)};
+    out.extent_mm = std::max(f.sensor.x1 - f.sensor.x0, f.sensor.y1 - f.sensor.y0);
+    out.sensor = f.sensor;
+    out.fill = passing_share(grid, f);
+    measure_cells(grid, f.fate, out);
     return out;
 }
 
@@ -419,82 +403,67 @@ void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, co
     }
 }
 
-// The Mitchell-Netravali cubic (B = C = 1/3) at offset x in source pixels: smoother than bilinear (its
-// gradient is continuous, so a reduced ghost's shading has no creases at the source pixels' centres) with
-// lobes under 4% below zero. Cooke-triplet at (14, 9), 960x640 (bench_flare): structure error 0.732, against
-// bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render time the same within noise.
-double mitchell(double x) {
-    constexpr double B = 1.0 / 3.0, C = 1.0 / 3.0;
-    x = std::abs(x);
-    if (x < 1.0) return ((12 - 9 * B - 6 * C) * x * x * x + (-18 + 12 * B + 6 * C) * x * x + (6 - 2 * B)) / 6.0;
-    if (x < 2.0) return ((-B - 6 * C) * x * x * x + (6 * B + 30 * C) * x * x + (-12 * B - 48 * C) * x + (8 * B + 24 * C)) / 6.0;
-    return 0.0;
-}
-
-// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, upsampled with the Mitchell
-// cubic (pixel centres aligned, edge pixels repeated beyond the border; what each target adds is clamped at
-// 0, so the lobes never darken the plate). Separably: each source row is widened to w RGB pixels once, and
-// each output row adds, for every source, a blend of four widened rows (a loop the compiler vectorises),
-// so the image is read and written once.
-void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
-    struct Tap {
-        int i[4];
-        float f[4];
-    };
-    auto taps = [](int n, int sn) {
-        std::vector<Tap> out(static_cast<std::size_t>(n));
-        for (int i = 0; i < n; ++i) {
-            const double u = std::clamp((i + 0.5) * sn / n - 0.5, 0.0, sn - 1.0);
-            const int i0 = std::min(static_cast<int>(u), sn - 1);
-            Tap& t = out[static_cast<std::size_t>(i)];
-            for (int j = 0; j < 4; ++j) t.i[j] = std::clamp(i0 - 1 + j, 0, sn - 1);
-            for (int j = 0; j < 4; ++j) t.f[j] = static_cast<float>(mitchell(u - i0 - (j - 1)));
-        }
-        return out;
-    };
-    const std::size_t row_values = static_cast<std::size_t>(w) * 3;
-    struct Source {
-        BandReader* readback;
-        std::vector<Tap> xs, ys;
-        std::vector<float> wide[4];  // four widened source rows
-        int held[4] = {-1, -1, -1, -1};  // which rows they hold
-    };
-    std::vector<Source> srcs;
-    for (BandReader& r : sources) {
-        Source src{&r, taps(w, r.width()), taps(h, r.height()), {}};
-        for (auto& v : src.wide) v.assign(row_values, 0.0f);
-        srcs.push_back(std::move(src));
+// A reduced target's rows widened to the image's w columns through the Mitchell cubic (flare::mitchell_taps),
+// four held at a time: an output row blends four of them, and the next output row mostly needs the same four.
+class WidenedTarget {
+public:
+    WidenedTarget(BandReader& readback, int w, int h)
+        : readback_(&readback), xs_(flare::mitchell_taps(w, readback.width())), ys_(flare::mitchell_taps(h, readback.height())) {
+        for (auto& row : rows_) row.assign(static_cast<std::size_t>(w) * 3, 0.0f);
     }
-    auto widened = [&](Source& src, int row, const Tap& needed) -> const float* {
+    // The taps of image row y (from the top; GL rows run bottom-up).
+    const flare::CubicTap& taps_of(int y) const { return ys_[ys_.size() - 1 - static_cast<std::size_t>(y)]; }
+    // Target row `row` widened; a row `needed` names is not evicted for it.
+    const float* row(int row, const flare::CubicTap& needed) {
         for (int k = 0; k < 4; ++k)
-            if (src.held[k] == row) return src.wide[k].data();
+            if (held_[k] == row) return rows_[k].data();
         int k = 0;
         for (; k < 4; ++k) {
-            const int r = src.held[k];
+            const int r = held_[k];
             if (r != needed.i[0] && r != needed.i[1] && r != needed.i[2] && r != needed.i[3]) break;
         }
-        const float* in = src.readback->row(row);
-        float* out = src.wide[k].data();
-        for (std::size_t x = 0; x < static_cast<std::size_t>(w); ++x) {
-            const Tap& t = src.xs[x];
+        const float* in = readback_->row(row);
+        float* out = rows_[k].data();
+        for (std::size_t x = 0; x < xs_.size(); ++x) {
+            const flare::CubicTap& t = xs_[x];
             for (std::size_t c = 0; c < 3; ++c) {
                 float v = 0.0f;
                 for (int j = 0; j < 4; ++j) v += t.f[j] * in[static_cast<std::size_t>(t.i[j]) * 4 + c];
                 out[x * 3 + c] = v;
             }
         }
-        src.held[k] = row;
+        held_[k] = row;
         return out;
-    };
+    }
+
+private:
+    BandReader* readback_;
+    std::vector<flare::CubicTap> xs_, ys_;
+    std::vector<float> rows_[4];
+    int held_[4] = {-1, -1, -1, -1};
+};
+
+// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, enlarged with the Mitchell
+// cubic (flare::mitchell_taps: pixel centres aligned, edge pixels repeated beyond the border; what each target
+// adds is clamped at 0, so the lobes never darken the plate). Cooke-triplet at (14, 9), 960x640 (bench_flare):
+// structure error 0.732, against bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render
+// time the same within noise. Separably, and every target per output row, so the image is read and written
+// once: each output row adds, for every target, a blend of four widened rows (a loop the compiler vectorises).
+// Not flare::add_resized: the targets are read from GL in bands, never whole (the 1/2 target of an 8K frame
+// is 127 MB).
+void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
+    std::vector<WidenedTarget> srcs;
+    for (BandReader& r : sources) srcs.emplace_back(r, w, h);
+    const std::size_t row_values = static_cast<std::size_t>(w) * 3;
     std::vector<float> blend(row_values);
     for (int y = 0; y < h; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
-        for (Source& src : srcs) {
-            const Tap& t = src.ys[static_cast<std::size_t>(h - 1 - y)];  // GL rows run bottom-up
+        for (WidenedTarget& src : srcs) {
+            const flare::CubicTap& t = src.taps_of(y);
             std::fill(blend.begin(), blend.end(), 0.0f);
             for (int j = 3; j >= 0; --j) {
                 if (t.f[j] == 0.0f) continue;
-                const float* a = widened(src, t.i[j], t);
+                const float* a = src.row(t.i[j], t);
                 const float f = t.f[j];
                 for (std::size_t i = 0; i < row_values; ++i) blend[i] += f * a[i];
             }
@@ -569,14 +538,18 @@ private:
     LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
 
     void set_up_gl();
-    FloatTarget& full_target() { return s_.full(view_.width, bands_.target_rows()); }
+    FloatTarget& full_target() { return s_.targets.full(view_.width, bands_.target_rows()); }
     void bind_full();
     void bind_level(int reduce);
     double level_pixel_area(int reduce) const;
-    State::Sequences& sequences(std::size_t p);
+    UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings);
+    void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
+    void shade_uniforms(int res, int reduce);
+    void dispatch_batched(const Program& program, GLuint groups, GLuint n);
+    void raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
     void find_unknown_peaks(std::vector<GhostEstimate>& coarse, const GhostSequences& seq, const optics::Vec3& direction,
                             const Aperture& aperture);
@@ -608,7 +581,6 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
         full_target().clear();
         drawn_into_[0] = true;
     }
-    s_.upload_iris(system.aperture);
     for (const auto& pass : passes_) {
         traced_.emplace_back(system, pass.wavelength_nm);
         for (std::size_t k = 0; k < traced_.back().interfaces().size(); ++k) {
@@ -628,20 +600,15 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
 // The vertex buffer (a batch of ghosts, and at least the largest grid any plan can ask for) and the blend state.
 void FlareRenderer::Drawing::set_up_gl() {
     const int max_grid = options_.accel.adaptive ? std::max(options_.grid, 512) : options_.grid;
-    const std::size_t dense_bytes =
-        std::max(kBatchBytes, static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * kVertexBytes);
-    if (dense_bytes > s_.vertices_bytes) {
-        s_.vertices = GlObject::buffer();
-        glNamedBufferStorage(s_.vertices.get(), static_cast<GLsizeiptr>(dense_bytes), nullptr, 0);
-        s_.vertices_bytes = dense_bytes;
-    }
-    glBindVertexArray(s_.vao.get());
+    s_.buffers.reserve_vertices(
+        std::max(kBatchBytes, static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * kVertexBytes));
+    glBindVertexArray(s_.buffers.vao.get());
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
-    glBindTextureUnit(0, s_.iris.get());
+    glBindTextureUnit(0, s_.iris.sdf(system_.aperture));
     glEnable(GL_PROGRAM_POINT_SIZE);
 }
 
@@ -652,8 +619,8 @@ void FlareRenderer::Drawing::bind_full() {
 
 // Draws go into the target at 1/reduce of the image from here on, cleared if this render has not drawn into it yet.
 void FlareRenderer::Drawing::bind_level(int reduce) {
-    const std::size_t slot = State::slot(reduce);
-    FloatTarget& t = reduce == 1 ? full_target() : s_.target(reduce, view_.width, view_.height);
+    const std::size_t slot = RenderTargets::slot(reduce);
+    FloatTarget& t = reduce == 1 ? full_target() : s_.targets.reduced(reduce, view_.width, view_.height);
     if (reduce == 1) bind_full();  // the full-size target holds the band being drawn
     else t.bind();
     if (!drawn_into_[slot]) t.clear();
@@ -670,40 +637,57 @@ double FlareRenderer::Drawing::level_pixel_area(int reduce) const {
 
 // Ghost sequences and coating tables of pass p, built once per system, ghost selection and wavelength, bound
 // for the trace shader.
-FlareRenderer::State::Sequences& FlareRenderer::Drawing::sequences(std::size_t p) {
+UploadedSequences& FlareRenderer::Drawing::sequences(std::size_t p) {
     const std::pair<std::uint64_t, double> id{key_, passes_[p].wavelength_nm};
-    auto it = s_.sequences.find(id);
-    if (it == s_.sequences.end()) {
-        if (s_.sequences.size() >= 96) s_.sequences.clear();  // room for an extended light's ghost groups
-        State::Sequences built{build_sequences(traced_[p], ghosts_), GlObject::buffer(), GlObject::buffer()};
+    auto it = s_.caches.sequences.find(id);
+    if (it == s_.caches.sequences.end()) {
+        if (s_.caches.sequences.size() >= 96) s_.caches.sequences.clear();  // room for an extended light's ghost groups
+        UploadedSequences built{build_sequences(traced_[p], ghosts_), GlObject::buffer(), GlObject::buffer()};
         glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
                              built.seq.steps.data(), 0);
         glNamedBufferStorage(built.tables.get(), static_cast<GLsizeiptr>(built.seq.tables.size() * sizeof(float)),
                              built.seq.tables.data(), 0);
-        it = s_.sequences.emplace(id, std::move(built)).first;
+        it = s_.caches.sequences.emplace(id, std::move(built)).first;
     }
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, it->second.steps.get());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, it->second.tables.get());
-    glUseProgram(s_.trace.get());
-    glUniform1f(s_.trace.uniform("sensor_z"), static_cast<float>(traced_[p].sensor_z()));
+    glUseProgram(s_.programs.trace.get());
+    glUniform1f(s_.programs.trace.uniform("sensor_z"), static_cast<float>(traced_[p].sensor_z()));
     return it->second;
+}
+
+// The trace program bound with what every dispatch over a (res+1)^2 grid sets: the grid, the entrance
+// rectangles' rotation and the light's direction.
+void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const optics::Vec3& direction) {
+    const Program& trace = s_.programs.trace;
+    glUseProgram(trace.get());
+    glUniform1i(trace.uniform("grid"), res);
+    glUniform2f(trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)), static_cast<float>(std::sin(rotation)));
+    glUniform3f(trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y), static_cast<float>(direction.z));
+    glUniform1i(trace.uniform("table_size"), kTableSize);
+}
+
+// The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
+// the grid, the splat limit of the level's pixels, and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce) {
+    const Program& shade = s_.programs.shade;
+    glUseProgram(shade.get());
+    glUniform1i(shade.uniform("grid"), res);
+    glUniform1f(shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
+    glUniform1i(shade.uniform("iris_sdf"), 0);
+    glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
 }
 
 // One ghost's (res+1)^2 ray grid over `rect` (turned by `rotation`) traced into the bound vertex buffer.
 void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction,
                                             int first_step, int step_count, std::size_t vertex_offset) {
-    glUseProgram(s_.trace.get());
-    glUniform1i(s_.trace.uniform("step_offset"), first_step);
-    glUniform1i(s_.trace.uniform("step_count"), step_count);
-    glUniform1ui(s_.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
-    glUniform1i(s_.trace.uniform("grid"), res);
-    glUniform4f(s_.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
+    trace_uniforms(res, rotation, direction);
+    glUniform1i(s_.programs.trace.uniform("step_offset"), first_step);
+    glUniform1i(s_.programs.trace.uniform("step_count"), step_count);
+    glUniform1ui(s_.programs.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
+    glUniform4f(s_.programs.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
                 static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-    glUniform2f(s_.trace.uniform("rect_rotation"), static_cast<float>(std::cos(rotation)),
-                static_cast<float>(std::sin(rotation)));
-    glUniform3f(s_.trace.uniform("direction"), static_cast<float>(direction.x), static_cast<float>(direction.y),
-                static_cast<float>(direction.z));
-    glUniform1i(s_.trace.uniform("table_size"), kTableSize);
     const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
     glDispatchCompute(groups, groups, 1);
 }
@@ -712,18 +696,14 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // triangles that are rasterised at 1/reduce of the image.
 // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
 void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings) {
-    glUniform1i(s_.shade.uniform("grid"), res);
-    glUniform1ui(s_.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
-    glUniform1f(s_.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    shade_uniforms(res, reduce);
+    glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
-    glUniform2f(s_.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
-    glUniform1f(s_.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
-    glUniform1i(s_.shade.uniform("stop_crossings"), stop_crossings);
-    glUniform1i(s_.shade.uniform("ringing"), options_.ringing ? 1 : 0);
-    glUniform1i(s_.shade.uniform("iris_sdf"), 0);
-    glUniform1f(s_.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
+    glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
+    glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
+    glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
     const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
     glDispatchCompute(groups, groups, 1);
 }
@@ -801,12 +781,12 @@ void FlareRenderer::Drawing::find_unknown_peaks(std::vector<GhostEstimate>& coar
 // angle, computed (and saved) if missing.
 BoundsTable& FlareRenderer::Drawing::bounds_table(const FlareView& lit, const FieldDirection& field) {
     const std::uint64_t table_key = bounds_table_key(key_, passes_, sensor_radius_);
-    auto it = s_.bounds_tables.find(table_key);
-    if (it == s_.bounds_tables.end()) {
+    auto it = s_.caches.bounds_tables.find(table_key);
+    if (it == s_.caches.bounds_tables.end()) {
         const std::string dir = flare::cache_dir_of(options_.accel.cache_dir);
-        it = s_.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes_.size()),
+        it = s_.caches.bounds_tables.emplace(table_key, BoundsTable(table_key, static_cast<int>(passes_.size()),
                                                             static_cast<int>(ghosts_.size()), dir)).first;
-        s_.stats.table_loaded = it->second.load();
+        s_.report.stats.table_loaded = it->second.load();
     }
     BoundsTable& table = it->second;
     const int i0 = static_cast<int>(std::floor(field.theta_deg / BoundsTable::step_deg));
@@ -821,7 +801,7 @@ BoundsTable& FlareRenderer::Drawing::bounds_table(const FlareView& lit, const Fi
         std::vector<std::vector<GhostEstimate>> entry;
         for (std::size_t p = 0; p < passes_.size(); ++p) entry.push_back(coarse_pass(p, sequences(p).seq, at, round));
         table.store(index, std::move(entry));
-        ++s_.stats.table_computed;
+        ++s_.report.stats.table_computed;
         computed = true;
     }
     if (computed) {
@@ -903,28 +883,28 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
     const ScaledLight& light = lights_[l];
     const SpectralPass& pass = passes_[p];
     const optics::Ray axis = optics::collimated_ray(light.angle_x_deg, light.angle_y_deg, 0.0, 0.0, 0.0);
-    for (const Program* program : {&s_.raster, &s_.splat}) {
+    for (const Program* program : s_.programs.drawing()) {
         glUseProgram(program->get());
         glUniform1i(program->uniform("ringing"), options_.ringing ? 1 : 0);
         glUniform1i(program->uniform("iris_ringing"), 1);
     }
     if (options_.ringing)
-        glBindTextureUnit(1, s_.ringing_texture(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
+        glBindTextureUnit(1, s_.iris.ringing(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
     const GhostSequences& seq = sequences(p).seq;
     const std::vector<GhostEstimate>& estimates = estimates_[l].pass[p];
     const DetailSettings detail{options_.accel, options_.grid, view_.sensor_width_mm / view_.width, options_.per_ghost_power,
                                 options_.batch_faint};
     const PassPlan plan = plan_pass(estimates, pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
                                     selection_, detail, band_);
-    s_.stats.ghosts_skipped += plan.skipped;
-    s_.stats.ghosts_culled += plan.culled;
-    s_.stats.ghosts_faint += plan.faint;
+    s_.report.stats.ghosts_skipped += plan.skipped;
+    s_.report.stats.ghosts_culled += plan.culled;
+    s_.report.stats.ghosts_faint += plan.faint;
     // Only the channels this pass adds to are written (one of R, G, B in RGB mode; never alpha): a software
     // rasteriser blends and stores less.
     glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
     const PassDraw pd{light, pass, seq, estimates, plan.plans, estimates_[l].rotation, axis.direction, std::abs(axis.direction.z)};
     for (const std::vector<BatchJob>& batch :
-         batch_ghosts(plan.todo, plan.plans, s_.vertices_bytes / kVertexBytes, options_.per_ghost_power)) {
+         batch_ghosts(plan.todo, plan.plans, s_.buffers.vertices_bytes / kVertexBytes, options_.per_ghost_power)) {
         trace_batch(batch, pd);
         raster_batch(batch, pd);
     }
@@ -933,16 +913,16 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
 
 // The batch's ray grids traced and shaded into the vertex buffer.
 void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.vertices.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
     for (const BatchJob& job : batch) {
         const std::size_t g = job.ghost;
         const int grid = pd.plans[g].grid;
-        s_.stats.ghosts_drawn += band_ == 0;
-        s_.stats.rays += band_ == 0 ? static_cast<long long>(grid + 1) * (grid + 1) : 0;
+        s_.report.stats.ghosts_drawn += band_ == 0;
+        s_.report.stats.rays += band_ == 0 ? static_cast<long long>(grid + 1) * (grid + 1) : 0;
         dispatch_trace(grid, pd.estimates[g].rect, pd.rotation, pd.direction, pd.seq.offset[g], pd.seq.count[g], job.first_vertex);
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    glUseProgram(s_.shade.get());
+    glUseProgram(s_.programs.shade.get());
     for (const BatchJob& job : batch)
         dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, pd.plans[job.ghost].reduce, pd.seq.stop_crossings[job.ghost]);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
@@ -962,12 +942,12 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (plan.reduce != reduce) continue;
             if (!bound) bind_level(reduce);
             bound = true;
-            if (reduce > 1) ++s_.stats.ghosts_reduced;
+            if (reduce > 1) ++s_.report.stats.ghosts_reduced;
             ghost_uniforms(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
-            glUseProgram(s_.raster.get());
+            glUseProgram(s_.programs.raster.get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
             if (plan.splat) {
-                glUseProgram(s_.splat.get());
+                glUseProgram(s_.programs.splat.get());
                 glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
             }
             check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
@@ -983,7 +963,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!bound) bind_level(level);
             bound = true;
             ghost_uniforms(job, pd, plan.reduce, 2);
-            glUseProgram(s_.raster.get());
+            glUseProgram(s_.programs.raster.get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
             check_gl(fmt::format("the rim of ghost {},{}", ghosts_[job.ghost].second, ghosts_[job.ghost].first));
         }
@@ -1021,7 +1001,7 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
     // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
-    for (const Program* program : {&s_.raster, &s_.splat}) {
+    for (const Program* program : s_.programs.drawing()) {
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
@@ -1031,15 +1011,15 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
         glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
         glUniform2f(program->uniform("viewport"), static_cast<float>(v.target_w), static_cast<float>(v.target_h));
         glUniform1i(program->uniform("iris_sdf"), 0);
-        glUniform1f(program->uniform("iris_extent"), static_cast<float>(kIrisExtent));
+        glUniform1f(program->uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
         glUniform1i(program->uniform("stop_crossings"), pd.seq.stop_crossings[g]);
         glUniform4f(program->uniform("channels"), static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]),
                     static_cast<float>(v.channels[2]), 0.0f);
         glUniform2f(program->uniform("offset_mm"), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]));
     }
-    glUseProgram(s_.raster.get());
-    glUniform1i(s_.raster.uniform("rim_mode"), rim_mode);
-    glUniform1f(s_.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+    glUseProgram(s_.programs.raster.get());
+    glUniform1i(s_.programs.raster.uniform("rim_mode"), rim_mode);
+    glUniform1f(s_.programs.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
 }
 
 // The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) by grid and level, each group in
@@ -1052,7 +1032,7 @@ void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts
         const auto [grid, reduce] = key;
         if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
         const std::size_t side = static_cast<std::size_t>(grid + 1);
-        const std::size_t per_chunk = std::max<std::size_t>(1, s_.vertices_bytes / kVertexBytes / (side * side));
+        const std::size_t per_chunk = std::max<std::size_t>(1, s_.buffers.vertices_bytes / kVertexBytes / (side * side));
         for (std::size_t first = 0; first < members.size(); first += per_chunk) {
             const auto begin = members.begin() + static_cast<std::ptrdiff_t>(first);
             draw_instanced({begin, begin + static_cast<std::ptrdiff_t>(std::min(per_chunk, members.size() - first))}, grid, reduce, pd);
@@ -1064,50 +1044,47 @@ void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts
 // drawn as instances, each one's values from its GhostJob.
 void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
     const auto n = static_cast<GLuint>(ghosts.size());
-    const auto rays = static_cast<long long>(grid + 1) * (grid + 1);
     if (band_ == 0) {
-        s_.stats.ghosts_drawn += static_cast<int>(n);
-        s_.stats.rays += rays * n;
-        s_.stats.ghosts_reduced += reduce > 1 ? static_cast<int>(n) : 0;
+        s_.report.stats.ghosts_drawn += static_cast<int>(n);
+        s_.report.stats.rays += static_cast<long long>(grid + 1) * (grid + 1) * n;
+        s_.report.stats.ghosts_reduced += reduce > 1 ? static_cast<int>(n) : 0;
     }
     upload_jobs(ghosts, grid, reduce, pd);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
     const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.vertices.get());
-    glUseProgram(s_.trace.get());
-    glUniform1i(s_.trace.uniform("batched"), 1);
-    glUniform1i(s_.trace.uniform("grid"), grid);
-    glUniform2f(s_.trace.uniform("rect_rotation"), static_cast<float>(std::cos(pd.rotation)), static_cast<float>(std::sin(pd.rotation)));
-    glUniform3f(s_.trace.uniform("direction"), static_cast<float>(pd.direction.x), static_cast<float>(pd.direction.y),
-                static_cast<float>(pd.direction.z));
-    glUniform1i(s_.trace.uniform("table_size"), kTableSize);
-    glDispatchCompute(groups, groups, n);
-    glUniform1i(s_.trace.uniform("batched"), 0);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    glUseProgram(s_.shade.get());
-    glUniform1i(s_.shade.uniform("batched"), 1);
-    glUniform1i(s_.shade.uniform("grid"), grid);
-    glUniform1f(s_.shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
-    glUniform2f(s_.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
-    glUniform1i(s_.shade.uniform("ringing"), options_.ringing ? 1 : 0);
-    glUniform1i(s_.shade.uniform("iris_sdf"), 0);
-    glUniform1f(s_.shade.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-    glDispatchCompute(groups, groups, n);
-    glUniform1i(s_.shade.uniform("batched"), 0);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    bind_level(reduce);
-    const GhostDrawValues v = draw_values(ghosts.front(), pd, reduce);  // the level's values are every ghost's
-    glUseProgram(s_.raster.get());
-    glUniform1i(s_.raster.uniform("batched"), 1);
-    glUniform1i(s_.raster.uniform("grid"), grid);
-    glUniform2f(s_.raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
-    glUniform1f(s_.raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
-    glUniform1f(s_.raster.uniform("splat_area"), static_cast<float>(kSplatArea));
-    glUniform1i(s_.raster.uniform("iris_sdf"), 0);
-    glUniform1f(s_.raster.uniform("iris_extent"), static_cast<float>(kIrisExtent));
-    glUniform1i(s_.raster.uniform("rim_mode"), 0);
-    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
-    glUniform1i(s_.raster.uniform("batched"), 0);
+    trace_uniforms(grid, pd.rotation, pd.direction);
+    dispatch_batched(s_.programs.trace, groups, n);
+    shade_uniforms(grid, reduce);
+    glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
+    dispatch_batched(s_.programs.shade, groups, n);
+    raster_instanced(draw_values(ghosts.front(), pd, reduce), n, grid, reduce);  // the level's values are every ghost's
     check_gl(fmt::format("drawing {} faint ghosts at {} nm", n, pd.pass.wavelength_nm));
+}
+
+// The bound compute program dispatched over n ghosts' grids (groups x groups each) in batched mode, then the
+// vertices' barrier.
+void FlareRenderer::Drawing::dispatch_batched(const Program& program, GLuint groups, GLuint n) {
+    glUniform1i(program.uniform("batched"), 1);
+    glDispatchCompute(groups, groups, n);
+    glUniform1i(program.uniform("batched"), 0);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+}
+
+// n traced and shaded grids of one level drawn as instances into its target; `v`: the level's values.
+void FlareRenderer::Drawing::raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce) {
+    bind_level(reduce);
+    const Program& raster = s_.programs.raster;
+    glUseProgram(raster.get());
+    glUniform1i(raster.uniform("batched"), 1);
+    glUniform1i(raster.uniform("grid"), grid);
+    glUniform2f(raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
+    glUniform1f(raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
+    glUniform1f(raster.uniform("splat_area"), static_cast<float>(kSplatArea));
+    glUniform1i(raster.uniform("iris_sdf"), 0);
+    glUniform1f(raster.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
+    glUniform1i(raster.uniform("rim_mode"), 0);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
+    glUniform1i(raster.uniform("batched"), 0);
 }
 
 // The jobs of draw_instanced's ghosts into the jobs buffer, bound for the shaders.
@@ -1123,8 +1100,8 @@ void FlareRenderer::Drawing::upload_jobs(const std::vector<std::size_t>& ghosts,
                         {static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]), static_cast<float>(v.channels[2]), 0.0f},
                         {static_cast<float>(v.triangle_flux), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]), 0.0f}});
     }
-    glNamedBufferData(s_.jobs.get(), static_cast<GLsizeiptr>(jobs.size() * sizeof(GhostJob)), jobs.data(), GL_STREAM_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, s_.jobs.get());
+    glNamedBufferData(s_.buffers.jobs.get(), static_cast<GLsizeiptr>(jobs.size() * sizeof(GhostJob)), jobs.data(), GL_STREAM_DRAW);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, s_.buffers.jobs.get());
 }
 
 // Per-ghost power: the full-size target (drawn whole) read back into the CPU sum and ghost g's power, then cleared.
@@ -1155,7 +1132,7 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
         std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
         for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into_[slot]) continue;
-            const FloatTarget& t = s_.target(1 << slot, view_.width, view_.height);
+            const FloatTarget& t = s_.targets.reduced(1 << slot, view_.width, view_.height);
             readbacks.emplace_back(t);
         }
         add_targets(readbacks, rgb, view_.width, view_.height);
@@ -1182,7 +1159,7 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
     trace_batch({{g, 0}}, pd);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<float> vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12);
-    glGetNamedBufferSubData(s_.vertices.get(), 0, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data());
+    glGetNamedBufferSubData(s_.buffers.vertices.get(), 0, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data());
     check_gl("reading the traced vertices back");
     glUseProgram(0);
     glBindVertexArray(0);
@@ -1207,7 +1184,7 @@ FlareRenderer::Drawing FlareRenderer::start_drawing(const System& system, const 
     }
     if (system.stop < 0) throw std::invalid_argument(fmt::format("{}: the system has no aperture stop", system.name));
     check_ghost_tables(system, view.passes().size(), options.memory);
-    state_->stats = {};
+    state_->report.stats = {};
     std::vector<Ghost> ghosts = fitted_ghosts(system, view, options.memory);
     if (options.accel.aperture_culling)
         std::erase_if(ghosts, [](const Ghost& g) { return g.crosses_stop_three_times; });
@@ -1241,16 +1218,10 @@ void FlareRenderer::render_add(const System& system, const FlareView& view, std:
     draw(system, view, lights, options, rgb, nullptr);
 }
 
-const RenderStats& FlareRenderer::last_stats() const { return state_->stats; }
+const RenderStats& FlareRenderer::last_stats() const { return state_->report.stats; }
 
 void FlareRenderer::release_targets() {
-    for (std::optional<FloatTarget>& t : state_->targets) t.reset();
-    // The driver (llvmpipe) keeps the last framebuffer's textures until another framebuffer is drawn to:
-    // a clear of a 1 x 1 target lets them go now.
-    const FloatTarget tiny(1, 1);
-    tiny.bind();
-    glClear(GL_COLOR_BUFFER_BIT);
-    glFinish();
+    state_->targets.release();
 }
 
 namespace {
@@ -1383,8 +1354,8 @@ GhostFit ghosts_within(const System& system, std::vector<Ghost> ghosts, std::siz
 
 std::vector<Ghost> FlareRenderer::fitted_ghosts(const System& system, const FlareView& view, const MemoryBudget& budget) {
     GhostFit fit = ghosts_within_budget(system, selected_ghosts(system, view), view.passes().size(), budget);
-    if (fit.ghosts.size() < fit.total && !state_->fit_warned) {
-        state_->fit_warned = true;  // once per renderer: every frame draws the same ghosts
+    if (fit.ghosts.size() < fit.total && !state_->report.fit_warned) {
+        state_->report.fit_warned = true;  // once per renderer: every frame draws the same ghosts
         fmt::print(stderr, "{}", fit_warning(system, view.passes().size(), fit, budget));
     }
     return std::move(fit.ghosts);

@@ -6,6 +6,8 @@
 #include <limits>
 #include <optional>
 
+#include <flare/image_ops.h>
+
 namespace lensfx::measured {
 
 namespace {
@@ -278,47 +280,11 @@ void render_reduced(const GhostParams& p, double roll, const MeasuredView& view,
         }
 }
 
-namespace {
-
-// The grid's sample row j interpolated across to every image column (width x 3), from each column's left
-// sample and weight.
-void interpolate_row(const ReducedGrid& grid, const float* samples, int j, const std::vector<int>& left, const std::vector<float>& weight, float* out) {
-    const float* row = samples + static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.width) * 3;
-    for (std::size_t x = 0; x < left.size(); ++x) {
-        const float* a = row + static_cast<std::size_t>(left[x]) * 3;
-        for (std::size_t ch = 0; ch < 3; ++ch) out[x * 3 + ch] = a[ch] + (a[ch + 3] - a[ch]) * weight[x];
-    }
-}
-
-}  // namespace
-
 void add_upsampled(const ReducedGrid& grid, const float* samples, const MeasuredView& view, float* rgb) {
-    const double r = grid.reduction;
-    const auto sample_of = [r](int pixel) { return (pixel - 0.5 * (r - 1)) / r + 1.0; };
-    const auto w = static_cast<std::size_t>(view.width);
-    std::vector<int> left(w);
-    std::vector<float> weight(w);
-    for (std::size_t x = 0; x < w; ++x) {
-        const double sx = sample_of(static_cast<int>(x));
-        left[x] = std::clamp(static_cast<int>(std::floor(sx)), 0, grid.width - 2);
-        weight[x] = static_cast<float>(sx - left[x]);
-    }
-    // Separable: the two sample rows around an image row, interpolated across once each, then down.
-    std::vector<float> upper(w * 3), lower(w * 3);
-    int upper_j = -1, lower_j = -1;
-    for (int y = 0; y < view.height; ++y) {
-        const double sy = sample_of(y);
-        const int j = std::clamp(static_cast<int>(std::floor(sy)), 0, grid.height - 2);
-        const auto ty = static_cast<float>(sy - j);
-        if (upper_j != j) {
-            if (lower_j == j) std::swap(upper, lower), lower_j = -1;
-            else interpolate_row(grid, samples, j, left, weight, upper.data());
-            upper_j = j;
-        }
-        if (lower_j != j + 1) interpolate_row(grid, samples, j + 1, left, weight, lower.data()), lower_j = j + 1;
-        float* out = rgb + static_cast<std::size_t>(y) * w * 3;
-        for (std::size_t k = 0; k < w * 3; ++k) out[k] += upper[k] + (lower[k] - upper[k]) * ty;
-    }
+    // Sample i lies at pixel (i - 1) r + (r - 1) / 2: the samples spread evenly over [-r, (width - 1) r).
+    const int r = grid.reduction;
+    flare::add_resized(flare::RgbView{rgb, 0, 0, view.width, view.height}, flare::ConstRgbView{samples, 0, 0, grid.width, grid.height},
+                       flare::Region{-r, -r, (grid.width - 1) * r, (grid.height - 1) * r});
 }
 
 std::vector<GhostParams> ghosts_at(const MeasuredLens& lens, double field, std::array<double, 3> scale) {

@@ -203,12 +203,12 @@ void splat_starburst(const Starburst& sb, const StarburstPlacement& at, const st
     const double reach_x = half * tx + 2.0, reach_y = half * ty + 2.0;
     if (!(cx + reach_x > 0.0 && cx - reach_x < width && cy + reach_y > 0.0 && cy - reach_y < height)) return;
     if (!(reach_x < 1e8 && reach_y < 1e8)) return;  // texels larger than any frame: a degenerate scale
-    const auto in_core = [&](int i, int j) {
+    const auto left_out = [&](int i, int j) {
         const double dx = i - half, dy = j - half;
-        return dx * dx + dy * dy < core2;
+        return (dx * dx + dy * dy < core2) != at.only_core;
     };
     const auto add = [&](int x, int y, double w, int i, int j) {
-        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0 || in_core(i, j)) return;
+        if (x < 0 || y < 0 || x >= width || y >= height || w <= 0.0 || left_out(i, j)) return;
         float* px = rgb + (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3;
         const std::size_t texel = static_cast<std::size_t>(j) * static_cast<std::size_t>(sb.size) + static_cast<std::size_t>(i);
         for (std::size_t c = 0; c < 3; ++c)
@@ -236,7 +236,7 @@ void splat_starburst(const Starburst& sb, const StarburstPlacement& at, const st
             std::fill(row.begin(), row.end(), 0.0);
             const float* texels = sb.rgb.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(n) * 3;
             for (int i = 0; i < n; ++i) {
-                if (in_core(i, j)) continue;
+                if (left_out(i, j)) continue;
                 const std::size_t k = static_cast<std::size_t>(column[static_cast<std::size_t>(i)] - first) * 3;
                 const double a = right[static_cast<std::size_t>(i)];
                 for (std::size_t c = 0; c < 3; ++c) {
@@ -630,6 +630,13 @@ std::vector<double> ellipse_kernel(const SourceEllipse& s, int radius) {
     return k;
 }
 
+// What the texture carries of a light of `power`: all but the tail's share.
+std::array<double, 3> texture_power(const StarburstTail& tail, const std::array<double, 3>& power) {
+    std::array<double, 3> p{};
+    for (std::size_t c = 0; c < 3; ++c) p[c] = power[c] * (1.0 - tail.share[c]);
+    return p;
+}
+
 // The texture of a light with an extent spread over its ellipse (every point of the light makes the
 // pattern): drawn into a buffer around the light, each pixel shared over the ellipse's offsets, added to
 // the image. A point (semi-axes under half a pixel) is splatted directly.
@@ -679,11 +686,19 @@ StarburstTail draw_starburst(const Starburst& sb, const Aperture& aperture, doub
                              const std::array<double, 3>& power, const SensorImage& image) {
     if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return {};
     const StarburstTail tail = starburst_tail_share(sb, aperture, at.f_number, length_scale);
-    std::array<double, 3> texture_power{};
-    for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
-    splat_over_source(sb, at, texture_power, image);
+    StarburstPlacement rest = at;
+    rest.only_core = false;
+    splat_over_source(sb, rest, texture_power(tail, power), image);
     draw_starburst_tail(sb, aperture, length_scale, at, power, image);
     return tail;
+}
+
+void draw_starburst_core(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
+                         const std::array<double, 3>& power, const SensorImage& image) {
+    if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return;
+    StarburstPlacement core = at;
+    core.only_core = true;
+    splat_over_source(sb, core, texture_power(starburst_tail_share(sb, aperture, at.f_number, length_scale), power), image);
 }
 
 }  // namespace lensfx::optics

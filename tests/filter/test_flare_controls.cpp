@@ -296,6 +296,45 @@ TEST(FlareControls, AddedSunHasSpikesAsWideAsItWithSoftEdges) {
     EXPECT_GE(width_above(point_across, 3e-4 * point_peak), 4.5);
 }
 
+namespace {
+
+// Green summed over the pixels whose centres lie within r px of (cx, cy).
+double green_within(const Image& im, double cx, double cy, double r) {
+    double sum = 0.0;
+    for (int y = 0; y < im.height; ++y)
+        for (int x = 0; x < im.width; ++x)
+            if (std::hypot(x + 0.5 - cx, y + 0.5 - cy) <= r)
+                sum += static_cast<double>(im.px[(static_cast<std::size_t>(y) * static_cast<std::size_t>(im.width) + static_cast<std::size_t>(x)) *
+                                                     static_cast<std::size_t>(im.channels) + 1]);
+    return sum;
+}
+
+}  // namespace
+
+// Issue 16 (the gallery's Tree had no sun): a light added on a plate that lacks it gets its core drawn, the
+// light's own image (most of its energy, over its disc); a light the plate holds does not (its pixels are
+// its core), nor does an added light over it.
+TEST(FlareControls, AddedLightGetsTheCoreThePlateLacks) {
+    const fs::path dir = temp_dir("added_core");
+    write_frame(dir / "black.exr", {}, 0.0f);
+    write_frame(dir / "lamp.exr", {{160.5, 100.5, 4.0, 20000.0}}, 0.0f);
+    const std::string options = kLens + " --flare-only --parts starburst";
+    const double disc = 20000.0 * std::numbers::pi * 16.0;
+    const Image added = run_filter(dir, "black.exr", "added.exr", options + " --add-light 160.5,100.5,20000,4");
+    const Image held = run_filter(dir, "lamp.exr", "held.exr", options);
+    const Image over = run_filter(dir, "lamp.exr", "over.exr", options + " --add-light 160.5,100.5,20000,3");
+    const Image lamp = read(dir / "lamp.exr");
+    const double lamp_flux = green_within(lamp, 160.5, 100.5, 8.0);
+    std::printf("within 6 px: added %.3f of its disc, its peak %.0f; held lamp %.3f, added over it %.3f of the lamp\n",
+                green_within(added, 160.5, 100.5, 6.0) / disc, green_at(added, 160.5, 100.5), green_within(held, 160.5, 100.5, 6.0) / lamp_flux,
+                green_within(over, 160.5, 100.5, 6.0) / lamp_flux);
+    // The core (some 90%) and the rest of the pattern near the light: about the whole disc (before, 0.1).
+    EXPECT_NEAR(green_within(added, 160.5, 100.5, 6.0) / disc, 1.0, 0.1);
+    EXPECT_GT(green_at(added, 160.5, 100.5), 0.6 * 20000.0);
+    EXPECT_LT(green_within(held, 160.5, 100.5, 6.0), 0.2 * lamp_flux);
+    EXPECT_LT(green_within(over, 160.5, 100.5, 6.0), 0.25 * lamp_flux);
+}
+
 TEST(FlareControls, TrackGainAndExcludeControlEachTrack) {
     const fs::path dir = temp_dir("tracks");
     write_frame(dir / "black.exr", {}, 0.0f);

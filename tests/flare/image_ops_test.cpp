@@ -1,11 +1,15 @@
 // The composite's image operations (flare/image_ops.h): regions, nonzero_region, add and add_resized between
 // views placed at different origins, clipped to both and held within float range.
+#include <algorithm>
+#include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include <flare/image_ops.h>
+#include <opencv2/imgproc.hpp>
 
 namespace lensfx::flare {
 namespace {
@@ -115,6 +119,41 @@ TEST(ImageOps, AddResizedSaturatesAndLeavesNoNaNBesideAnInfinitePixel) {
     EXPECT_EQ(dst[2], inf);   // an infinite input passes through
     EXPECT_EQ(dst[3], big);   // its neighbour, at its own centre, is not NaN
     EXPECT_EQ(dst[5], big);
+}
+
+// The footprint's enlargements were OpenCV's bilinear resize (pixel centres aligned, edges held); add_resized
+// into zeros gives the same image within float rounding: whole factors and a stretch to an odd size.
+TEST(ImageOps, AddResizedIntoZerosIsOpenCvsBilinearResize) {
+    const int sw = 13, sh = 9;
+    const std::vector<float> src = image_of(sw, sh, [](int x, int y, int c) { return std::sin(0.7f * x + 1.3f * y + c) + 1.5f; });
+    for (const auto& [w, h] : {std::pair{39, 27}, std::pair{52, 36}, std::pair{50, 31}}) {
+        std::vector<float> ours(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        add_resized(RgbView{ours.data(), 0, 0, w, h}, ConstRgbView{src.data(), 0, 0, sw, sh}, Region{0, 0, w, h});
+        cv::Mat theirs;
+        cv::resize(cv::Mat(sh, sw, CV_32FC3, const_cast<float*>(src.data())), theirs, cv::Size(w, h), 0.0, 0.0, cv::INTER_LINEAR);
+        float worst = 0.0f;
+        for (std::size_t i = 0; i < ours.size(); ++i) worst = std::max(worst, std::abs(ours[i] - theirs.ptr<float>()[i]));
+        EXPECT_LT(worst, 4e-6f) << w << "x" << h;  // values 0.5..2.5: a few float steps
+    }
+}
+
+// The Mitchell taps sample where the bilinear ones do: at the same size each pixel is its own centre (weights
+// 1/18, 16/18, 1/18 over its neighbours), and enlarged the four weights sum to one over pixels of the source.
+TEST(ImageOps, MitchellTapsShareTheBilinearMappingAndSumToOne) {
+    for (const CubicTap& t : mitchell_taps(3, 3)) {
+        EXPECT_NEAR(t.f[0], 1.0 / 18.0, 1e-7);
+        EXPECT_NEAR(t.f[1], 16.0 / 18.0, 1e-7);
+        EXPECT_NEAR(t.f[2], 1.0 / 18.0, 1e-7);
+        EXPECT_EQ(t.f[3], 0.0f);
+    }
+    const std::vector<BilinearTap> bilinear = bilinear_taps(11, 4);
+    const std::vector<CubicTap> cubic = mitchell_taps(11, 4);
+    for (std::size_t i = 0; i < cubic.size(); ++i) {
+        const CubicTap& t = cubic[i];
+        EXPECT_EQ(t.i[1], bilinear[i].i0);
+        EXPECT_NEAR(t.f[0] + t.f[1] + t.f[2] + t.f[3], 1.0, 1e-6);
+        for (int j = 0; j < 4; ++j) EXPECT_TRUE(t.i[j] >= 0 && t.i[j] <= 3);
+    }
 }
 
 }  // namespace

@@ -297,3 +297,30 @@ TEST(StarburstTail, SpikesAreAsWideAsTheSource) {
     const auto centre = [](const std::vector<float>& rgb) { return rgb[(static_cast<std::size_t>(kHeight / 2) * kWidth + kWidth / 2) * 3 + 1]; };
     EXPECT_LT(centre(sun), 0.2f * centre(point));
 }
+
+// Issue 16 (the Tree's added sun had no disc): the core a light's recorded pixels hold, drawn alone for a
+// light the image lacks. It is the texels draw_starburst leaves out, spread over the light: with them the
+// pattern is whole again (energy kept per channel), it lies within the light's disc, and it is most of the
+// light.
+TEST(StarburstTail, CoreAloneIsWhatThePatternLeavesOut) {
+    const Starburst& texture = hexagon_texture();
+    const double core = starburst_core_radius_texels(texture);
+    const SourceEllipse sun{4.0, 4.0, 0.0};
+    const StarburstPlacement at{kWidth / 2.0, kHeight / 2.0, kFNumber, core, sun};
+    const std::size_t n = static_cast<std::size_t>(kWidth) * kHeight * 3;
+    std::vector<float> whole(n, 0.0f), parts(n, 0.0f), alone(n, 0.0f);
+    draw_starburst(texture, kHexagon, 1.0, {at.cx, at.cy, kFNumber, 0.0, sun}, {1.0, 1.0, 1.0}, {whole.data(), kWidth, kHeight, kPixelMm, kPixelMm});
+    draw_starburst(texture, kHexagon, 1.0, at, {1.0, 1.0, 1.0}, {parts.data(), kWidth, kHeight, kPixelMm, kPixelMm});
+    draw_starburst_core(texture, kHexagon, 1.0, at, {1.0, 1.0, 1.0}, {alone.data(), kWidth, kHeight, kPixelMm, kPixelMm});
+    double worst = 0.0;
+    for (std::size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(static_cast<double>(parts[i] + alone[i] - whole[i])));
+    const float peak = *std::max_element(whole.begin(), whole.end());
+    std::printf("core + rest against the whole pattern: worst %.3g of the peak\n", worst / static_cast<double>(peak));
+    EXPECT_LT(worst, 1e-4 * static_cast<double>(peak));
+    for (int c = 0; c < 3; ++c) {
+        const double in_core = outside(alone, 0.0, c), beyond_disc = outside(alone, 6.0, c);
+        std::printf("channel %d: core %.3f of the light, %.2g of it beyond 6 px\n", c, in_core, beyond_disc / in_core);
+        EXPECT_GT(in_core, 0.7) << c;
+        EXPECT_LT(beyond_disc, 1e-3 * in_core) << c;
+    }
+}

@@ -3,6 +3,7 @@
 // by hand; and what the run found (lights per frame, the brightest luminance when none was found).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -21,7 +22,8 @@ class App;
 namespace lensfx::filter {
 
 // A disc of `value` (R = G = B) and `radius` px at display-window pixel position (x, y) (pixel centres at
-// i + 0.5): what `--add-light X,Y,VALUE[,RADIUS]` puts into the image the detector sees.
+// i + 0.5): what `--add-light X,Y,VALUE[,RADIUS]` puts into the image the detector sees; what the plate
+// lacks of it is drawn as its starburst's core with the flare.
 struct AddedLight {
     double x = 0.0;
     double y = 0.0;
@@ -61,6 +63,13 @@ struct MatteImage {
     [[nodiscard]] float at(int dx, int dy) const;
 };
 
+// An added light and the light it adds to the plate under it, per channel (sum over its disc of the covered
+// fraction times value - plate, where the plate is the darker): the image of it the plate does not hold.
+struct UnheldLight {
+    AddedLight light;
+    std::array<double, 3> flux{};
+};
+
 class DetectionInput {
 public:
     // Parses --add-light and reads a still matte, sized against `budget` (--memory-limit).
@@ -68,6 +77,8 @@ public:
     [[nodiscard]] bool changes_the_plate() const { return !matte_.empty() || !matte_channel_.empty() || !lights_.empty(); }
     // The view for this frame (valid until the next call). Throws naming the matte file or channel.
     detect::ImageView view(const Frame& frame);
+    // The added lights of the last view() with what each adds to that frame's plate.
+    [[nodiscard]] const std::vector<UnheldLight>& unheld() const { return unheld_; }
 
 private:
     using Matte = MatteImage;
@@ -77,6 +88,7 @@ private:
     std::optional<Matte> still_;  // a matte without a frame token, read once
     std::string matte_channel_;
     std::vector<AddedLight> lights_;
+    std::vector<UnheldLight> unheld_;
     std::vector<float> buffer_;
 
     Matte matte_for(const Frame& frame);

@@ -75,11 +75,13 @@ inline constexpr double kMaxSourceSpreadPx = 64.0;
 
 // Where a light's starburst goes: its centre (pixels, continuous, (0,0) the top-left corner), the lens's
 // f-number N (the pattern's scale), the radius (texels) of the core left out and the light's own extent.
+// only_core turns the core round: only the texels within core_radius_texels are drawn (draw_starburst_core).
 struct StarburstPlacement {
     double cx = 0.0, cy = 0.0;
     double f_number = 0.0;
     double core_radius_texels = 0.0;
     SourceEllipse source{};
+    bool only_core = false;
 };
 
 // Adds a starburst of the given total power per channel (image units x mm^2) placed as `at` says to `image`.
@@ -120,6 +122,12 @@ StarburstTail starburst_tail_share(const Starburst& starburst, const Aperture& a
 // the texture fades out; arguments as draw_starburst's.
 void draw_starburst_tail(const Starburst& starburst, const Aperture& aperture, double length_scale,
                          const StarburstPlacement& at, const std::array<double, 3>& power, const SensorImage& image);
+
+// The core alone (the texels within at.core_radius_texels, spread over the light's extent) of a light of
+// `power` per channel: what draw_starburst leaves out, for a light the image does not hold (--add-light on
+// a plate without it). The core and draw_starburst's part of the same light sum to the whole pattern.
+void draw_starburst_core(const Starburst& starburst, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
+                         const std::array<double, 3>& power, const SensorImage& image);
 
 // Energy of the iris's pattern outside radius rho (in wavelength x f-number), asymptotically: P R / (pi^2 A rho).
 double starburst_tail_coefficient(const Aperture& aperture);
