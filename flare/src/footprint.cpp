@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <numbers>
 
@@ -57,18 +58,70 @@ struct FootprintSampler {
     static constexpr double kMaxSamples = 2048.0;
 };
 
+// The pixels of an RGB image (width x height, top row first) that hold any light: [x0, x1) x [y0, y1), empty
+// (x1 <= x0) when none do. A row is scanned from either end to its first lit value, so an image lit nearly
+// everywhere costs little.
+struct LitBox {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+LitBox lit_box(const std::vector<float>& rgb, int width, int height) {
+    LitBox box{width, height, 0, 0};
+    const auto values = static_cast<std::ptrdiff_t>(width) * 3;
+    for (int y = 0; y < height; ++y) {
+        const float* row = rgb.data() + y * values;
+        const float* first = std::find_if(row, row + values, [](float v) { return v != 0.0f; });
+        if (first == row + values) continue;
+        const auto last = std::find_if(std::make_reverse_iterator(row + values), std::make_reverse_iterator(first),
+                                       [](float v) { return v != 0.0f; });
+        box.x0 = std::min(box.x0, static_cast<int>((first - row) / 3));
+        box.x1 = std::max(box.x1, static_cast<int>((last.base() - 1 - row) / 3) + 1);
+        box.y0 = std::min(box.y0, y);
+        box.y1 = y + 1;
+    }
+    return box;
+}
+
+// convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
+void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
+
 }  // namespace
 
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m) {
     const FootprintSampler weight_at{shape};
-    const double cell = weight_at.cell;
-    const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     const int rx = weight_at.reach_x(m), ry = weight_at.reach_y(m);
     if (rx >= FootprintSampler::kMaxReach || ry >= FootprintSampler::kMaxReach) {
         // Spread over half a billion pixels or more: no pixel keeps a float-visible share of the light.
         std::fill(rgb.begin(), rgb.end(), 0.0f);
         return;
     }
+    // Only the lit pixels and as far as the kernel (and a reduced image's filters) reach from them: beyond
+    // that the result is 0. Where that is under half the image, the part is convolved alone (a sharp ghost of
+    // an extended lamp, pan1080 with canon-70-200: 0.19 s of CPU a group on the whole 1080p frame).
+    const LitBox lit = lit_box(rgb, width, height);
+    if (lit.x1 <= lit.x0) return;  // no light to spread
+    const int factor = std::max(1, std::max(rx, ry) / (kMaxKernelRadius / 2));
+    const int bx0 = std::max(0, lit.x0 - rx - 2 * factor), by0 = std::max(0, lit.y0 - ry - 2 * factor);
+    const int x0 = bx0 - bx0 % factor, y0 = by0 - by0 % factor;  // a reduced image's cells stay the whole image's
+    const int x1 = std::min(width, lit.x1 + rx + 2 * factor), y1 = std::min(height, lit.y1 + ry + 2 * factor);
+    const int w = x1 - x0, h = y1 - y0;
+    if (2.0 * w * h >= static_cast<double>(width) * height) {
+        convolve_whole(rgb, width, height, shape, m, rx, ry);
+        return;
+    }
+    const auto row_values = static_cast<std::ptrdiff_t>(w) * 3;
+    std::vector<float> part(static_cast<std::size_t>(row_values) * static_cast<std::size_t>(h));
+    auto at = [&](int y) { return rgb.begin() + (static_cast<std::ptrdiff_t>(y) * width + x0) * 3; };
+    for (int y = 0; y < h; ++y) std::copy_n(at(y0 + y), row_values, part.begin() + y * row_values);
+    convolve_whole(part, w, h, shape, m, rx, ry);
+    for (int y = 0; y < h; ++y) std::copy_n(part.begin() + y * row_values, row_values, at(y0 + y));
+}
+
+namespace {
+
+void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry) {
+    const FootprintSampler weight_at{shape};
+    const double cell = weight_at.cell;
+    const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and upsample bilinearly.
@@ -118,6 +171,8 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
     out.copyTo(image);
 }
+
+}  // namespace
 
 namespace {
 

@@ -32,8 +32,10 @@ std::pair<double, double> centroid_x(const std::vector<float>& rgb, int width, i
 
 }  // namespace
 
-TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
-    // A bar 12 px wide, 4 px tall, to the right of the light (cells of 2 px): its centre 6 px right.
+namespace {
+
+// A bar 12 px wide, 4 px tall, to the right of the light (cells of 2 px): its centre 6 px right.
+detect::Shape right_bar() {
     detect::Shape bar;
     bar.width = 6;
     bar.height = 2;
@@ -41,6 +43,13 @@ TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
     bar.origin_x = 0.0;
     bar.origin_y = -2.0;
     bar.weights.assign(12, 1.0f / 12.0f);
+    return bar;
+}
+
+}  // namespace
+
+TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
+    const detect::Shape bar = right_bar();
     const int w = 121, h = 41;
     for (const double m : {1.0, 2.0, -1.5, 0.5, -0.25}) {
         std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
@@ -83,6 +92,39 @@ TEST(Footprint, GroupsFollowEachGhostsBlurAndMagnification) {
     for (std::size_t k = 1; k < groups.size(); ++k) sharp[groups[k].magnification] = groups[k].ghosts;
     EXPECT_EQ(sharp.at(1.0), (std::vector<std::pair<int, int>>{{1, 0}}));
     EXPECT_EQ(sharp.at(-2.0), (std::vector<std::pair<int, int>>{{2, 0}}));
+}
+
+// A few lit pixels in a large image are convolved over the part the kernel reaches from them only: the same
+// values as the whole of a small image holding them, 0 everywhere else, also where the part meets the border.
+TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
+    const detect::Shape bar = right_bar();
+    const int w = 600, h = 400, sw = 71, sh = 25;  // the small image: the light at its centre, and the kernel's reach
+    for (const auto& [lx, ly] : {std::pair{300, 200}, std::pair{2, 397}}) {
+        std::vector<float> large(static_cast<std::size_t>(w * h * 3), 0.0f);
+        std::vector<float> small(static_cast<std::size_t>(sw * sh * 3), 0.0f);
+        const int ox = lx - sw / 2, oy = ly - sh / 2;  // the small image's corner in the large one
+        for (const auto& [dx, dy] : {std::pair{0, 0}, std::pair{3, 1}}) {
+            if (lx + dx >= w || ly + dy >= h) continue;
+            large[static_cast<std::size_t>((ly + dy) * w + lx + dx) * 3 + 1] = 2.0f;
+            small[static_cast<std::size_t>((ly + dy - oy) * sw + lx + dx - ox) * 3 + 1] = 2.0f;
+        }
+        flare::convolve_footprint(large, w, h, bar, 2.0);
+        flare::convolve_footprint(small, sw, sh, bar, 2.0);
+        double worst = 0.0, outside = 0.0, sum = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const double v = large[static_cast<std::size_t>(y * w + x) * 3 + 1];
+                sum += v;
+                const int sx = x - ox, sy = y - oy;
+                if (sx >= 0 && sy >= 0 && sx < sw && sy < sh)
+                    worst = std::max(worst, std::abs(v - static_cast<double>(small[static_cast<std::size_t>(sy * sw + sx) * 3 + 1])));
+                else
+                    outside = std::max(outside, std::abs(v));
+            }
+        EXPECT_GT(sum, 0.5) << "light at " << lx << "," << ly;
+        EXPECT_LT(worst, 1e-6) << "light at " << lx << "," << ly;
+        EXPECT_EQ(outside, 0.0) << "light at " << lx << "," << ly;
+    }
 }
 
 TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {

@@ -65,6 +65,15 @@ std::vector<GhostEstimate> five_estimates(double pixel_mm) {
     return e;
 }
 
+// The level of detail's settings of these tests: base grid 32 at pixel_mm; and all five ghosts selected.
+DetailSettings detail_32(double pixel_mm) {
+    DetailSettings detail;
+    detail.base_grid = 32;
+    detail.pixel_mm = pixel_mm;
+    return detail;
+}
+GhostSelection five_ghosts() { return GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {}); }
+
 TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
     const double pixel_mm = 0.01;
     const std::vector<GhostEstimate> e = five_estimates(pixel_mm);
@@ -94,10 +103,8 @@ TEST(PlanPass, WhichGhostsAtWhichGridAndLevel) {
 TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const double pixel_mm = 0.01;
     std::vector<GhostEstimate> e = five_estimates(pixel_mm);
-    const GhostSelection selection = GhostSelection::of(ghost_list({{1, 0}, {2, 0}, {3, 0}, {4, 0}, {5, 0}}), {}, {});
-    DetailSettings detail;
-    detail.base_grid = 32;
-    detail.pixel_mm = pixel_mm;
+    const GhostSelection selection = five_ghosts();
+    DetailSettings detail = detail_32(pixel_mm);
     std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Spiky, SceneVerdict::Draw,
                                           SceneVerdict::Cull, SceneVerdict::Cull};
     // Ghost 1 sharp and Spiky (caustics: a spike far above the coarse estimate could show): coarsened, but it
@@ -137,6 +144,31 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     detail.batch_faint = false;
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).todo, (std::vector<std::size_t>{0, 1}));
     EXPECT_TRUE(plan_pass(e, 0.0, verdicts, selection, detail, 0).batched.empty());
+}
+
+// A faint ghost's grid: 8 cells when its outline loses no light to dropped cells (no failed rays in the
+// coarse pass) and it is smooth; 16 (kMinGrid) with failed rays along its outline, or with caustics.
+TEST(PlanPass, FaintGhostsWithAnOpenOutlineGetACoarserGrid) {
+    const double pixel_mm = 0.01;
+    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    const GhostSelection selection = five_ghosts();
+    const DetailSettings detail = detail_32(pixel_mm);
+    const std::vector<SceneVerdict> verdicts = {SceneVerdict::Faint, SceneVerdict::Faint, SceneVerdict::Draw,
+                                                SceneVerdict::Cull, SceneVerdict::Faint};
+    e[0].failed_edge = 0.0;
+    e[0].area_cv = 0.05;
+    e[1].failed_edge = 0.0;
+    e[1].area_cv = 0.5;  // caustics
+    e[4].failed_edge = 0.2;
+    e[4].area_cv = 0.05;
+    const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
+    EXPECT_EQ(plan.batched, (std::vector<std::size_t>{0, 1, 4}));
+    EXPECT_EQ(plan.plans[0].grid, 8);
+    EXPECT_EQ(plan.plans[1].grid, 16);
+    EXPECT_EQ(plan.plans[4].grid, 16);
+    // Drawn (not faint), the same open ghost keeps the level of detail's grid.
+    const PassPlan drawn = plan_pass(e, 0.0, {}, selection, detail, 0);
+    EXPECT_EQ(drawn.plans[0].grid, 16);
 }
 
 TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {

@@ -31,8 +31,9 @@ std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& g
                                              double pixel_mm);
 
 // Convolves an RGB image (width x height, top row first) with a light's footprint scaled by magnification m
-// (negative: turned round), normalised to keep the image's sum. One DFT-based filter of the whole image, so
-// the cost follows the frame and kernel size, not the source's pixel count; kernels wider than
+// (negative: turned round), normalised to keep the image's sum. One DFT-based filter of the image, so the
+// cost follows the frame and kernel size, not the source's pixel count; only of the part the kernel reaches
+// from the lit pixels where that is under half the image (the rest stays 0); kernels wider than
 // kMaxKernelRadius pixels are applied to the image reduced so that they are half that.
 inline constexpr int kMaxKernelRadius = 64;
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
