@@ -201,7 +201,8 @@ void check_declared_value(std::FILE* f, const std::string& name, const std::stri
 // Walks the headers first: each declared size must fit in the file and agree with the attribute's own
 // layout, and the data window and tiles must be of a size lensfx reads (check_declared_value). Throws
 // std::runtime_error naming the attribute; a layout cut short is left to OpenEXR to report.
-void check_attribute_sizes(const File& f) {
+void check_attribute_sizes(const std::string& path) {
+    File f(std::fopen(path.c_str(), "rb"), &std::fclose);
     unsigned char start[8];
     if (!f || std::fseek(f.get(), 0, SEEK_END) != 0) return;
     const long file_size = std::ftell(f.get());
@@ -248,7 +249,7 @@ void check_attribute_sizes(const File& f) {
 
 }  // namespace
 
-void check_exr_header(const std::string& path) { check_attribute_sizes(File(std::fopen(path.c_str(), "rb"), &std::fclose)); }
+void check_exr_header(const std::string& path) { check_attribute_sizes(path); }
 
 bool is_exr_file(const std::string& path) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
