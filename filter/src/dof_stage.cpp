@@ -13,6 +13,7 @@
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
 #include <filter/option_checks.h>
+#include <filter/output_files.h>
 #include <flare/cache.h>
 #include <flare/flare.h>
 #include <optics/system.h>
@@ -264,6 +265,7 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
     if (!settings.deep.empty()) {
         std::vector<dof::DeepImage> images;
         for (const std::string& f : split_commas(settings.deep)) {
+            require_regular_file(f, "--deep");  // a named pipe would block the open
             try {
                 check_exr_header(f);  // before OpenEXR reads what the headers declare
             } catch (const std::runtime_error& e) {

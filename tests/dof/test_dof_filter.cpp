@@ -1,6 +1,8 @@
 // `lensfx -i IN -o OUT --dof`: the stage through the program on small synthetic EXRs with Z.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -197,6 +199,27 @@ TEST(DofFilter, MissingDepthIsAOneLineError) {
     EXPECT_NE(r.stderr_text.find("no depth channel \"Z\""), std::string::npos) << r.stderr_text;
     EXPECT_NE(r.stderr_text.find("flat.exr"), std::string::npos) << r.stderr_text;
     EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+}
+
+// --deep inputs that are not regular files are refused in one line, before anything opens them (a named pipe
+// with no writer would block the open for ever); a damaged header is refused before OpenEXR reads it.
+TEST(DofFilter, DeepInputThatIsNoRegularFileOrHasADamagedHeaderIsAOneLineError) {
+    const auto dir = lensfx::test::scratch_dir("dof_deep_special");
+    const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
+    const std::string fifo = (dir / "pipe.exr").string();
+    std::filesystem::remove(fifo);
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    const std::string chunks = std::string(LENSFX_SOURCE_DIR) + "/fuzz/corpus/exr_reader/finding-chunk-count.exr";
+    const std::pair<std::string, std::string> cases[] = {
+        {fifo, "a named pipe, not a regular file"}, {dir.string(), "a directory, not a regular file"}, {chunks, "header attribute \"chunkCount\" declares"}};
+    for (const auto& [deep, expected] : cases) {
+        const auto r = lensfx::test::run("timeout 60 " + lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
+                                         " --dof --dof-only --lens mld-double-gauss --focus 1 --deep " + deep);
+        EXPECT_EQ(r.exit_code, 1) << deep << ": " << r.stderr_text;
+        EXPECT_NE(r.stderr_text.find("--deep " + deep + ": " + expected), std::string::npos) << r.stderr_text;
+        EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+    }
+    std::filesystem::remove(fifo);
 }
 
 TEST(DofFilter, NeedsALensAndAFocus) {
