@@ -81,6 +81,10 @@ LitBox lit_box(const std::vector<float>& rgb, int width, int height) {
     return box;
 }
 
+// The factor a kernel of half-widths rx, ry (pixels) is convolved reduced by: 2 or more reduces the image,
+// 0 or 1 keeps it (convolve_whole), and a part convolved alone stays on the reduced image's cells.
+int kernel_reduction(int rx, int ry) { return std::max(rx, ry) / (kMaxKernelRadius / 2); }
+
 // convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
 void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
 
@@ -99,7 +103,7 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     // an extended lamp, pan1080 with canon-70-200: 0.19 s of CPU a group on the whole 1080p frame).
     const LitBox lit = lit_box(rgb, width, height);
     if (lit.x1 <= lit.x0) return;  // no light to spread
-    const int factor = std::max(1, std::max(rx, ry) / (kMaxKernelRadius / 2));
+    const int factor = std::max(1, kernel_reduction(rx, ry));
     const int bx0 = std::max(0, lit.x0 - rx - 2 * factor), by0 = std::max(0, lit.y0 - ry - 2 * factor);
     const int x0 = bx0 - bx0 % factor, y0 = by0 - by0 % factor;  // a reduced image's cells stay the whole image's
     const int x1 = std::min(width, lit.x1 + rx + 2 * factor), y1 = std::min(height, lit.y1 + ry + 2 * factor);
@@ -122,7 +126,7 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
     const FootprintSampler weight_at{shape};
     const double cell = weight_at.cell;
     const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
-    if (const int factor = std::max(rx, ry) / (kMaxKernelRadius / 2); factor >= 2) {
+    if (const int factor = kernel_reduction(rx, ry); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and upsample bilinearly.
         const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
