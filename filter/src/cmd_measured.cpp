@@ -29,11 +29,11 @@
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/system.h>
+#include <optics/text_pairs.h>
 
 #include <filter/flare_stage.h>
 
 #include "commands.h"
-#include "text_pairs.h"
 #include <filter/option_checks.h>
 
 namespace lensfx::filter {

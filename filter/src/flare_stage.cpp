@@ -38,6 +38,7 @@
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/starburst.h>
+#include <optics/stopwatch.h>
 #include <optics/system.h>
 #include <optics/tracer.h>
 
@@ -47,8 +48,6 @@
 #include <filter/visibility.h>
 
 #include <filter/colour/matrix.h>
-
-#include "stopwatch.h"
 
 namespace lensfx::filter {
 
