@@ -85,6 +85,14 @@ LitBox lit_box(const std::vector<float>& rgb, int width, int height) {
 // 0 or 1 keeps it (convolve_whole), and a part convolved alone stays on the reduced image's cells.
 int kernel_reduction(int rx, int ry) { return std::max(rx, ry) / (kMaxKernelRadius / 2); }
 
+// The footprint in the pixels of an image reduced by `factor` (reduced_side's mapping).
+detect::Shape reduced_shape(detect::Shape shape, int factor) {
+    shape.cell /= factor;
+    shape.origin_x /= factor;
+    shape.origin_y /= factor;
+    return shape;
+}
+
 // convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
 void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
 
@@ -128,21 +136,14 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
     const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     if (const int factor = kernel_reduction(rx, ry); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
-        // size (area averages), with the footprint in those pixels, and upsample bilinearly.
-        const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
-        cv::Mat image(height, width, CV_32FC3, rgb.data());
-        cv::Mat small;
-        cv::resize(image, small, cv::Size(sw, sh), 0.0, 0.0, cv::INTER_AREA);
-        std::vector<float> small_rgb;
-        small_rgb.assign(reinterpret_cast<const float*>(small.data),
-                         reinterpret_cast<const float*>(small.data) + static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
-        detect::Shape reduced = shape;
-        reduced.cell /= factor;
-        reduced.origin_x /= factor;
-        reduced.origin_y /= factor;
-        convolve_footprint(small_rgb, sw, sh, reduced, m);
+        // size (area averages), with the footprint in those pixels, and enlarge bilinearly (image_ops.h's
+        // one mapping: reduced pixel i covers pixels [i f, (i + 1) f), as the footprint's reduced cells).
+        const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
+        std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
+        reduce_area(RgbView{small.data(), 0, 0, sw, sh}, ConstRgbView{rgb.data(), 0, 0, width, height}, factor);
+        convolve_footprint(small, sw, sh, reduced_shape(shape, factor), m);
         std::fill(rgb.begin(), rgb.end(), 0.0f);
-        add_resized(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small_rgb.data(), 0, 0, sw, sh}, Region{0, 0, width, height});
+        add_enlarged(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
         return;
     }
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0));
@@ -236,7 +237,7 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
                        int height) {
     const FootprintSampler footprint{shape};
     const int factor = std::clamp(std::max(footprint.reach_x(1.0), footprint.reach_y(1.0)) / 8, 1, std::max(1, std::max(width, height) / 8));
-    const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
+    const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
     std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3, 0.0f);
     optics::draw_starburst_tail(sb, aperture, length_scale, {cx / factor, cy / factor, f_number, 0.0}, power,
                                 {small.data(), sw, sh, pixel_w_mm * factor, pixel_h_mm * factor});
@@ -248,14 +249,10 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
         for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
             if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
                 std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
-    detect::Shape reduced = shape;
-    reduced.cell /= factor;
-    reduced.origin_x /= factor;
-    reduced.origin_y /= factor;
-    convolve_footprint(small, sw, sh, reduced, 1.0);
+    convolve_footprint(small, sw, sh, reduced_shape(shape, factor), 1.0);
     // Enlarged to the frame, pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
     std::vector<float> full(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3, 0.0f);
-    add_resized(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, Region{0, 0, sw * factor, sh * factor});
+    add_enlarged(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
     for (int y = 0; y < height; ++y) {
         const float* from = full.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
         float* to = rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
