@@ -4,6 +4,7 @@
 # whole (PNG, EXR, PFM, raw streams; EXR files carry no build or time metadata), except a TIFF, which carries
 # the time it was written (DateTime): it is hashed as oiiotool describes it (pixels' SHA-1, other attributes).
 #   bash scripts/behaviour_hashes.sh [LENSFX] > hashes.txt     (LENSFX: default build/lensfx)
+# FLARE_SIZE=WxH sets the size of the per-lens `lensfx flare` runs (default 240x160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 LENSFX=$(realpath "${1:-build/lensfx}")
@@ -11,6 +12,7 @@ T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 export LENSFX_CACHE_DIR=none      # no cache hit or miss may change a result
 S=samples/pan
+FLARE_SIZE=${FLARE_SIZE:-240x160}
 
 # content FILE : what is hashed of an output file.
 content() {
@@ -36,11 +38,16 @@ stream() {
 # The README's main job (scripts/demo.sh), on four frames of the sample shot.
 run "$LENSFX" -i "$S/pan.####.exr" -o "$T/out.####.exr" --frames 9-12 --lens brendel-tessar --fstop 5.6 --grid 64 \
     --gain 20 --starburst-scale 20 -q
+# The demo's own options (extended sources' footprints at --extended-gain 0.2), and added extended lights.
+run "$LENSFX" -i "$S/pan.####.exr" -o "$T/out.####.exr" --frames 1,12 --lens brendel-tessar --fstop 5.6 --grid 64 \
+    --ghost-gain 20 --starburst-gain 4 --starburst-scale 10 --extended-gain 0.2 -q
+run "$LENSFX" -i "$S/pan.0012.exr" -o "$T/out.exr" --lens mld-double-gauss --add-light 300,200,5000,14 \
+    --add-light 700,120,2000,30 --gain 20 -q
 # One light through every preset lens at two angles (ghosts and starburst).
 for lens in presets/lenses/*.toml; do
     name=$(basename "$lens" .toml)
     for angle in 3,2 14,9; do
-        run "$LENSFX" flare --lens "$name" --angle "$angle" --size 240x160 -o "$T/out.exr"
+        run "$LENSFX" flare --lens "$name" --angle "$angle" --size "$FLARE_SIZE" -o "$T/out.exr"
     done
 done
 run "$LENSFX" flare --lens cooke-triplet --angle 8,5 --size 240x160 --bands 7 --band-filter -o "$T/out.exr" --preview "$T/out.png"

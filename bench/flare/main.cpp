@@ -30,15 +30,14 @@
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/presets.h>
+#include <optics/stopwatch.h>
 #include <optics/system.h>
+#include <optics/text_pairs.h>
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double ms_since(Clock::time_point start) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using lensfx::ms_since;
 
 // CPU time of the whole process (llvmpipe's threads included), in ms: on a shared machine less disturbed
 // by others' work than the wall time.
@@ -46,6 +45,15 @@ double process_cpu_ms() {
     timespec t{};
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
     return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+}
+
+// Reads the two numbers of an option's "A<sep>B" value into a and b; throws naming the option when it is not that.
+template <typename T>
+void read_pair(const std::string& key, const std::string& value, char sep, T& a, T& b) {
+    const auto pair = lensfx::parse_pair_of<T>(value, sep);
+    if (!pair) throw std::invalid_argument(fmt::format("{} {}: give two numbers as A{}B", key, value, sep));
+    a = (*pair)[0];
+    b = (*pair)[1];
 }
 
 std::vector<std::string> split(const std::string& text, char sep) {
@@ -77,9 +85,9 @@ int main(int argc, char** argv) try {
         const std::string key = argv[i];
         const std::string value = argv[i + 1];
         if (key == "--presets") presets = split(value, ',');
-        else if (key == "--angle") { const auto v = split(value, ','); ax = std::stod(v.at(0)); ay = std::stod(v.at(1)); }
+        else if (key == "--angle") read_pair(key, value, ',', ax, ay);
         else if (key == "--fstop") fstop = std::stod(value);
-        else if (key == "--size") { const auto v = split(value, 'x'); width = std::stoi(v.at(0)); height = std::stoi(v.at(1)); }
+        else if (key == "--size") read_pair(key, value, 'x', width, height);
         else if (key == "--grid") grid = std::stoi(value);
         else if (key == "--rays") rays = std::stoi(value);
         else if (key == "--full-target-bytes") full_target_bytes = std::stod(value);

@@ -23,12 +23,13 @@
 #include <measured/model_file.h>
 #include <optics/paraxial.h>
 #include <optics/presets.h>
+#include <optics/stopwatch.h>
 #include <optics/system.h>
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+using lensfx::ms_since;
 
 lensfx::flare::FlareView view_at(double angle, int w, int h) {
     lensfx::flare::FlareView v;

@@ -11,6 +11,7 @@
 
 #include <fmt/core.h>
 #include <flare/cache.h>
+#include <optics/stopwatch.h>
 
 namespace lensfx::dof {
 
@@ -157,7 +158,7 @@ RayTable cached_ray_table(const Camera& camera, int samples, int grid, const std
         table = make_ray_table(camera, samples, grid);
         if (!dir.empty()) s.saved = write_ray_table(path, key, *table);
     }
-    s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    s.ms = ms_since(start);
     if (source) *source = s;
     return std::move(*table);
 }

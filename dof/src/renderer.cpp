@@ -11,6 +11,7 @@
 #include <epoxy/gl.h>
 #include <fmt/core.h>
 #include <gpu/gl.h>
+#include <optics/stopwatch.h>
 
 #include "dof_shaders.h"
 
@@ -368,7 +369,7 @@ std::vector<float> Renderer::render(const LayerStack& layers, const RayTable& ta
         alpha->resize(rgb.size() / 3);
         for (std::size_t i = 0; i < alpha->size(); ++i) (*alpha)[i] = rgba[4 * i + 3];
     }
-    last_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    last_ms_ = ms_since(start);
     return rgb;
 }
 

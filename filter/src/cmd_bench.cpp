@@ -25,9 +25,9 @@
 #include <gpu/flare_renderer.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
+#include <optics/text_pairs.h>
 
 #include "commands.h"
-#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {

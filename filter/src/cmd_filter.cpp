@@ -1,7 +1,6 @@
 // `lensfx -i IN -o OUT [options]`: the frame filter's command line, turned into PipelineOptions.
 // Effect stages (detection, flare, colour) are built in make_stages() from their own options.
 #include "commands.h"
-#include "text_pairs.h"
 
 #include <algorithm>
 #include <cctype>
@@ -20,6 +19,7 @@
 #include <filter/output_files.h>
 #include <filter/pipeline.h>
 #include <filter/views.h>
+#include <optics/text_pairs.h>
 
 namespace lensfx::filter {
 

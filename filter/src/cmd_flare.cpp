@@ -34,11 +34,11 @@
 #include <optics/paraxial.h>
 #include <optics/starburst.h>
 #include <optics/system.h>
+#include <optics/stopwatch.h>
+#include <optics/text_pairs.h>
 
 #include <filter/option_checks.h>
 #include "commands.h"
-#include "stopwatch.h"
-#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {

@@ -16,11 +16,11 @@
 #include <optics/presets.h>
 #include <optics/system.h>
 #include <optics/tracer.h>
+#include <optics/text_pairs.h>
 
 #include <filter/output_files.h>
 
 #include "commands.h"
-#include "text_pairs.h"
 
 namespace lensfx::filter {
 namespace {

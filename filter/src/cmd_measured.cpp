@@ -29,11 +29,11 @@
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/system.h>
+#include <optics/text_pairs.h>
 
 #include <filter/flare_stage.h>
 
 #include "commands.h"
-#include "text_pairs.h"
 #include <filter/option_checks.h>
 
 namespace lensfx::filter {
@@ -46,12 +46,14 @@ constexpr double kDegree = std::numbers::pi / 180.0;
 // (1e300 mm once gave NaN estimators and a success).
 constexpr double kMinSensorMm = 0.1, kMaxSensorMm = 1000.0;
 
-// The sensor of a sweep or a prediction: "36" (height from the image's aspect) or "36x24".
+// The sensor of a sweep or a prediction, read as the flare's --sensor (parse_sensor): "36" (height from the
+// image's aspect) or "36x24", each within kMinSensorMm..kMaxSensorMm.
 std::array<double, 2> sensor_of(const std::string& text, int width, int height) {
-    const bool has_height = text.find('x') != std::string::npos;
-    if (const auto wh = parse_pair_of<double>(has_height ? text : text + "x0", 'x')) {
-        const double w = (*wh)[0], h = has_height ? (*wh)[1] : w * height / width;
+    try {
+        auto [w, h] = parse_sensor(text);
+        if (text.find('x') == std::string::npos) h = w * height / width;
         if (w >= kMinSensorMm && h >= kMinSensorMm && w <= kMaxSensorMm && h <= kMaxSensorMm) return {w, h};
+    } catch (const std::invalid_argument&) {
     }
     throw CLI::ValidationError("--sensor", fmt::format("'{}': expected WIDTH or WIDTHxHEIGHT in mm, e.g. 36x24 ({:g} to {:g} each)", text,
                                                        kMinSensorMm, kMaxSensorMm));

@@ -17,10 +17,10 @@
 #include <flare/cache.h>
 #include <flare/flare.h>
 #include <optics/system.h>
+#include <optics/stopwatch.h>
+#include <optics/text_pairs.h>
 
 #include "exr_io.h"
-#include "stopwatch.h"
-#include "text_pairs.h"
 
 namespace lensfx::filter {
 

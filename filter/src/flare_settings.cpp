@@ -12,8 +12,7 @@
 #include <flare/flare.h>
 #include <optics/coating.h>
 #include <optics/lens_file.h>
-
-#include "text_pairs.h"
+#include <optics/text_pairs.h>
 
 namespace lensfx::filter {
 
@@ -112,6 +111,5 @@ FlareParts parse_parts(std::string_view text) {
     }
     return parts;
 }
-
 
 }  // namespace lensfx::filter

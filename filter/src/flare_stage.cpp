@@ -38,6 +38,7 @@
 #include <optics/lens_file.h>
 #include <optics/paraxial.h>
 #include <optics/starburst.h>
+#include <optics/stopwatch.h>
 #include <optics/system.h>
 #include <optics/tracer.h>
 
@@ -47,8 +48,6 @@
 #include <filter/visibility.h>
 
 #include <filter/colour/matrix.h>
-
-#include "stopwatch.h"
 
 namespace lensfx::filter {
 
@@ -78,7 +77,7 @@ double min_light_fade(double relative, double min_light) {
 
 optics::Mat3 working_xyz_to_rgb(const FlareStage::PrimariesSource& working_rgb_to_xyz) {
     const auto rgb_to_xyz = working_rgb_to_xyz ? working_rgb_to_xyz() : std::nullopt;
-    return rgb_to_xyz ? colour::as_rows(colour::inverse(*rgb_to_xyz)) : optics::kXyzToRec709;
+    return rgb_to_xyz ? colour::inverse(*rgb_to_xyz) : optics::kXyzToRec709;
 }
 
 namespace {

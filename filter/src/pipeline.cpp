@@ -22,10 +22,10 @@
 #include <filter/bounded_queue.h>
 #include <filter/output_files.h>
 #include <filter/sequence.h>
+#include <optics/stopwatch.h>
 
 #include "exr_io.h"
 #include "oiio_module.h"
-#include "stopwatch.h"
 
 namespace lensfx::filter {
 

@@ -35,7 +35,7 @@ std::vector<SpectralPass> spectral_passes(int bands, const optics::Mat3& xyz_to_
         p.wavelength_nm = kSpectrumFirst_nm + (i + 0.5) * width;
         const std::array<double, 3> xyz = optics::cie1931_xyz(p.wavelength_nm);
         for (std::size_t c = 0; c < 3; ++c) {
-            p.weight[c] = xyz_to_rgb[c][0] * xyz[0] + xyz_to_rgb[c][1] * xyz[1] + xyz_to_rgb[c][2] * xyz[2];
+            p.weight[c] = optics::row_times(xyz_to_rgb, c, xyz);
             sum[c] += p.weight[c];
         }
     }

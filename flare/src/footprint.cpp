@@ -85,6 +85,14 @@ LitBox lit_box(const std::vector<float>& rgb, int width, int height) {
 // 0 or 1 keeps it (convolve_whole), and a part convolved alone stays on the reduced image's cells.
 int kernel_reduction(int rx, int ry) { return std::max(rx, ry) / (kMaxKernelRadius / 2); }
 
+// The footprint in the pixels of an image reduced by `factor` (reduced_side's mapping).
+detect::Shape reduced_shape(detect::Shape shape, int factor) {
+    shape.cell /= factor;
+    shape.origin_x /= factor;
+    shape.origin_y /= factor;
+    return shape;
+}
+
 // convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
 void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
 
@@ -128,21 +136,14 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
     const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     if (const int factor = kernel_reduction(rx, ry); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
-        // size (area averages), with the footprint in those pixels, and upsample bilinearly.
-        const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
-        cv::Mat image(height, width, CV_32FC3, rgb.data());
-        cv::Mat small;
-        cv::resize(image, small, cv::Size(sw, sh), 0.0, 0.0, cv::INTER_AREA);
-        std::vector<float> small_rgb;
-        small_rgb.assign(reinterpret_cast<const float*>(small.data),
-                         reinterpret_cast<const float*>(small.data) + static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
-        detect::Shape reduced = shape;
-        reduced.cell /= factor;
-        reduced.origin_x /= factor;
-        reduced.origin_y /= factor;
-        convolve_footprint(small_rgb, sw, sh, reduced, m);
+        // size (area averages), with the footprint in those pixels, and enlarge bilinearly (image_ops.h's
+        // one mapping: reduced pixel i covers pixels [i f, (i + 1) f), as the footprint's reduced cells).
+        const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
+        std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
+        reduce_area(RgbView{small.data(), 0, 0, sw, sh}, ConstRgbView{rgb.data(), 0, 0, width, height}, factor);
+        convolve_footprint(small, sw, sh, reduced_shape(shape, factor), m);
         std::fill(rgb.begin(), rgb.end(), 0.0f);
-        add_resized(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small_rgb.data(), 0, 0, sw, sh}, Region{0, 0, width, height});
+        add_enlarged(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
         return;
     }
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0));
@@ -189,9 +190,11 @@ double own_radius_px(const detect::Shape& shape) {
 }
 
 // The texture's part of an extended light's diffraction (see add_extended_starburst).
-void add_extended_texture(const optics::Starburst& sb, double f_number, double cx, double cy,
-                          const std::array<double, 3>& power, double pixel_w_mm, double pixel_h_mm,
-                          double core_radius_texels, const detect::Shape& shape, float* rgb, int width, int height) {
+void add_extended_texture(const optics::Starburst& sb, const optics::StarburstPlacement& at, const std::array<double, 3>& power,
+                          const detect::Shape& shape, const optics::SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy;
+    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
+    const int width = image.width, height = image.height;
     // The region the pattern and then the footprint can reach: the same sums as over the whole frame
     // (nothing is drawn or spread beyond it), at the cost of the source and its pattern.
     const FootprintSampler footprint{shape};
@@ -209,7 +212,7 @@ void add_extended_texture(const optics::Starburst& sb, double f_number, double c
     // source, would only blur it within its own size: the recording holds that. What reaches farther (the
     // spikes) is new.
     const double radius_px = own_radius_px(shape);
-    const double core = std::max(core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
+    const double core = std::max(at.core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
     if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
     optics::splat_starburst(sb, {cx - x0, cy - y0, f_number, core}, power, {own.data(), w, h, pixel_w_mm, pixel_h_mm});
     convolve_footprint(own, w, h, shape, 1.0);
@@ -217,7 +220,7 @@ void add_extended_texture(const optics::Starburst& sb, double f_number, double c
     // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
     for (int y = 0; y < h; ++y) {
         const float* from = own.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
-        float* to = rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
+        float* to = image.rgb + (static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x0)) * 3;
         for (int x = 0; x < w; ++x) {
             const float beyond = 1.0f - footprint.inside(x0 + x + 0.5 - cx, y0 + y + 0.5 - cy);
             if (beyond <= 0.0f) continue;
@@ -230,16 +233,17 @@ void add_extended_texture(const optics::Starburst& sb, double f_number, double c
 // The spikes beyond the texture, spread over the footprint: they hold nothing finer than the footprint, so
 // they are drawn and spread at 1/factor of the frame's size (the footprint's kernel at most ~8 px wide),
 // enlarged bilinearly and added beyond the light's own pixels.
-void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aperture, double f_number,
-                       double length_scale, double cx, double cy, const std::array<double, 3>& power,
-                       double pixel_w_mm, double pixel_h_mm, const detect::Shape& shape, float* rgb, int width,
-                       int height) {
+void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
+                       const optics::StarburstPlacement& at, const std::array<double, 3>& power, const detect::Shape& shape,
+                       const optics::SensorImage& image) {
+    const double f_number = at.f_number, cx = at.cx, cy = at.cy;
+    const int width = image.width, height = image.height;
     const FootprintSampler footprint{shape};
     const int factor = std::clamp(std::max(footprint.reach_x(1.0), footprint.reach_y(1.0)) / 8, 1, std::max(1, std::max(width, height) / 8));
-    const int sw = (width + factor - 1) / factor, sh = (height + factor - 1) / factor;
+    const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
     std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3, 0.0f);
     optics::draw_starburst_tail(sb, aperture, length_scale, {cx / factor, cy / factor, f_number, 0.0}, power,
-                                {small.data(), sw, sh, pixel_w_mm * factor, pixel_h_mm * factor});
+                                {small.data(), sw, sh, image.pixel_w_mm * factor, image.pixel_h_mm * factor});
     // As the texture's: the pattern within the source's own radius is left out (bounds clamped in double,
     // so a light far outside the frame never reaches int arithmetic).
     const double inner = own_radius_px(shape) / factor, ux = cx / factor, uy = cy / factor;
@@ -248,17 +252,13 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
         for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
             if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
                 std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
-    detect::Shape reduced = shape;
-    reduced.cell /= factor;
-    reduced.origin_x /= factor;
-    reduced.origin_y /= factor;
-    convolve_footprint(small, sw, sh, reduced, 1.0);
+    convolve_footprint(small, sw, sh, reduced_shape(shape, factor), 1.0);
     // Enlarged to the frame, pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
     std::vector<float> full(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3, 0.0f);
-    add_resized(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, Region{0, 0, sw * factor, sh * factor});
+    add_enlarged(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
     for (int y = 0; y < height; ++y) {
         const float* from = full.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
-        float* to = rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
+        float* to = image.rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(width) * 3;
         const double oy = y + 0.5 - cy;
         const bool rows_of_light = oy > footprint.y0 - footprint.cell && oy < footprint.y1 + footprint.cell;
         for (int x = 0; x < width; ++x) {
@@ -276,18 +276,14 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
 void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
                             const optics::StarburstPlacement& at, const std::array<double, 3>& power,
                             const detect::Shape& shape, const optics::SensorImage& image) {
-    const double f_number = at.f_number, cx = at.cx, cy = at.cy, core_radius_texels = at.core_radius_texels;
-    const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
-    float* const rgb = image.rgb;
-    const int width = image.width, height = image.height;
-    if (sb.size == 0 || !(f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(cx) || !std::isfinite(cy)) return;
+    if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return;
     // As a point light's: the texture at the lens's f-number gives up the tail's share, and the tail,
     // lengthened by length_scale, runs to the frame edge.
-    const optics::StarburstTail tail = optics::starburst_tail_share(sb, aperture, f_number, length_scale);
+    const optics::StarburstTail tail = optics::starburst_tail_share(sb, aperture, at.f_number, length_scale);
     std::array<double, 3> texture_power{};
     for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
-    add_extended_texture(sb, f_number, cx, cy, texture_power, pixel_w_mm, pixel_h_mm, core_radius_texels, shape, rgb, width, height);
-    add_extended_tail(sb, aperture, f_number, length_scale, cx, cy, power, pixel_w_mm, pixel_h_mm, shape, rgb, width, height);
+    add_extended_texture(sb, at, texture_power, shape, image);
+    add_extended_tail(sb, aperture, length_scale, at, power, shape, image);
 }
 
 std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,

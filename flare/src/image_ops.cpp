@@ -130,4 +130,27 @@ void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& regi
     }
 }
 
+void reduce_area(const RgbView& dst, const ConstRgbView& src, int factor) {
+    const auto cell_of = [factor](int v) { return v >= 0 ? v / factor : -((factor - 1 - v) / factor); };  // floor(v / f)
+    const double scale = 1.0 / (static_cast<double>(factor) * factor);
+    std::vector<double> sums(static_cast<std::size_t>(dst.width) * 3);
+    for (int y = dst.y; y < dst.y + dst.height; ++y) {
+        std::fill(sums.begin(), sums.end(), 0.0);
+        const int sy0 = std::max(src.y, y * factor), sy1 = std::min(src.y + src.height, (y + 1) * factor);
+        const int sx0 = std::max(src.x, dst.x * factor), sx1 = std::min(src.x + src.width, (dst.x + dst.width) * factor);
+        for (int sy = sy0; sy < sy1; ++sy) {
+            const float* from = src.at(sx0, sy);
+            for (int sx = sx0; sx < sx1; ++sx, from += 3)
+                for (std::size_t c = 0; c < 3; ++c)
+                    sums[static_cast<std::size_t>(cell_of(sx) - dst.x) * 3 + c] += static_cast<double>(from[c]);
+        }
+        float* to = dst.at(dst.x, y);
+        for (std::size_t i = 0; i < sums.size(); ++i) to[i] = static_cast<float>(sums[i] * scale);
+    }
+}
+
+void add_enlarged(const RgbView& dst, const ConstRgbView& src, int factor) {
+    add_resized(dst, src, Region{src.x * factor, src.y * factor, (src.x + src.width) * factor, (src.y + src.height) * factor});
+}
+
 }  // namespace lensfx::flare

@@ -19,7 +19,7 @@ constexpr char kStarburstMagic[] = "lensfx-starburst-2";
 std::string starburst_key(const optics::Aperture& a, const optics::StarburstOptions& o) {
     std::string key = fmt::format("b{} r{:.17g} c{:.17g} s{} p{} {:g} {:g} {:g} {:g}", a.blades, a.rotation_deg, a.blade_curvature,
                                   o.size, o.pupil_samples, o.first_nm, o.last_nm, o.step_nm, o.smoothing);
-    for (const auto& row : o.xyz_to_rgb) key += fmt::format(" {:.17g} {:.17g} {:.17g}", row[0], row[1], row[2]);
+    for (double v : o.xyz_to_rgb) key += fmt::format(" {:.17g}", v);
     const optics::PupilImperfections& d = o.dirt;
     key += fmt::format(" dust {:.17g} {:.17g} {:.17g} scratches {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} seed {}", d.dust_density,
                        d.dust_radius, d.dust_opacity, d.scratches, d.scratch_length, d.scratch_width, d.scratch_angle_deg,

@@ -17,11 +17,6 @@ namespace {
 
 constexpr double kReferenceNm = 550.0;
 
-double lobe(double x, double mu, double sigma_left, double sigma_right) {
-    const double t = (x - mu) / (x < mu ? sigma_left : sigma_right);
-    return std::exp(-0.5 * t * t);
-}
-
 struct FftwFree {
     void operator()(void* p) const { fftw_free(p); }
 };
@@ -72,14 +67,6 @@ void blur(std::vector<double>& plane, int n, double sigma) {
 }
 
 }  // namespace
-
-std::array<double, 3> cie1931_xyz(double l) {
-    const double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
-                     0.065 * lobe(l, 501.1, 20.4, 26.2);
-    const double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
-    const double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
-    return {x, y, z};
-}
 
 double starburst_core_radius_texels(const Starburst& starburst) {
     return starburst.texel_per_fnumber_mm > 0.0 ? 2.23 * kReferenceNm * 1e-6 / starburst.texel_per_fnumber_mm : 0.0;
@@ -175,8 +162,7 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
     std::vector<double> rgb(nn * 3);
     for (std::size_t i = 0; i < nn; ++i) {
         for (std::size_t c = 0; c < 3; ++c) {
-            const auto& row = o.xyz_to_rgb[c];
-            const double v = std::max(0.0, row[0] * xyz[0][i] + row[1] * xyz[1][i] + row[2] * xyz[2][i]);
+            const double v = std::max(0.0, row_times(o.xyz_to_rgb, c, {xyz[0][i], xyz[1][i], xyz[2][i]}));
             rgb[i * 3 + c] = v;
             total[c] += v;
         }
@@ -325,8 +311,7 @@ std::array<double, 3> channel_wavelengths() {
     for (double l = 380.0; l <= 780.0; l += 5.0) {
         const std::array<double, 3> xyz = cie1931_xyz(l);
         for (std::size_t c = 0; c < 3; ++c) {
-            const auto& row = kXyzToRec709[c];
-            const double w = std::max(0.0, row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]);
+            const double w = std::max(0.0, row_times(kXyzToRec709, c, xyz));
             sum[c] += w * l;
             weight[c] += w;
         }
@@ -468,8 +453,7 @@ std::array<std::vector<std::pair<double, double>>, 3> channel_spectra() {
     for (double l = 380.0; l <= 780.0; l += 10.0) {
         const std::array<double, 3> xyz = cie1931_xyz(l);
         for (std::size_t c = 0; c < 3; ++c) {
-            const auto& row = kXyzToRec709[c];
-            const double w = std::max(0.0, row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2]);
+            const double w = std::max(0.0, row_times(kXyzToRec709, c, xyz));
             if (w > 0.0) spectra[c].emplace_back(l, w);
             total[c] += w;
         }

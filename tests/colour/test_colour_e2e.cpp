@@ -28,22 +28,7 @@ namespace fs = std::filesystem;
 
 constexpr int W = 64, H = 32;
 
-// The whole file as bytes (empty when it cannot be read).
-std::string slurp(const std::string& file) {
-    std::string data;
-    if (std::FILE* f = std::fopen(file.c_str(), "rb")) {
-        char buffer[65536];
-        std::size_t n = 0;
-        while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) data.append(buffer, n);
-        std::fclose(f);
-    }
-    return data;
-}
-
-struct Result {
-    int status;
-    std::string err;
-};
+using Result = lensfx::test::ProgramRun;  // the status, and what it wrote (its errors) in `output`
 
 class ColourEndToEnd : public ::testing::Test {
 protected:
@@ -70,13 +55,8 @@ protected:
         ASSERT_TRUE(out && out->open(path(name), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
     }
 
-    Result run(const std::string& command) const {
-        const std::string err = path("stderr.txt");
-        const int status = std::system((command + " 2> " + err).c_str());
-        return {status, slurp(err)};
-    }
-
-    static std::string lensfx() { return lensfx::test::lensfx_path(); }
+    // Runs lensfx with `args` (the one helper of tests/common/run_lensfx.h).
+    static Result run(const std::string& args) { return lensfx::test::run_lensfx(args); }
 
     fs::path dir_;
 };
@@ -112,7 +92,7 @@ float expected_display(const std::string& display, std::array<float, 3> rgb, int
 
 TEST_F(ColourEndToEnd, PngIsToneMappedWithDitherThatKeepsTheMean) {
     write_exr("in.exr", {0.18f, 0.18f, 0.18f}, {50.f, 50.f, 50.f});
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png")).status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("out.png")).status, 0);
     OIIO::ImageSpec spec;
     const auto px = read_pixels(path("out.png"), &spec);
     ASSERT_EQ(spec.format, OIIO::TypeUInt8);
@@ -129,7 +109,7 @@ TEST_F(ColourEndToEnd, PngIsToneMappedWithDitherThatKeepsTheMean) {
         }
     }
 
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out16.png") + " --bits 16").status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("out16.png") + " --bits 16").status, 0);
     const auto px16 = read_pixels(path("out16.png"), &spec);
     ASSERT_EQ(spec.format, OIIO::TypeUInt16);
     EXPECT_NEAR(half_mean(px16, false, 1), grey, 0.3 / 65535);
@@ -146,7 +126,7 @@ TEST_F(ColourEndToEnd, PngHoldsStraightColourOfAPremultipliedInput) {
     spec.alpha_channel = 3;
     auto out = OIIO::ImageOutput::create(path("in.exr"));
     ASSERT_TRUE(out && out->open(path("in.exr"), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png")).status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("out.png")).status, 0);
     OIIO::ImageSpec raw_config;
     raw_config.attribute("oiio:UnassociatedAlpha", 1);  // the file's own values, not OpenImageIO's premultiplied ones
     auto in = OIIO::ImageInput::open(path("out.png"), &raw_config);
@@ -163,10 +143,10 @@ TEST_F(ColourEndToEnd, PngHoldsStraightColourOfAPremultipliedInput) {
 
 TEST_F(ColourEndToEnd, SceneLinearOutputsAreUntouchedUnlessAsked) {
     write_exr("in.exr", {0.18f, 0.05f, 0.6f}, {3.f, 2.f, 1.f});
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("same.exr")).status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("same.exr")).status, 0);
     EXPECT_EQ(read_pixels(path("same.exr")), read_pixels(path("in.exr")));
 
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("shown.exr") + " --display rec709").status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("shown.exr") + " --display rec709").status, 0);
     const auto shown = read_pixels(path("shown.exr"));
     for (int c = 0; c < 3; ++c) {
         // Written as half: within half precision of the module's value.
@@ -175,7 +155,7 @@ TEST_F(ColourEndToEnd, SceneLinearOutputsAreUntouchedUnlessAsked) {
     }
 
     // Exposure applies to scene-linear outputs too: +1 EV doubles them.
-    ASSERT_EQ(run(lensfx() + " -i " + path("in.exr") + " -o " + path("bright.exr") + " --exposure 1").status, 0);
+    ASSERT_EQ(run("-i " + path("in.exr") + " -o " + path("bright.exr") + " --exposure 1").status, 0);
     EXPECT_NEAR(half_mean(read_pixels(path("bright.exr")), true, 0), 6.0, 1e-3);
 }
 
@@ -192,25 +172,25 @@ TEST_F(ColourEndToEnd, ChromaticitiesOfTheFileChooseTheInputSpace) {
     const std::array<float, 8> ap0_attr{0.7347f, 0.2653f, 0.0f, 1.0f, 0.0001f, -0.077f, 0.32168f, 0.33767f};
     write_exr("rec709.exr", {0.6f, 0.2f, 0.05f}, {0.6f, 0.2f, 0.05f});
     write_exr("ap0.exr", in_ap0, in_ap0, ap0_attr);
-    ASSERT_EQ(run(lensfx() + " -i " + path("rec709.exr") + " -o " + path("a.exr") + " --display srgb").status, 0);
-    ASSERT_EQ(run(lensfx() + " -i " + path("ap0.exr") + " -o " + path("b.exr") + " --display srgb").status, 0);
+    ASSERT_EQ(run("-i " + path("rec709.exr") + " -o " + path("a.exr") + " --display srgb").status, 0);
+    ASSERT_EQ(run("-i " + path("ap0.exr") + " -o " + path("b.exr") + " --display srgb").status, 0);
     const auto a = read_pixels(path("a.exr")), b = read_pixels(path("b.exr"));
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(half_mean(a, false, c), half_mean(b, false, c), 2e-3) << c;
 }
 
 TEST_F(ColourEndToEnd, UnknownNamesFailWithTheValidOnes) {
     write_exr("in.exr", {0.18f, 0.18f, 0.18f}, {1.f, 1.f, 1.f});
-    Result r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --display cinema");
+    Result r = run("-i " + path("in.exr") + " -o " + path("out.png") + " --display cinema");
     EXPECT_NE(r.status, 0);
-    EXPECT_NE(r.err.find("unknown display 'cinema'"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("srgb, rec709, rec2100-pq"), std::string::npos) << r.err;
+    EXPECT_NE(r.output.find("unknown display 'cinema'"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("srgb, rec709, rec2100-pq"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(path("out.png")));
-    r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --colorspace 'Log C'");
+    r = run("-i " + path("in.exr") + " -o " + path("out.png") + " --colorspace 'Log C'");
     EXPECT_NE(r.status, 0);
-    EXPECT_NE(r.err.find("unknown colour space 'Log C'"), std::string::npos) << r.err;
-    r = run(lensfx() + " -i " + path("in.exr") + " -o " + path("out.png") + " --ocio " + path("missing.ocio"));
+    EXPECT_NE(r.output.find("unknown colour space 'Log C'"), std::string::npos) << r.output;
+    r = run("-i " + path("in.exr") + " -o " + path("out.png") + " --ocio " + path("missing.ocio"));
     EXPECT_NE(r.status, 0);
-    EXPECT_NE(r.err.find(path("missing.ocio")), std::string::npos) << r.err;
+    EXPECT_NE(r.output.find(path("missing.ocio")), std::string::npos) << r.output;
 }
 
 // A studio config whose colour spaces have none of the usual names: an input without chromaticities is
@@ -237,9 +217,9 @@ colorspaces:
     from_scene_reference: !<ExponentTransform> {value: [2, 2, 2, 1], direction: inverse}
 )";
     write_exr("in.exr", {0.25f, 0.25f, 0.25f}, {0.04f, 0.04f, 0.04f});
-    const std::string base = lensfx() + " -i " + path("in.exr") + " --ocio " + path("studio.ocio") + " --dither none";
+    const std::string base = "-i " + path("in.exr") + " --ocio " + path("studio.ocio") + " --dither none";
     Result r = run(base + " -o " + path("roles.png"));
-    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(r.status, 0) << r.output;
     const auto px = read_pixels(path("roles.png"));
     ASSERT_EQ(px.size(), static_cast<std::size_t>(W * H * 3));
     // The film view: the square root of scene-linear.
@@ -247,7 +227,7 @@ colorspaces:
     EXPECT_NEAR(half_mean(px, true, 1), 0.2, 0.6 / 255);
     // The same as naming the colour space, the display and the view.
     r = run(base + " --colorspace 'plate linear' --display 'studio monitor' --view film -o " + path("named.png"));
-    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_EQ(read_pixels(path("named.png")), px);
 }
 
@@ -284,10 +264,10 @@ TEST_F(ColourEndToEnd, GpuAndCpuOutputTransformsAgree) {
     for (const std::string display : {"srgb", "rec709", "rec2100-pq"}) {
         for (const std::string& extra : {std::string(" --gpu surfaceless"), flare}) {
             if (extra == flare && display != "rec709") continue;
-            const std::string common = lensfx() + " -q -i " + path("in.exr") + " --display " + display + extra;
+            const std::string common = "-q -i " + path("in.exr") + " --display " + display + extra;
             ASSERT_EQ(run(common + " --colour-on cpu -o " + path("cpu.exr")).status, 0) << display << extra;
             const Result r = run(common + " -o " + path("gpu.exr"));  // auto: the run's context is there
-            ASSERT_EQ(r.status, 0) << display << extra << ": " << r.err;
+            ASSERT_EQ(r.status, 0) << display << extra << ": " << r.output;
             OIIO::ImageSpec cpu_spec, gpu_spec;
             const auto cpu = read_pixels(path("cpu.exr"), &cpu_spec), gpu = read_pixels(path("gpu.exr"), &gpu_spec);
             EXPECT_EQ(cpu_spec.get_string_attribute("lensfx:colourTransformOn"), "cpu");

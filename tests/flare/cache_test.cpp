@@ -113,7 +113,7 @@ TEST(Cache, StarburstStoresReadsAndRepairs) {
     const optics::Starburst scratched = flare::cached_starburst(hexagon, dirty, (dir / "sub").string());
     EXPECT_NE(scratched.rgb, computed.rgb);
     optics::StarburstOptions acescg;
-    acescg.xyz_to_rgb[0][0] = 1.6410234;
+    acescg.xyz_to_rgb[0] = 1.6410234;
     EXPECT_NE(flare::cached_starburst(hexagon, acescg, (dir / "sub").string()).rgb, computed.rgb);
     EXPECT_EQ(std::distance(fs::directory_iterator(dir / "sub"), fs::directory_iterator{}), 3);
 }

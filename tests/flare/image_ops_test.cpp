@@ -156,5 +156,52 @@ TEST(ImageOps, MitchellTapsShareTheBilinearMappingAndSumToOne) {
     }
 }
 
+// Reduction by a whole factor: each reduced pixel the mean of the f x f pixels it covers (beyond the image: 0), in
+// a pixel space f times coarser, whatever the image's origin.
+TEST(ImageOps, ReduceAreaAveragesTheBlocksEachPixelCovers) {
+    const int w = 7, h = 5, f = 3;  // 3 x 2 reduced pixels, the last column and row partly beyond the image
+    const std::vector<float> src = image_of(w, h, [](int x, int y, int c) { return static_cast<float>(1 + x + 10 * y + 100 * c); });
+    std::vector<float> small(static_cast<std::size_t>(reduced_side(w, f) * reduced_side(h, f)) * 3, -1.0f);
+    ASSERT_EQ(reduced_side(w, f), 3);
+    ASSERT_EQ(reduced_side(h, f), 2);
+    reduce_area(RgbView{small.data(), 0, 0, 3, 2}, ConstRgbView{src.data(), 0, 0, w, h}, f);
+    for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 3; ++i)
+            for (int c = 0; c < 3; ++c) {
+                double sum = 0.0;
+                for (int y = j * f; y < std::min(h, (j + 1) * f); ++y)
+                    for (int x = i * f; x < std::min(w, (i + 1) * f); ++x) sum += 1 + x + 10 * y + 100 * c;
+                EXPECT_FLOAT_EQ(small[static_cast<std::size_t>((j * 3 + i) * 3 + c)], static_cast<float>(sum / (f * f))) << i << "," << j;
+            }
+    // The same image at (-4, 6) of its pixel space: reduced pixel (-2, 2) covers (-6..-4, 6..8), of which the
+    // image holds column -4 (its first); (-1, 2) covers its columns 1..3.
+    std::vector<float> placed(3 * 3 * 3, -1.0f);
+    reduce_area(RgbView{placed.data(), -2, 2, 3, 3}, ConstRgbView{src.data(), -4, 6, w, h}, f);
+    EXPECT_FLOAT_EQ(placed[0], (1.0f + 11.0f + 21.0f) / 9.0f);
+    EXPECT_FLOAT_EQ(placed[3], (3.0f * 3.0f + 3.0f * (1.0f + 2.0f + 3.0f) + 3.0f * 30.0f) / 9.0f);
+    EXPECT_FLOAT_EQ(placed[(2 * 3 + 2) * 3], 0.0f);  // (0, 4): covers (0..2, 12..14), beyond the image
+}
+
+// add_enlarged is reduce_area's way back: a reduced pixel's centre lands at the centre of the f x f pixels it
+// covers, so a flat image comes back flat and a lone reduced pixel spreads symmetrically round its block.
+TEST(ImageOps, AddEnlargedKeepsEachReducedPixelCentredOnItsBlock) {
+    const int w = 12, h = 8, f = 4;
+    const std::vector<float> flat = image_of(w, h, [](int, int, int c) { return 1.0f + static_cast<float>(c); });
+    std::vector<float> small(3 * 2 * 3), back(static_cast<std::size_t>(w * h * 3), 0.0f);
+    reduce_area(RgbView{small.data(), 0, 0, 3, 2}, ConstRgbView{flat.data(), 0, 0, w, h}, f);
+    add_enlarged(RgbView{back.data(), 0, 0, w, h}, ConstRgbView{small.data(), 0, 0, 3, 2}, f);
+    for (std::size_t i = 0; i < back.size(); ++i) EXPECT_FLOAT_EQ(back[i], flat[i]) << i;
+    std::vector<float> lone(5 * 1 * 3, 0.0f), row(static_cast<std::size_t>(5 * f * 3), 0.0f);
+    lone[2 * 3] = 1.0f;  // reduced pixel 2 covers full pixels 8..11, centre 9.5
+    add_enlarged(RgbView{row.data(), 0, 0, 5 * f, 1}, ConstRgbView{lone.data(), 0, 0, 5, 1}, f);
+    double sum = 0.0, moment = 0.0;
+    for (int x = 0; x < 5 * f; ++x) {
+        sum += static_cast<double>(row[static_cast<std::size_t>(x) * 3]);
+        moment += x * static_cast<double>(row[static_cast<std::size_t>(x) * 3]);
+    }
+    EXPECT_NEAR(moment / sum, 9.5, 1e-6);
+    EXPECT_NEAR(sum, f, 1e-6);
+}
+
 }  // namespace
 }  // namespace lensfx::flare

@@ -51,7 +51,7 @@ TEST(SpectralPasses, WeightsFollowTheWorkingPrimaries) {
     FlareView rec709;
     rec709.bands = 40;
     FlareView xyz = rec709;
-    xyz.xyz_to_rgb = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+    xyz.xyz_to_rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     double most_negative_709 = 0.0, most_negative_xyz = 0.0;
     for (const SpectralPass& p : rec709.passes())
         for (double w : p.weight) most_negative_709 = std::min(most_negative_709, w);

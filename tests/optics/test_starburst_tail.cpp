@@ -164,7 +164,7 @@ std::array<double, 3> channel_mean_nm() {
     for (double l = 380.0; l <= 780.0; l += 5.0) {
         const std::array<double, 3> xyz = cie1931_xyz(l);
         for (std::size_t c = 0; c < 3; ++c) {
-            const double w = std::max(0.0, kXyzToRec709[c][0] * xyz[0] + kXyzToRec709[c][1] * xyz[1] + kXyzToRec709[c][2] * xyz[2]);
+            const double w = std::max(0.0, row_times(kXyzToRec709, c, xyz));
             sum[c] += w * l;
             weight[c] += w;
         }

@@ -9,36 +9,6 @@
 
 namespace lensfx::colour {
 
-Mat3 multiply(const Mat3& a, const Mat3& b) {
-    Mat3 r{};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            for (int k = 0; k < 3; ++k) r[3 * i + j] += a[3 * i + k] * b[3 * k + j];
-    return r;
-}
-
-Mat3 inverse(const Mat3& m) {
-    const double c00 = m[4] * m[8] - m[5] * m[7];
-    const double c01 = m[5] * m[6] - m[3] * m[8];
-    const double c02 = m[3] * m[7] - m[4] * m[6];
-    const double det = m[0] * c00 + m[1] * c01 + m[2] * c02;
-    double scale = 0.0;
-    for (double v : m) scale = std::max(scale, std::abs(v));
-    if (!(std::abs(det) > 1e-12 * scale * scale * scale))
-        throw std::invalid_argument("colour: singular 3x3 matrix (degenerate primaries?)");
-    const double s = 1.0 / det;
-    return {c00 * s, (m[2] * m[7] - m[1] * m[8]) * s, (m[1] * m[5] - m[2] * m[4]) * s,
-            c01 * s, (m[0] * m[8] - m[2] * m[6]) * s, (m[2] * m[3] - m[0] * m[5]) * s,
-            c02 * s, (m[1] * m[6] - m[0] * m[7]) * s, (m[0] * m[4] - m[1] * m[3]) * s};
-}
-
-optics::Mat3 as_rows(const Mat3& m) { return {{{m[0], m[1], m[2]}, {m[3], m[4], m[5]}, {m[6], m[7], m[8]}}}; }
-
-std::array<double, 3> apply_matrix(const Mat3& m, const std::array<double, 3>& v) {
-    return {m[0] * v[0] + m[1] * v[1] + m[2] * v[2], m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
-            m[6] * v[0] + m[7] * v[1] + m[8] * v[2]};
-}
-
 namespace {
 
 std::array<double, 3> xy_to_xyz(double x, double y) { return {x / y, 1.0, (1.0 - x - y) / y}; }

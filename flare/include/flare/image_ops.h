@@ -61,6 +61,18 @@ struct CubicTap {
 };
 std::vector<CubicTap> mitchell_taps(int n, int sn);
 
+// Reduction by a whole factor f and its way back, one mapping for every reduced render: pixel (i, j) of the
+// reduced pixel space covers pixels [i f, (i + 1) f) x [j f, (j + 1) f) of the full one, so reduced_side(n, f)
+// pixels cover n (the last partly beyond them).
+inline int reduced_side(int n, int factor) { return (n + factor - 1) / factor; }
+// Sets each pixel of dst (in the reduced space) to the mean of the f x f pixels of src it covers (area
+// average; those beyond src count as 0).
+void reduce_area(const RgbView& dst, const ConstRgbView& src, int factor);
+// dst += src (in the reduced space) enlarged bilinearly over the full-space pixels it covers: add_resized over
+// [src.x f, (src.x + src.width) f) x [src.y f, (src.y + src.height) f), so a reduced pixel's centre stays at
+// the centre of the pixels it covers.
+void add_enlarged(const RgbView& dst, const ConstRgbView& src, int factor);
+
 // dst += src resized bilinearly to cover `region` of dst's pixel space (src's pixel centres spread evenly over
 // it, its edge pixels held beyond the outer centres, as OIIO's resize maps display windows), over the part of
 // `region` inside dst; each sum held within float range. A reduced render enlarged into a full-size image.

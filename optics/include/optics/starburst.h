@@ -9,22 +9,11 @@
 #include <cstddef>
 #include <vector>
 
+#include <optics/colour_matrix.h>
 #include <optics/imperfections.h>
 #include <optics/lens.h>
 
 namespace lensfx::optics {
-
-using Mat3 = std::array<std::array<double, 3>, 3>;
-
-// CIE XYZ -> linear Rec.709 / sRGB (D65), the default working space.
-inline constexpr Mat3 kXyzToRec709 = {{{3.2404542, -1.5371385, -0.4985314},
-                                       {-0.9692660, 1.8760108, 0.0415560},
-                                       {0.0556434, -0.2040259, 1.0572252}}};
-
-// CIE 1931 2-degree colour-matching functions (x-bar, y-bar, z-bar) at a wavelength in nm, by the
-// multi-lobe Gaussian fit of Wyman, Sloan and Shirley (JCGT 2013), within about 1% of the tabulated
-// functions where they are not small.
-std::array<double, 3> cie1931_xyz(double wavelength_nm);
 
 struct StarburstOptions {
     int size = 512;                 // texture side in texels (power of two recommended)

@@ -7,18 +7,15 @@
 #include <string>
 #include <string_view>
 
-#include <optics/starburst.h>
+#include <optics/colour_matrix.h>
 
 namespace lensfx::colour {
 
-// Row-major 3x3 matrix acting on column vectors: out = m * in.
-using Mat3 = std::array<double, 9>;
-
-Mat3 multiply(const Mat3& a, const Mat3& b);
-Mat3 inverse(const Mat3& m);  // throws std::invalid_argument when singular
-std::array<double, 3> apply_matrix(const Mat3& m, const std::array<double, 3>& v);
-// The same matrix as the optics core's rows (optics::Mat3: the renderers' and the starburst's primaries).
-optics::Mat3 as_rows(const Mat3& m);
+// The optics core's 3x3 matrices (row-major, out = m * in): one type for the renderers' primaries and this.
+using optics::apply_matrix;
+using optics::inverse;
+using optics::Mat3;
+using optics::multiply;
 
 // CIE 1931 xy chromaticities of an RGB space's primaries and white point, in the order of the OpenEXR
 // `chromaticities` attribute: red x, y, green x, y, blue x, y, white x, y.

@@ -6,7 +6,7 @@
 #include <string>
 #include <type_traits>
 
-namespace lensfx::filter {
+namespace lensfx {
 
 // The two numbers of "A<sep>B", each part read whole (std::stoi for int, std::stod for double: leading
 // blanks allowed, nothing after the number); nullopt when the separator is missing or a part is not a number.
@@ -30,4 +30,4 @@ std::optional<std::array<T, 2>> parse_pair_of(const std::string& text, char sep)
     }
 }
 
-}  // namespace lensfx::filter
+}  // namespace lensfx

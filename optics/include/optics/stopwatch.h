@@ -3,10 +3,10 @@
 
 #include <chrono>
 
-namespace lensfx::filter {
+namespace lensfx {
 
 inline double ms_since(std::chrono::steady_clock::time_point since) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
 }
 
-}  // namespace lensfx::filter
+}  // namespace lensfx
