@@ -334,13 +334,14 @@ vec3 segment_moments(vec2 a, vec2 b) {
     return vec3(0.5 * c, c * (a + b) / 6.0);
 }
 
-// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the square [-0.5, 0.5]^2.
+// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the square [-0.5, 0.5]^2; none of
+// one along the square's side (within_triangle counts that side once, where the triangle is inside).
 vec2 within_square(vec2 a, vec2 b) {
     vec2 d = b - a;
     vec2 t = vec2(0.0, 1.0);
     for (int k = 0; k < 2; ++k) {
         if (abs(d[k]) < 1e-20) {
-            if (abs(a[k]) > 0.5) t.y = -1.0;
+            if (abs(a[k]) >= 0.5) t.y = -1.0;
             continue;
         }
         float ta = (-0.5 - a[k]) / d[k];
@@ -350,7 +351,9 @@ vec2 within_square(vec2 a, vec2 b) {
     return t;
 }
 
-// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the counter-clockwise triangle p.
+// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the counter-clockwise triangle p; a
+// segment along one of its edges is within where both run the same way (the triangle and the square on the
+// same side of it).
 vec2 within_triangle(vec2 a, vec2 b, vec2 p[3]) {
     vec2 d = b - a;
     vec2 t = vec2(0.0, 1.0);
@@ -359,7 +362,7 @@ vec2 within_triangle(vec2 a, vec2 b, vec2 p[3]) {
         float f0 = cross2(e, a - p[k]);  // inside where f0 + t df >= 0
         float df = cross2(e, d);
         if (abs(df) < 1e-20) {
-            if (f0 < 0.0) t.y = -1.0;
+            if (f0 < 0.0 || (f0 == 0.0 && dot(e, d) < 0.0)) t.y = -1.0;
             continue;
         }
         if (df > 0.0) t.x = max(t.x, -f0 / df);
