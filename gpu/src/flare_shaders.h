@@ -434,6 +434,17 @@ flat out vec4 v_channels;
 flat out int v_stop_crossings;
 uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim (ghost_shade_comp's bits)
 
+// The smooth values of a point of the grid: from its traced vertex (q, s, w: ghost_trace_comp's layout, w.w
+// the irradiance ghost_shade_comp put there per unit triangle flux).
+void emit_values(vec4 q, vec4 s, vec4 w) {
+    v_irradiance = ghost_triangle_flux() * w.w;  // a triangle's flux x triangles per sensor area
+    v_r_rel = q.z;
+    v_transmission = q.w;
+    v_uv0 = s.xy;
+    v_uv1 = s.zw;
+    v_uv2 = w.xy;
+}
+
 #ifdef AREA_COVERAGE
 flat out vec2 v_corner[3];  // the triangle's corners, window pixels
 
@@ -470,22 +481,13 @@ void emit_grown_corner(ivec3 i, int corner, bool drop) {
     mat3x4 q = mat3x4(vertices[3 * i.x], vertices[3 * i.y], vertices[3 * i.z]);
     mat3x4 s = mat3x4(vertices[3 * i.x + 1], vertices[3 * i.y + 1], vertices[3 * i.z + 1]);
     mat3x4 w = mat3x4(vertices[3 * i.x + 2], vertices[3 * i.y + 2], vertices[3 * i.z + 2]);
-    float flux = ghost_triangle_flux();  // x triangles per sensor area at a corner: its irradiance
     vec2 p[3] = vec2[3](window_position(q[0].xy), window_position(q[1].xy), window_position(q[2].xy));
     vec2 moved = grown_corner(p, corner);
     vec3 at = barycentric(moved, p[0], p[1], p[2]);
     gl_Position = drop ? vec4(2.0, 2.0, 2.0, 1.0) : vec4(moved / viewport * 2.0 - 1.0, 0.0, 1.0);
     v_corner = p;
-    vec4 qa = q * at;
-    vec4 sa = s * at;
-    vec4 wa = w * at;
     v_bary = at;
-    v_irradiance = flux * wa.w;
-    v_r_rel = qa.z;
-    v_transmission = qa.w;
-    v_uv0 = sa.xy;
-    v_uv1 = sa.zw;
-    v_uv2 = wa.xy;
+    emit_values(q * at, s * at, w * at);
 }
 #endif
 
@@ -516,16 +518,10 @@ void main() {
     bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
     if (!corners_valid(i) || clipped || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
-        v_irradiance = 0.0;
     } else {
         gl_Position = clip_position(q.xy);
-        v_irradiance = ghost_triangle_flux() * w.w;  // a triangle's flux x triangles per sensor area at this corner
     }
-    v_r_rel = q.z;
-    v_transmission = q.w;
-    v_uv0 = s.xy;
-    v_uv1 = s.zw;
-    v_uv2 = w.xy;
+    emit_values(q, s, w);
 #endif
 }
 )GLSL";
