@@ -5,7 +5,10 @@
 // one at grid --structure-grid (512) with every acceleration off (0: not computed).
 //   bench_flare [--presets a,b,...] [--angle AX,AY] [--fstop F] [--size WxH] [--grid N] [--rays N]
 //               [--repeat K] [--gpu auto|device|surfaceless] [--ref-bounds 0|1] [--structure-grid N]
-//               [--full-target-bytes B]
+//               [--full-target-bytes B] [--ghost I,J] [--dump DIR]
+// --ghost I,J: only the ghost reflecting at surfaces I, J (1-based, as `lensfx flare --ghost`), to find
+// which ghost carries an error. --dump DIR: the default RGB render and the structure error's reference
+// written as DIR/PRESET-default.exr and DIR/PRESET-reference.exr, to look at.
 // --full-target-bytes: the full-size GL target's band limit (GpuFlareOptions::full_target_bytes; 0: one
 // whole target), to time the banded target of big frames against one whole target.
 // --ref-bounds 1: the reference's rays cover each ghost's pupil bounds (ReferenceOptions::ghost_bounds),
@@ -22,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include <filter/image_io.h>
 #include <fmt/core.h>
 #include <gpu/acceleration.h>
 #include <gpu/context.h>
@@ -65,6 +69,12 @@ std::vector<std::string> split(const std::string& text, char sep) {
     return out;
 }
 
+// A flare render written as a float RGB EXR.
+void write_flare(const lensfx::flare::FlareImage& image, const std::string& path) {
+    lensfx::filter::write_image(
+        lensfx::filter::image_frame(image.width, image.height, 3, lensfx::filter::PixelType::float32, image.rgb.data()), path);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) try {
@@ -81,6 +91,8 @@ int main(int argc, char** argv) try {
     std::string platform = "auto";
     bool ref_bounds = false;
     int structure_grid = 512;
+    std::vector<std::pair<int, int>> only_ghosts;
+    std::string dump_dir;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
         const std::string value = argv[i + 1];
@@ -95,6 +107,8 @@ int main(int argc, char** argv) try {
         else if (key == "--gpu") platform = value;
         else if (key == "--ref-bounds") ref_bounds = value == "1";
         else if (key == "--structure-grid") structure_grid = std::stoi(value);
+        else if (key == "--ghost") { const auto v = split(value, ','); only_ghosts.emplace_back(std::stoi(v.at(0)) - 1, std::stoi(v.at(1)) - 1); }
+        else if (key == "--dump") dump_dir = value;
         else throw std::invalid_argument("unknown option " + key);
     }
 
@@ -116,18 +130,22 @@ int main(int argc, char** argv) try {
             view.angle_y_deg = ay;
             view.width = width;
             view.height = height;
+            view.only_ghosts = only_ghosts;
             const std::size_t ghosts = lensfx::optics::ghost_count(system);
             lensfx::gpu::GpuFlareOptions options;
             options.grid = grid;
             options.full_target_bytes = full_target_bytes;
             const lensfx::flare::FlareImage rgb_image = renderer.render(system, view, options);  // also the warm-up
+            if (!dump_dir.empty()) write_flare(rgb_image, dump_dir + "/" + name + "-default.exr");
             double structure = -1.0;
             if (structure_grid > 0) {
                 lensfx::gpu::GpuFlareOptions dense;
                 dense.grid = structure_grid;
                 dense.accel.bounding = lensfx::gpu::Bounding::None;
                 dense.accel.adaptive = dense.accel.lod = dense.accel.reduced = false;
-                structure = lensfx::flare::gradient_error(rgb_image, renderer.render(system, view, dense));
+                const lensfx::flare::FlareImage reference = renderer.render(system, view, dense);
+                structure = lensfx::flare::gradient_error(rgb_image, reference);
+                if (!dump_dir.empty()) write_flare(reference, dump_dir + "/" + name + "-reference.exr");
             }
             double rgb_ms = 1e300;
             double rgb_cpu_ms = 1e300;

@@ -83,6 +83,23 @@ constexpr double kFaintCells = 64.0;
 constexpr int kFaintOpenGrid = 8;
 bool open_outline(const GhostEstimate& e) { return e.failed_edge == 0.0 && e.area_cv < kReducedMaxCv; }
 
+// Area coverage (GhostPlan::area_coverage) for a ghost whose mean triangle is under kAreaCoveragePx pixels of
+// its level, and every ghost whose sensor box is not known (a render without accelerations, e.g. the dense
+// reference). Point sampling (a pixel takes its centre's value) gives the same where triangles are well over a
+// pixel, at less than half the cost; at about a pixel it samples the mesh's shading unevenly and hands
+// sub-pixel triangles over to splats, and both show (rings beating against the pixels, a dotted seam). A
+// caustic ghost on the default grid keeps point sampling: its triangles are large but at the caustic, and
+// area coverage there cost canon-70-200's 49 caustic ghosts some 40% of a frame for no visible change.
+constexpr double kAreaCoveragePx = 16.0;
+
+// A ghost's mean triangle on the sensor (mm^2) at `grid` cells a side: its sensor box over the triangles of
+// the passing part of its rectangle. 0 when the box is not known.
+double mean_triangle_mm2(const GhostEstimate& e, int grid) {
+    const double box = (e.sensor.x1 - e.sensor.x0) * (e.sensor.y1 - e.sensor.y0);
+    if (!(box > 0.0) || !std::isfinite(box)) return 0.0;
+    return box / (2.0 * std::max(e.fill, 1e-4) * static_cast<double>(grid) * grid);
+}
+
 int faint_reduce(double extent_px) {
     int reduce = 1;
     while (reduce < 16 && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
@@ -170,6 +187,9 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             }
             if (smooth_faint) plan.reduce = faint_reduce(sensor_size_mm(e) / pixel_mm);
         }
+        const double level_pixel_mm = pixel_mm * plan.reduce;
+        plan.area_coverage =
+            plan.splat && !(mean_triangle_mm2(e, grid) >= kAreaCoveragePx * level_pixel_mm * level_pixel_mm);
     }
     return plans;
 }

@@ -53,10 +53,21 @@ struct GhostJob {
 };
 static_assert(sizeof(GhostJob) == 64);
 
-// A shader's source with the batched draw's job buffer declared after its #version line.
-std::string with_jobs(const std::string& source) {
+// A shader's source with `text` inserted after its #version line.
+std::string after_version(const std::string& source, const std::string& text) {
     const std::size_t line_end = source.find('\n', source.find("#version"));
-    return source.substr(0, line_end + 1) + shaders::ghost_job_glsl + source.substr(line_end + 1);
+    return source.substr(0, line_end + 1) + text + source.substr(line_end + 1);
+}
+
+// A shader's source with the batched draw's job buffer declared after its #version line.
+std::string with_jobs(const std::string& source) { return after_version(source, shaders::ghost_job_glsl); }
+
+// The grid raster's two stages (shaders::ghost_raster_vert and ghost_raster_frag), point-sampled or, with
+// `define` "#define AREA_COVERAGE\n", with area coverage.
+std::vector<ShaderStage> raster_stages(const std::string& define) {
+    return {{ShaderStage::Type::Vertex,
+             after_version(with_jobs(shaders::ghost_grid_glsl), define) + shaders::pixel_coverage_glsl + shaders::ghost_raster_vert},
+            {ShaderStage::Type::Fragment, "#version 430\n" + define + shaders::pixel_coverage_glsl + shaders::ghost_raster_frag}};
 }
 
 // Every ghost's interface sequence at one wavelength, concatenated: what the trace shader reads.
@@ -72,18 +83,20 @@ struct GhostSequences {
 
 namespace {
 
-// The renderer's shader programs: the trace and shade compute passes and the raster and splat draws.
+// The renderer's shader programs: the trace and shade compute passes and the raster (point-sampled or with
+// area coverage) and splat draws.
 struct GhostPrograms {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_trace_comp)}}};
     Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_shade_comp)}}};
-    Program raster{"ghost_raster",
-                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_raster_vert},
-                    {ShaderStage::Type::Fragment, shaders::ghost_raster_frag}}};
+    Program raster{"ghost_raster", raster_stages("")};
+    Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
     Program splat{"ghost_splat",
                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
                    {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
-    // The two that draw a ghost's triangles and share its uniforms.
-    std::array<const Program*, 2> drawing() const { return {&raster, &splat}; }
+    // Those that draw a ghost's triangles and share its uniforms.
+    std::array<const Program*, 3> drawing() const { return {&raster, &area, &splat}; }
+    // The one that draws a ghost's triangles as planned.
+    const Program& triangles(const GhostPlan& plan) const { return plan.area_coverage ? area : raster; }
 };
 
 // The buffers the passes read and write: the vertex array, the traced vertices (grown to the largest batch
@@ -545,9 +558,9 @@ private:
     UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
-    void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings);
+    void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings, bool area_coverage);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
-    void shade_uniforms(int res, int reduce);
+    void shade_uniforms(int res, int reduce, bool area_coverage);
     void dispatch_batched(const Program& program, GLuint groups, GLuint n);
     void raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -668,12 +681,12 @@ void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const opti
 }
 
 // The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
-// the grid, the splat limit of the level's pixels, and the iris.
-void FlareRenderer::Drawing::shade_uniforms(int res, int reduce) {
+// the grid, the splat limit of the level's pixels (none with area coverage: every triangle is drawn), and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage) {
     const Program& shade = s_.programs.shade;
     glUseProgram(shade.get());
     glUniform1i(shade.uniform("grid"), res);
-    glUniform1f(shade.uniform("splat_limit"), static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    glUniform1f(shade.uniform("splat_limit"), area_coverage ? 0.0f : static_cast<float>(kSplatArea * level_pixel_area(reduce)));
     glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
     glUniform1i(shade.uniform("iris_sdf"), 0);
     glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
@@ -695,8 +708,9 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
 // triangles that are rasterised at 1/reduce of the image.
 // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
-void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings) {
-    shade_uniforms(res, reduce);
+void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings,
+                                            bool area_coverage) {
+    shade_uniforms(res, reduce, area_coverage);
     glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
@@ -924,7 +938,8 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glUseProgram(s_.programs.shade.get());
     for (const BatchJob& job : batch)
-        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, pd.plans[job.ghost].reduce, pd.seq.stop_crossings[job.ghost]);
+        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, pd.plans[job.ghost].reduce, pd.seq.stop_crossings[job.ghost],
+                       pd.plans[job.ghost].area_coverage);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
@@ -944,9 +959,9 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
             ghost_uniforms(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
-            glUseProgram(s_.programs.raster.get());
+            glUseProgram(s_.programs.triangles(plan).get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-            if (plan.splat) {
+            if (plan.splat && !plan.area_coverage) {
                 glUseProgram(s_.programs.splat.get());
                 glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
             }
@@ -963,7 +978,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!bound) bind_level(level);
             bound = true;
             ghost_uniforms(job, pd, plan.reduce, 2);
-            glUseProgram(s_.programs.raster.get());
+            glUseProgram(s_.programs.triangles(plan).get());
             glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
             check_gl(fmt::format("the rim of ghost {},{}", ghosts_[job.ghost].second, ghosts_[job.ghost].first));
         }
@@ -1017,9 +1032,10 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
                     static_cast<float>(v.channels[2]), 0.0f);
         glUniform2f(program->uniform("offset_mm"), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]));
     }
-    glUseProgram(s_.programs.raster.get());
-    glUniform1i(s_.programs.raster.uniform("rim_mode"), rim_mode);
-    glUniform1f(s_.programs.raster.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+    const Program& triangles = s_.programs.triangles(pd.plans[g]);
+    glUseProgram(triangles.get());
+    glUniform1i(triangles.uniform("rim_mode"), rim_mode);
+    glUniform1f(triangles.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
 }
 
 // The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) by grid and level, each group in
@@ -1054,7 +1070,7 @@ void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghos
     const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
     trace_uniforms(grid, pd.rotation, pd.direction);
     dispatch_batched(s_.programs.trace, groups, n);
-    shade_uniforms(grid, reduce);
+    shade_uniforms(grid, reduce, false);
     glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
     dispatch_batched(s_.programs.shade, groups, n);
     raster_instanced(draw_values(ghosts.front(), pd, reduce), n, grid, reduce);  // the level's values are every ghost's

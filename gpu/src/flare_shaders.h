@@ -271,6 +271,7 @@ uniform float pixel_area;     // mm^2
 uniform float splat_area;     // triangles under this many pixels are splatted, not rasterised
 uniform vec4 channels;        // what the ghost adds to R, G, B
 uniform int stop_crossings;
+uniform vec2 viewport;        // the target's pixels (a band of the full-size image: its rows)
 
 // The drawn ghost's own values: its uniforms, or in a batched draw its instance's job.
 int ghost_first_vertex() { return batched ? jobs[gl_InstanceID].steps.z : first_vertex; }
@@ -304,12 +305,122 @@ vec4 clip_position(vec2 sensor) {
     vec2 offset = ghost_offset_mm();
     return vec4((offset.x - sensor.x) / half_sensor.x, (offset.y - sensor.y) / half_sensor.y, 0.0, 1.0);
 }
+
+vec2 window_position(vec2 sensor) { return (clip_position(sensor).xy * 0.5 + 0.5) * viewport; }
 )GLSL";
 
-// Triangles at least `splat_area` pixels large, fetched by gl_VertexID, Gouraud-shaded: each corner
-// carries the irradiance ghost_shade_comp averaged over its cells, interpolated across the triangle, so a
-// coarse grid shows no flat cells. Triangles with a lost corner (missed surface, total internal reflection)
-// are dropped, and so are the small ones (ghost_splat_vert draws those, each with its own flux).
+// Plane geometry shared by the raster draw's two stages for area coverage (ghost_raster_frag): a
+// triangle's barycentric coordinates of a point, and the area and first moments of the part of a triangle
+// within a pixel's square.
+inline constexpr const char* pixel_coverage_glsl = R"GLSL(
+float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+
+// Barycentric coordinates of x in the triangle p (a third each for a triangle with no area).
+vec3 barycentric(vec2 x, vec2 p0, vec2 p1, vec2 p2) {
+    vec2 e1 = p1 - p0;
+    vec2 e2 = p2 - p0;
+    vec2 d = x - p0;
+    float det = cross2(e1, e2);
+    if (abs(det) < 1e-12) return vec3(1.0 / 3.0);
+    float l1 = cross2(d, e2) / det;
+    float l2 = cross2(e1, d) / det;
+    return vec3(1.0 - l1 - l2, l1, l2);
+}
+
+// A segment's signed triangle with the origin: (area, area x centroid). Summed over a closed boundary, the
+// area and first moments of what it encloses.
+vec3 segment_moments(vec2 a, vec2 b) {
+    float c = cross2(a, b);
+    return vec3(0.5 * c, c * (a + b) / 6.0);
+}
+
+// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the square [-0.5, 0.5]^2; none of
+// one along the square's side (within_triangle counts that side once, where the triangle is inside).
+vec2 within_square(vec2 a, vec2 b) {
+    vec2 d = b - a;
+    vec2 t = vec2(0.0, 1.0);
+    for (int k = 0; k < 2; ++k) {
+        if (abs(d[k]) < 1e-20) {
+            if (abs(a[k]) >= 0.5) t.y = -1.0;
+            continue;
+        }
+        float ta = (-0.5 - a[k]) / d[k];
+        float tb = (0.5 - a[k]) / d[k];
+        t = vec2(max(t.x, min(ta, tb)), min(t.y, max(ta, tb)));
+    }
+    return t;
+}
+
+// The part [t0, t1] of the segment a + t (b - a), t in [0, 1], within the counter-clockwise triangle p; a
+// segment along one of its edges is within where both run the same way (the triangle and the square on the
+// same side of it).
+vec2 within_triangle(vec2 a, vec2 b, vec2 p[3]) {
+    vec2 d = b - a;
+    vec2 t = vec2(0.0, 1.0);
+    for (int k = 0; k < 3; ++k) {
+        vec2 e = p[(k + 1) % 3] - p[k];
+        float f0 = cross2(e, a - p[k]);  // inside where f0 + t df >= 0
+        float df = cross2(e, d);
+        if (abs(df) < 1e-20) {
+            if (f0 < 0.0 || (f0 == 0.0 && dot(e, d) < 0.0)) t.y = -1.0;
+            continue;
+        }
+        if (df > 0.0) t.x = max(t.x, -f0 / df);
+        else t.y = min(t.y, -f0 / df);
+    }
+    return t;
+}
+
+// The part of triangle p (pixels from the pixel's centre) within the pixel's square [-0.5, 0.5]^2: its
+// area and its first moments (area x centroid), summed over its boundary: the triangle's edges within the
+// square and the square's edges within the triangle.
+vec3 covered_moments(vec2 p0, vec2 p1, vec2 p2) {
+    vec2 p[3] = cross2(p1 - p0, p2 - p0) < 0.0 ? vec2[3](p0, p2, p1) : vec2[3](p0, p1, p2);
+    // Quick answers: the whole square within the triangle (each edge's nearest square corner inside), the
+    // square wholly beyond an edge, the triangle wholly within the square.
+    bool square_inside = true;
+    for (int k = 0; k < 3; ++k) {
+        vec2 e = p[(k + 1) % 3] - p[k];
+        float centre = cross2(e, -p[k]);
+        float reach = 0.5 * (abs(e.x) + abs(e.y));
+        if (centre + reach <= 0.0) return vec3(0.0);
+        square_inside = square_inside && centre >= reach;
+    }
+    if (square_inside) return vec3(1.0, 0.0, 0.0);
+    vec2 lo = min(min(p[0], p[1]), p[2]);
+    vec2 hi = max(max(p[0], p[1]), p[2]);
+    if (all(greaterThanEqual(lo, vec2(-0.5))) && all(lessThanEqual(hi, vec2(0.5)))) {
+        float area = 0.5 * cross2(p[1] - p[0], p[2] - p[0]);
+        return vec3(area, area * (p[0] + p[1] + p[2]) / 3.0);
+    }
+    vec3 m = vec3(0.0);
+    for (int k = 0; k < 3; ++k) {
+        vec2 a = p[k];
+        vec2 b = p[(k + 1) % 3];
+        vec2 t = within_square(a, b);
+        if (t.y > t.x) m += segment_moments(mix(a, b, t.x), mix(a, b, t.y));
+    }
+    const vec2 square[4] = vec2[4](vec2(-0.5, -0.5), vec2(0.5, -0.5), vec2(0.5, 0.5), vec2(-0.5, 0.5));
+    for (int k = 0; k < 4; ++k) {
+        vec2 a = square[k];
+        vec2 b = square[(k + 1) % 4];
+        vec2 t = within_triangle(a, b, p);
+        if (t.y > t.x) m += segment_moments(mix(a, b, t.x), mix(a, b, t.y));
+    }
+    return m;
+}
+)GLSL";
+
+// Triangles fetched by gl_VertexID, Gouraud-shaded: each corner carries the irradiance ghost_shade_comp
+// averaged over its cells, interpolated across the triangle, so a coarse grid shows no flat cells. Triangles
+// with a lost corner (missed surface, total internal reflection) are dropped. Compiled two ways:
+// - point sampling: a pixel takes the value at its centre. Triangles under `splat_area` pixels are dropped
+//   (ghost_splat_vert draws those, each with its own flux).
+// - AREA_COVERAGE: every triangle is drawn, grown by half a pixel's extent across each edge so that it
+//   reaches every pixel it touches, and each of those pixels takes the integral of the triangle's light over
+//   the part of it the triangle covers (ghost_raster_frag): a box filter of the Gouraud-shaded mesh.
+//   Sub-pixel triangles keep their light, a caustic's dense grid adds up smooth, and nothing changes where
+//   triangles get small, where point sampling beat against the pixels and handed over to splats.
 inline constexpr const char* ghost_raster_vert = R"GLSL(
 out float v_r_rel;
 out float v_transmission;
@@ -322,6 +433,63 @@ flat out int v_outer;      // corners whose opposite edge borders a dropped cell
 flat out vec4 v_channels;
 flat out int v_stop_crossings;
 uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim (ghost_shade_comp's bits)
+
+// The smooth values of a point of the grid: from its traced vertex (q, s, w: ghost_trace_comp's layout, w.w
+// the irradiance ghost_shade_comp put there per unit triangle flux).
+void emit_values(vec4 q, vec4 s, vec4 w) {
+    v_irradiance = ghost_triangle_flux() * w.w;  // a triangle's flux x triangles per sensor area
+    v_r_rel = q.z;
+    v_transmission = q.w;
+    v_uv0 = s.xy;
+    v_uv1 = s.zw;
+    v_uv2 = w.xy;
+}
+
+#ifdef AREA_COVERAGE
+flat out vec2 v_corner[3];  // the triangle's corners, window pixels
+
+// Area coverage: where corner `corner` of triangle p (window pixels) goes so that the triangle reaches every
+// pixel it touches: each edge pushed out by half a pixel's extent across it (and 1/64 pixel more), corners
+// where the pushed edges meet. A sliver, whose sharp corners would go far, is replaced by a triangle round
+// its bounding box grown by half a pixel where that is smaller. Every corner of a triangle decides alike.
+vec2 grown_corner(vec2 p[3], int corner) {
+    const float grow = 1.0 / 64.0;
+    float orient = cross2(p[1] - p[0], p[2] - p[0]) < 0.0 ? -1.0 : 1.0;
+    vec2 moved[3];
+    bool sharp = false;
+    for (int k = 0; k < 3; ++k) {
+        vec2 e_in = p[k] - p[(k + 2) % 3];
+        vec2 e_out = p[(k + 1) % 3] - p[k];
+        vec2 n_in = orient * vec2(e_in.y, -e_in.x) / max(length(e_in), 1e-20);
+        vec2 n_out = orient * vec2(e_out.y, -e_out.x) / max(length(e_out), 1e-20);
+        float h_in = 0.5 * (abs(n_in.x) + abs(n_in.y)) + grow;
+        float h_out = 0.5 * (abs(n_out.x) + abs(n_out.y)) + grow;
+        float det = cross2(n_in, n_out);
+        sharp = sharp || abs(det) < 1e-3;
+        moved[k] = p[k] + vec2(h_in * n_out.y - h_out * n_in.y, n_in.x * h_out - n_out.x * h_in) / (sharp ? 1.0 : det);
+    }
+    vec2 lo = min(min(p[0], p[1]), p[2]) - (0.5 + grow);
+    vec2 size = max(max(p[0], p[1]), p[2]) + (0.5 + grow) - lo;
+    float grown_area = 0.5 * abs(cross2(moved[1] - moved[0], moved[2] - moved[0]));
+    if (!sharp && grown_area <= 2.0 * size.x * size.y) return moved[corner];
+    return lo + (corner == 1 ? vec2(2.0 * size.x, 0.0) : corner == 2 ? vec2(0.0, 2.0 * size.y) : vec2(0.0));
+}
+
+// This corner of triangle i moved (grown_corner), with the triangle's values carried on to where it went, and
+// the triangle's corners.
+void emit_grown_corner(ivec3 i, int corner, bool drop) {
+    mat3x4 q = mat3x4(vertices[3 * i.x], vertices[3 * i.y], vertices[3 * i.z]);
+    mat3x4 s = mat3x4(vertices[3 * i.x + 1], vertices[3 * i.y + 1], vertices[3 * i.z + 1]);
+    mat3x4 w = mat3x4(vertices[3 * i.x + 2], vertices[3 * i.y + 2], vertices[3 * i.z + 2]);
+    vec2 p[3] = vec2[3](window_position(q[0].xy), window_position(q[1].xy), window_position(q[2].xy));
+    vec2 moved = grown_corner(p, corner);
+    vec3 at = barycentric(moved, p[0], p[1], p[2]);
+    gl_Position = drop ? vec4(2.0, 2.0, 2.0, 1.0) : vec4(moved / viewport * 2.0 - 1.0, 0.0, 1.0);
+    v_corner = p;
+    v_bary = at;
+    emit_values(q * at, s * at, w * at);
+}
+#endif
 
 void main() {
     int tri = gl_VertexID / 3;
@@ -336,6 +504,10 @@ void main() {
                              : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
+#ifdef AREA_COVERAGE
+    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
+    emit_grown_corner(i, corner, !corners_valid(i) || clipped || (rim_mode == 2 && !in_band));
+#else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     float area = sensor_area(i);
     int me = i[corner];
@@ -346,16 +518,11 @@ void main() {
     bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
     if (!corners_valid(i) || clipped || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
-        v_irradiance = 0.0;
     } else {
         gl_Position = clip_position(q.xy);
-        v_irradiance = ghost_triangle_flux() * w.w;  // a triangle's flux x triangles per sensor area at this corner
     }
-    v_r_rel = q.z;
-    v_transmission = q.w;
-    v_uv0 = s.xy;
-    v_uv1 = s.zw;
-    v_uv2 = w.xy;
+    emit_values(q, s, w);
+#endif
 }
 )GLSL";
 
@@ -368,7 +535,6 @@ void main() {
 inline constexpr const char* ghost_splat_vert = R"GLSL(
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
 uniform float iris_extent;
-uniform vec2 viewport;        // pixels
 uniform bool ringing;         // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
 uniform sampler2D iris_ringing;
 flat out float v_irradiance;
@@ -445,8 +611,9 @@ void main() {
 // over it; 2, at full resolution, the rest, 1 - w, cut sharply at the rim (ghost_raster_vert drops the
 // triangles that lie wholly deeper than the band or wholly outside). The two add up to the ghost.
 // rim_mode 0: the plain full-resolution draw.
+// AREA_COVERAGE (ghost_raster_vert): the pixel takes the integral of the triangle's light over the part of
+// it the triangle covers; the stop and aperture cuts are taken at that part's centroid.
 inline constexpr const char* ghost_raster_frag = R"GLSL(
-#version 430
 in float v_r_rel;
 in float v_transmission;
 in vec2 v_uv0;
@@ -478,35 +645,76 @@ float pixels_inside(float f) {
     return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
 }
 
-void main() {
-    int stop_crossings = v_stop_crossings;
-    float s0 = stop_crossings > 0 ? sdf(v_uv0) : -1.0;
-    float s1 = stop_crossings > 1 ? sdf(v_uv1) : -1.0;
-    float s2 = stop_crossings > 2 ? sdf(v_uv2) : -1.0;
-    float weight = 1.0;
-    if (rim_mode != 0) {  // derivatives first: the whole 2 x 2 quad must still run
-        float d = pixels_inside(v_r_rel - 1.0);
-        if (stop_crossings > 0 && !ringing) d = min(d, pixels_inside(s0));
-        if (stop_crossings > 1 && !ringing) d = min(d, pixels_inside(s1));
-        if (stop_crossings > 2 && !ringing) d = min(d, pixels_inside(s2));
-        // The edges along dropped cells: their distance is measured from inside.
-        vec3 to_edge = vec3(pixels_inside(-v_bary.x), pixels_inside(-v_bary.y), pixels_inside(-v_bary.z));
-        for (int k = 0; k < 3; ++k)
-            if ((v_outer & (1 << k)) != 0) d = min(d, to_edge[k]);
-        float interior = smoothstep(1.0, 3.0, rim_mode == 1 ? d : d / rim_reduce);
-        weight = rim_mode == 1 ? interior : 1.0 - interior;
-    }
-    if (v_r_rel > 1.0 || weight <= 0.0) discard;
+// The rim pass's share of the pixel (rim_mode 1 or 2), from its distance to the rim at its centre: to r_rel = 1,
+// to the iris (s: its signed distances at the stop crossings) and to the edges along dropped cells.
+float rim_weight(vec3 s, int stop_crossings) {
+    float d = pixels_inside(v_r_rel - 1.0);
+    if (stop_crossings > 0 && !ringing) d = min(d, pixels_inside(s.x));
+    if (stop_crossings > 1 && !ringing) d = min(d, pixels_inside(s.y));
+    if (stop_crossings > 2 && !ringing) d = min(d, pixels_inside(s.z));
+    // The edges along dropped cells: their distance is measured from inside.
+    vec3 to_edge = vec3(pixels_inside(-v_bary.x), pixels_inside(-v_bary.y), pixels_inside(-v_bary.z));
+    for (int k = 0; k < 3; ++k)
+        if ((v_outer & (1 << k)) != 0) d = min(d, to_edge[k]);
+    float interior = smoothstep(1.0, 3.0, rim_mode == 1 ? d : d / rim_reduce);
+    return rim_mode == 1 ? interior : 1.0 - interior;
+}
+
+// The iris's transmission at the stop crossings' coordinates: with ringing its fringes; else 1, or 0 where any
+// crossing is outside.
+float iris_at(vec2 uv0, vec2 uv1, vec2 uv2, vec3 s, int stop_crossings) {
     float iris = 1.0;
     if (ringing) {
-        if (stop_crossings > 0) iris *= ringing_at(v_uv0);
-        if (stop_crossings > 1) iris *= ringing_at(v_uv1);
-        if (stop_crossings > 2) iris *= ringing_at(v_uv2);
-    } else if (s0 > 0.0 || s1 > 0.0 || s2 > 0.0) {
-        discard;
+        if (stop_crossings > 0) iris *= ringing_at(uv0);
+        if (stop_crossings > 1) iris *= ringing_at(uv1);
+        if (stop_crossings > 2) iris *= ringing_at(uv2);
+    } else if (s.x > 0.0 || s.y > 0.0 || s.z > 0.0) {
+        iris = 0.0;
     }
+    return iris;
+}
+
+vec3 iris_distances(vec2 uv0, vec2 uv1, vec2 uv2, int stop_crossings) {
+    return vec3(stop_crossings > 0 ? sdf(uv0) : -1.0, stop_crossings > 1 ? sdf(uv1) : -1.0, stop_crossings > 2 ? sdf(uv2) : -1.0);
+}
+
+#ifdef AREA_COVERAGE
+flat in vec2 v_corner[3];  // the triangle's corners, window pixels (ghost_raster_vert)
+
+// A varying's value at offset o from the pixel's centre (the varyings are linear over the triangle).
+float at_offset(float v, vec2 o) { return v + dFdx(v) * o.x + dFdy(v) * o.y; }
+vec2 at_offset(vec2 v, vec2 o) { return v + dFdx(v) * o.x + dFdy(v) * o.y; }
+
+void main() {
+    int stop_crossings = v_stop_crossings;
+    // Derivatives first: the whole 2 x 2 quad must still run.
+    float weight = rim_mode != 0 ? rim_weight(iris_distances(v_uv0, v_uv1, v_uv2, stop_crossings), stop_crossings) : 1.0;
+    // The integral of the (linear) shading over the covered part of the pixel is its value at that part's
+    // centroid times the part's area; the cuts are taken there too.
+    vec2 centre = gl_FragCoord.xy;
+    vec3 m = covered_moments(v_corner[0] - centre, v_corner[1] - centre, v_corner[2] - centre);
+    vec2 o = m.yz / max(m.x, 1e-30);
+    float r_rel = at_offset(v_r_rel, o);
+    vec2 uv0 = at_offset(v_uv0, o);
+    vec2 uv1 = at_offset(v_uv1, o);
+    vec2 uv2 = at_offset(v_uv2, o);
+    float light = max(at_offset(v_irradiance, o), 0.0) * max(at_offset(v_transmission, o), 0.0);
+    if (!(m.x > 0.0) || weight <= 0.0 || r_rel > 1.0) discard;
+    float iris = iris_at(uv0, uv1, uv2, ringing ? vec3(-1.0) : iris_distances(uv0, uv1, uv2, stop_crossings), stop_crossings);
+    if (iris <= 0.0 && !ringing) discard;
+    colour = v_channels * (light * iris * weight * m.x);
+}
+#else
+void main() {
+    int stop_crossings = v_stop_crossings;
+    vec3 s = iris_distances(v_uv0, v_uv1, v_uv2, stop_crossings);
+    float weight = rim_mode != 0 ? rim_weight(s, stop_crossings) : 1.0;  // derivatives first: the whole 2 x 2 quad runs
+    if (v_r_rel > 1.0 || weight <= 0.0) discard;
+    float iris = iris_at(v_uv0, v_uv1, v_uv2, s, stop_crossings);
+    if (iris <= 0.0 && !ringing) discard;
     colour = v_channels * (v_irradiance * v_transmission * iris * weight);
 }
+#endif
 )GLSL";
 
 }  // namespace lensfx::gpu::shaders

@@ -83,7 +83,11 @@ struct GhostPlan {
     int grid = 0;    // cells per side
     int reduce = 1;  // 1 full resolution, 2, 4, 8 or 16: drawn at 1/reduce of the image size and upsampled
     bool rim = true;    // a ghost drawn at 1/4 or less: its rim drawn sharp at 4x its level (the renderer's rim pass)
-    bool splat = true;  // its sub-pixel triangles splatted (else only the rasterised ones are drawn)
+    bool splat = true;  // its sub-pixel triangles drawn: splatted, or with area coverage (else only the rasterised ones)
+    // With splat: its triangles drawn with area coverage (each pixel takes the light of the part of it a
+    // triangle covers, so no splats are needed), because they may come near a pixel (plan_ghosts: caustics, or
+    // small triangles); else point-sampled at pixel centres.
+    bool area_coverage = false;
 };
 // What scene culling decided of one ghost (scene_cull): drawn as the level of detail plans it, left out, or
 // drawn at the coarsest detail because its peak alone is under what the frame can show where it lands: its
