@@ -31,7 +31,7 @@ void add_acceleration_options(CLI::App& app, AccelerationSettings& s, const std:
     app.add_flag("--aperture-culling", s.aperture_culling,
                  "Leave out the ghosts that cross the stop three times (for small iris openings)")->group(group);
     app.add_option("--cache-dir", s.cache_dir,
-                   "Folder of every disk cache: ghost bounds, direct-power tables, starburst textures, lens-blur ray tables (default $LENSFX_CACHE_DIR, $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)")
+                   "Folder of every disk cache: ghost bounds, ghost imaging, direct-power tables, starburst textures, lens-blur ray tables (default $LENSFX_CACHE_DIR, $XDG_CACHE_HOME/lensfx or ~/.cache/lensfx; none = memory only)")
         ->group(group);
 }
 

@@ -72,8 +72,9 @@ constexpr double kSharpQuarterExtentPx = 2048.0;
 
 // A faint ghost (scene culling: its peak alone under what the frame shows there) is drawn at the most
 // reduced level that keeps at least kFaintCells of its level's pixels across it, whatever its smoothness.
-// Its grid stays kMinGrid: 8 or 4 cells lost light along the outline (pan1080, canon-70-200: 0.09% and 1.6% of
-// 8-bit sRGB values 2 codes off, against under 0.02% at 16).
+// Its grid is coarsened to kMinGrid (kept where its outline has failed rays: failed_outline): 8 or 4 cells for
+// every faint ghost lost light along the outline (pan1080, canon-70-200: 0.09% and 1.6% of 8-bit sRGB values 2
+// codes off, against under 0.02% at 16).
 constexpr double kFaintCells = 64.0;
 // A faint ghost whose coarse pass found no outline of failed rays (no cell with some corners passing and
 // some not) loses no light along its outline to whole dropped cells: its outline is cut per pixel (r_rel, the
@@ -82,6 +83,12 @@ constexpr double kFaintCells = 64.0;
 // vertex work at 16 (canon-70-200 on pan1080 at physical strength: 954 of its 1299 faint draws).
 constexpr int kFaintOpenGrid = 8;
 bool open_outline(const GhostEstimate& e) { return e.failed_edge == 0.0 && e.area_cv < kReducedMaxCv; }
+// A faint ghost whose outline has failed rays keeps the grid the outline rule gives it: the cells dropped
+// whole along that outline lose light that its coarse peak does not bound (rays that nearly fail, near total
+// internal reflection, crowd into a bright edge there). Desk.exr, canon-70-200, gain 1: one such ghost (peak
+// 0.7 of a code, failed_edge 2.7, its grid 51 coarsened to 16) left an 8-bit sRGB value 5 codes dark; with its
+// grid kept, 4 at most over the frame, for ~0.1 CPU s on the 1080p stage frame.
+bool failed_outline(const GhostEstimate& e) { return e.failed_edge > 0.0; }
 
 // Area coverage (GhostPlan::area_coverage) for a ghost whose mean triangle is under kAreaCoveragePx pixels of
 // its level, and every ghost whose sensor box is not known (a render without accelerations, e.g. the dense
@@ -170,7 +177,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);
         }
-        if (faint) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
+        if (faint && !failed_outline(e)) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
         if (smooth_faint && open_outline(e)) grid = std::min(grid, kFaintOpenGrid);
         plan.grid = grid;
         plan.rim = !faint;

@@ -183,6 +183,33 @@ TEST(FramePath, BandFilterDrawsAPointLightsGhostsUnspread) {
     EXPECT_NEAR(filtered.sum(1) / plain.sum(1), 1.0, 0.02);
 }
 
+TEST(FramePath, ExtendedLightsGhostImagingIsCachedAndADamagedFileMadeAgain) {
+    // An extended light's ghosts are grouped by their imaging (traced once per lens): the table is kept in the
+    // disk cache, read back the next run with the same image, and a damaged file is replaced.
+    const fs::path dir = temp_dir("imaging_cache");
+    const fs::path cache = dir / "cache";
+    write_frame(dir / "in.exr", {{160.3, 100.6, 16.0, 20000.0 * 4.0 / 256.0}});
+    const std::string args = "-i " + (dir / "in.exr").string() + " --flare-only --parts ghosts --threshold 5" + kLensOnly + " -o ";
+    auto imaging_file = [&]() -> std::optional<fs::path> {
+        if (!fs::exists(cache)) return std::nullopt;
+        for (const auto& f : fs::directory_iterator(cache))
+            if (f.path().filename().string().rfind("imaging-", 0) == 0) return f.path();
+        return std::nullopt;
+    };
+    ASSERT_EQ(lensfx::test::run_lensfx_status(args + (dir / "a.exr").string() + " 2>&1", cache.string()), 0);
+    const std::optional<fs::path> file = imaging_file();
+    ASSERT_TRUE(file);
+    const auto size = fs::file_size(*file);
+    ASSERT_EQ(lensfx::test::run_lensfx_status(args + (dir / "b.exr").string() + " 2>&1", cache.string()), 0);
+    fs::resize_file(*file, size / 2);
+    ASSERT_EQ(lensfx::test::run_lensfx_status(args + (dir / "c.exr").string() + " 2>&1", cache.string()), 0);
+    EXPECT_EQ(fs::file_size(*file), size);
+    const Image a = read(dir / "a.exr"), b = read(dir / "b.exr"), c = read(dir / "c.exr");
+    ASSERT_GT(a.sum(1), 0.0);
+    EXPECT_EQ(a.px, b.px);
+    EXPECT_EQ(a.px, c.px);
+}
+
 TEST(FramePath, ExtendedSourceSpreadsItsStarburstOverItsFootprint) {
     // The same flux as a small light and as a disc of radius 16 px. The disc's diffraction is every point's
     // pattern over the disc; what the recorded disc already holds is left out: each point's pattern within

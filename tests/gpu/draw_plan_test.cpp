@@ -159,16 +159,21 @@ TEST(PlanPass, FaintGhostsWithAnOpenOutlineGetACoarserGrid) {
     e[0].area_cv = 0.05;
     e[1].failed_edge = 0.0;
     e[1].area_cv = 0.5;  // caustics
-    e[4].failed_edge = 0.2;
+    e[4].failed_edge = 2.0;  // the outline rule refines its grid
     e[4].area_cv = 0.05;
     const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(plan.batched, (std::vector<std::size_t>{0, 1, 4}));
     EXPECT_EQ(plan.plans[0].grid, 8);
     EXPECT_EQ(plan.plans[1].grid, 16);
-    EXPECT_EQ(plan.plans[4].grid, 16);
     // Drawn (not faint), the same open ghost keeps the level of detail's grid.
     const PassPlan drawn = plan_pass(e, 0.0, {}, selection, detail, 0);
     EXPECT_EQ(drawn.plans[0].grid, 16);
+    // A faint ghost with failed rays along its outline keeps the grid the outline rule gives it (its cells
+    // dropped whole there lose light its peak does not bound), no rim and no splats all the same.
+    EXPECT_GT(drawn.plans[4].grid, 16);
+    EXPECT_EQ(plan.plans[4].grid, drawn.plans[4].grid);
+    EXPECT_FALSE(plan.plans[4].rim);
+    EXPECT_FALSE(plan.plans[4].splat);
 }
 
 TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {

@@ -92,7 +92,8 @@ struct GhostPlan {
 // What scene culling decided of one ghost (scene_cull): drawn as the level of detail plans it, left out, or
 // drawn at the coarsest detail because its peak alone is under what the frame can show where it lands: its
 // total light matters there, not its shape (kMinGrid cells, or 8 when its outline has no failed rays and it
-// is smooth; the most reduced level its size allows, no rim pass, no splats).
+// is smooth, and the level of detail's grid when it has failed rays; the most reduced level its size allows,
+// no rim pass, no splats).
 // Spiky: a ghost with caustics whose coarse peak is under what the frame shows, but whose peak times
 // caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its splats and the level a
 // sharp ghost gets, so a caustic's spike stays where it is.
