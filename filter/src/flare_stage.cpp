@@ -126,6 +126,12 @@ void check_input_files(const FlareSettings& s) {
     if (s.layer.size() > 253) throw std::invalid_argument(fmt::format("--layer: {} characters; EXR channel names hold 255 (the layer and \".R\")", s.layer.size()));
 }
 
+// The settings, once check_input_files has passed them (before any file they name is read).
+FlareSettings with_files_checked(FlareSettings s) {
+    check_input_files(s);
+    return s;
+}
+
 namespace {
 
 // A light's per-channel ghost scale in the renderer's precision.
@@ -276,78 +282,150 @@ struct FrameTally {
     int ghosts_drawn = 0, ghosts_culled = 0;
 };
 
-}  // namespace
-
-struct FlareStage::State {
-    FlareSettings settings;
+// The lens the stage renders: a prescription realized at --zoom and --fstop (with its coatings and blades),
+// or a measured preset; and the sensor it images onto.
+struct LensModel {
     optics::System system;
+    std::optional<measured::MeasuredLens> measured;  // a measured preset instead of a prescription
     double efl_mm = 0.0;
-    std::array<double, 2> sensor{};
+    double f_number = 0.0;
+    std::string text;                  // the prescription as TOML: part of the cache keys
+    std::array<double, 2> sensor{};    // mm; height 0: from the frame's aspect
+};
+
+// Where a frame's lights come from: the track file, or the detector (on the plate as --matte and --add-light
+// change it) followed by the tracker.
+struct LightFinder {
     std::optional<detect::TrackFile> tracks;
     detect::Detector detector;
     detect::Tracker tracker;
-    std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first frame with a light
-    std::unique_ptr<gpu::FlareRenderer> renderer;
-    std::optional<measured::MeasuredLens> measured_lens;  // a measured preset instead of a prescription
-    std::unique_ptr<gpu::MeasuredRenderer> measured_renderer;
-    FlareParts parts;
-    double f_number = 0.0;
-    optics::StarburstOptions starburst_options;  // the pupil's dirt and image, read at start
-    gpu::GpuFlareOptions render_options;         // grid, ringing, accelerations, --flare-look styles
-    PrimariesSource primaries_source;
-    std::optional<optics::Mat3> xyz_to_rgb;       // the working space's, fixed at the first light
-    std::vector<flare::SpectralPass> passes;        // with those primaries
-    std::optional<optics::Starburst> starburst;  // computed (or read from the cache) at the first light
-    flare::DirectPowerTable direct;                     // made at the first light, over the frame's corners
-    std::string direct_key;                      // what the table depends on (its cache file's name)
-    std::filesystem::path direct_file;
-    std::string lens_text;                       // the lens as TOML: part of the table's key
-    std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
-    std::vector<std::pair<std::string, double>> times;  // of the last frame
-    std::vector<std::pair<std::string, double>> figures;  // of the last frame
-    std::vector<std::pair<std::string, double>> detected;  // the detector's figures of the last frame
-    DetectionInput detection_input;  // the plate as the detector sees it (--matte, --add-light)
-    LightSummary summary;
-    std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
+    DetectionInput input;  // the plate as the detector sees it (--matte, --add-light)
 
-    State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
-        : settings(std::move(s)),
-          detector([&] {
+    explicit LightFinder(const FlareSettings& settings)
+        : detector([&] {
               detect::DetectorOptions o;
               o.threshold = detect::Threshold::parse(settings.threshold);
               o.max_lights = settings.max_lights;
               return o;
           }()),
-          detection_input(settings.controls, settings.memory) {
+          input(settings.controls, settings.memory) {
+        if (!settings.tracks.empty() && input.changes_the_plate())
+            throw std::invalid_argument("--matte, --matte-channel and --add-light act on detection; with --tracks, edit the track file");
+        if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
+    }
+};
+
+// The direct path's power over the frame's field (flare::DirectPowerTable): made at the first light, over the
+// frame's corners, and kept on disk under --cache-dir; every light's ghost scale divides by it.
+class DirectPowerCache {
+public:
+    // The power at (ax, ay) degrees; `corner_deg` (the field the frame reaches) sizes the table at its first use.
+    std::array<double, 3> at(const LensModel& lens, const std::vector<flare::SpectralPass>& passes, double corner_deg,
+                             const std::string& cache_dir_option, double ax, double ay) {
+        if (table_.empty()) make(lens, passes, corner_deg, cache_dir_option);
+        const int traced_before = table_.traced();
+        const std::array<double, 3> power = table_.at(ax, ay);
+        if (table_.traced() != traced_before && !file_.empty()) table_.save(file_, key_);
+        return power;
+    }
+
+private:
+    void make(const LensModel& lens, const std::vector<flare::SpectralPass>& passes, double corner_deg, const std::string& cache_dir_option) {
+        table_ = flare::DirectPowerTable(lens.system, std::min(89.0, 1.02 * corner_deg), 12, 96, passes);
+        key_ = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens.text, table_.max_field_deg(), flare::passes_key(passes));
+        if (const std::string dir = flare::cache_dir_of(cache_dir_option); !dir.empty()) {
+            file_ = flare::cache_file(dir, "direct", flare::key_hash(key_));
+            table_.load(file_, key_);
+        }
+    }
+
+    flare::DirectPowerTable table_;
+    std::string key_;             // what the table depends on (its cache file's name)
+    std::filesystem::path file_;  // empty: no cache folder
+};
+
+// The lens's diffraction pattern (the starburst texture): computed, or read from the cache, at the first light
+// that draws one.
+class StarburstSource {
+public:
+    explicit StarburstSource(optics::StarburstOptions options) : options_(std::move(options)) {}
+
+    const optics::Starburst& texture(const optics::Aperture& aperture, const optics::Mat3& xyz_to_rgb, const std::string& cache_dir_option) {
+        if (!texture_) {
+            optics::StarburstOptions options = options_;
+            options.xyz_to_rgb = xyz_to_rgb;
+            texture_ = flare::cached_starburst(aperture, options, flare::cache_dir_of(cache_dir_option));
+        }
+        return *texture_;
+    }
+
+private:
+    optics::StarburstOptions options_;  // the pupil's dirt and image, read at start
+    std::optional<optics::Starburst> texture_;
+};
+
+// What one frame reports: part times, figures, and the detector's own figures.
+struct FrameReport {
+    std::vector<std::pair<std::string, double>> times;
+    std::vector<std::pair<std::string, double>> figures;
+    std::vector<std::pair<std::string, double>> detected;
+
+    void clear() {
+        times.clear();
+        figures.clear();
+        detected.clear();
+    }
+};
+
+}  // namespace
+
+struct FlareStage::State {
+    FlareSettings settings;
+    LensModel lens;
+    LightFinder finder;
+    LightSummary summary;
+    std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first frame with a light
+    std::unique_ptr<gpu::FlareRenderer> renderer;
+    std::unique_ptr<gpu::MeasuredRenderer> measured_renderer;
+    FlareParts parts;
+    gpu::GpuFlareOptions render_options;  // grid, ringing, accelerations, --flare-look styles
+    PrimariesSource primaries_source;
+    std::optional<optics::Mat3> xyz_to_rgb;  // the working space's, fixed at the first light
+    std::vector<flare::SpectralPass> passes;  // with those primaries
+    StarburstSource starburst;
+    DirectPowerCache direct;
+    std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
+    FrameReport report;  // of the last frame
+    std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
+
+    State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
+        : settings(with_files_checked(std::move(s))),
+          finder(settings),
+          starburst(filter::starburst_options(settings.pupil)) {
         gpu_session = g ? std::move(g) : std::make_shared<GpuSession>();
         summary.threshold_text = settings.threshold;
         summary.tracks = settings.tracks;
         primaries_source = std::move(primaries);
-        check_input_files(settings);
         if (measured::is_measured_file(settings.lens)) {
-            measured_lens = measured::read_measured(settings.lens);
-            efl_mm = measured_lens->focal_length_mm;
+            lens.measured = measured::read_measured(settings.lens);
+            lens.efl_mm = lens.measured->focal_length_mm;
         } else {
             load_physical_lens();
         }
         parts = parse_parts(settings.parts);
-        parts.starburst = parts.starburst && !measured_lens;  // a measured lens models its ghosts only
+        parts.starburst = parts.starburst && !lens.measured;  // a measured lens models its ghosts only
         parts.ghosts = parts.ghosts && settings.controls.ghost_gain > 0.0;  // a gain of 0 renders nothing
         parts.starburst = parts.starburst && settings.starburst_gain > 0.0;
-        if (!settings.tracks.empty() && detection_input.changes_the_plate())
-            throw std::invalid_argument("--matte, --matte-channel and --add-light act on detection; with --tracks, edit the track file");
-        sensor = parse_sensor(settings.sensor);
-        if (!settings.tracks.empty()) tracks = detect::read_track_file(settings.tracks);
-        starburst_options = filter::starburst_options(settings.pupil);
+        lens.sensor = parse_sensor(settings.sensor);
         render_options.grid = settings.grid;
         render_options.ringing = settings.ringing;
         render_options.accel = settings.accel.acceleration();
         render_options.memory = settings.memory;
         // A lens of many surfaces has ghosts by the square of them: refused here, before any table is built.
-        if (!measured_lens) gpu::check_ghost_tables(system, settings.bands == 0 ? 3 : static_cast<std::size_t>(settings.bands), settings.memory);
-        if (!settings.flare_look.empty() && !measured_lens)
+        if (!lens.measured) gpu::check_ghost_tables(lens.system, settings.bands == 0 ? 3 : static_cast<std::size_t>(settings.bands), settings.memory);
+        if (!settings.flare_look.empty() && !lens.measured)
             render_options.styles =
-                optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(system));
+                optics::ghost_styles(optics::read_flare_look(settings.flare_look), optics::enumerate_ghosts(lens.system));
         if (settings.bands != 0) flare::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
@@ -357,11 +435,11 @@ struct FlareStage::State {
     // The prescription, realized at --zoom and --fstop with its coatings and blades.
     void load_physical_lens() {
         RealizedLens realized = realize_lens(settings);
-        system = std::move(realized.system);
-        lens_text = std::move(realized.text);
-        const optics::Paraxial first_order = optics::paraxial(system);
-        efl_mm = first_order.efl_mm;
-        f_number = first_order.f_number;
+        lens.system = std::move(realized.system);
+        lens.text = std::move(realized.text);
+        const optics::Paraxial first_order = optics::paraxial(lens.system);
+        lens.efl_mm = first_order.efl_mm;
+        lens.f_number = first_order.f_number;
     }
 
     // A measured lens's ghosts for every light (no starburst): each light's recorded energy over the
@@ -377,11 +455,11 @@ struct FlareStage::State {
             view.angle_x_deg = ax, view.angle_y_deg = ay;
             std::array<double, 3> scale{};
             for (std::size_t c = 0; c < 3; ++c)
-                scale[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / measured_lens->capture.light_energy * boost(light, false) *
+                scale[c] = std::min(std::max(0.0, light.flux[c]) * geo.pixel_area_mm2() / lens.measured->capture.light_energy * boost(light, false) *
                                         settings.controls.ghost_gain, kMaxLightScale);
-            measured_renderer->render_add(*measured_lens, view, scale, flare.data());
+            measured_renderer->render_add(*lens.measured, view, scale, flare.data());
         }
-        times.emplace_back("ghosts", ms_since(t));
+        report.times.emplace_back("ghosts", ms_since(t));
         composite(frame, flare, geo, settings.layer);
     }
 
@@ -399,30 +477,30 @@ struct FlareStage::State {
         FlareGeometry g;
         g.width = frame.spec.full_width;
         g.height = frame.spec.full_height;
-        g.sensor_width_mm = sensor[0];
+        g.sensor_width_mm = lens.sensor[0];
         const auto aspect = static_cast<double>(frame.spec.pixel_aspect);
-        g.sensor_height_mm = sensor[1] > 0.0 ? sensor[1] : sensor[0] * g.height / (g.width * aspect);
-        g.focal_mm = settings.fov_deg ? 0.5 * g.sensor_width_mm / std::tan(0.5 * *settings.fov_deg / kDegrees) : efl_mm;
+        g.sensor_height_mm = lens.sensor[1] > 0.0 ? lens.sensor[1] : lens.sensor[0] * g.height / (g.width * aspect);
+        g.focal_mm = settings.fov_deg ? 0.5 * g.sensor_width_mm / std::tan(0.5 * *settings.fov_deg / kDegrees) : lens.efl_mm;
         return g;
     }
 
     std::vector<detect::Light> lights(const Frame& frame) {
-        if (tracks) {
-            std::vector<detect::Light> found = tracks->lights_at(frame.number);
-            if (tracks->width > 0 && tracks->width != frame.spec.full_width)
+        if (finder.tracks) {
+            std::vector<detect::Light> found = finder.tracks->lights_at(frame.number);
+            if (finder.tracks->width > 0 && finder.tracks->width != frame.spec.full_width)
                 throw std::runtime_error(fmt::format("track file {} is for {}x{} frames, this one is {}x{}", settings.tracks,
-                                                     tracks->width, tracks->height, frame.spec.full_width, frame.spec.full_height));
+                                                     finder.tracks->width, finder.tracks->height, frame.spec.full_width, frame.spec.full_height));
             keep_brightest(found, static_cast<std::size_t>(settings.max_lights));
             return found;
         }
-        const detect::Detection found = detector.detect(detection_input.view(frame));
+        const detect::Detection found = finder.detector.detect(finder.input.view(frame));
         const detect::FrameStats& st = found.stats;
-        detected = {{"sources", static_cast<double>(found.sources.size())}, {"brightest", st.max_luminance}, {"threshold", st.threshold}};
+        report.detected = {{"sources", static_cast<double>(found.sources.size())}, {"brightest", st.max_luminance}, {"threshold", st.threshold}};
         if (summary.lights_per_frame.empty() || st.max_luminance > summary.brightest_luminance) {
             summary.brightest_luminance = st.max_luminance;
             summary.threshold_there = st.threshold;
         }
-        return tracker.update(found);
+        return finder.tracker.update(found);
     }
 
     // The strength of a light's whole flare beyond physics: the artistic gains that apply to it, multiplied
@@ -433,22 +511,16 @@ struct FlareStage::State {
         return std::isfinite(b) ? b : std::numeric_limits<double>::max();
     }
 
-    void start_frame() {
-        times.clear();
-        figures.clear();
-        detected.clear();
-    }
-
     // Step 1, lights: this frame's (detected and tracked, or from the track file), less those too dim against
     // the brightest to show; counted in the run's summary and the frame's figures.
     std::vector<detect::Light> frame_lights(const Frame& frame) {
         const auto t = Clock::now();
         std::vector<detect::Light> found = lights(frame);
-        times.emplace_back("detect", ms_since(t));
+        report.times.emplace_back("detect", ms_since(t));
         fade_dim_lights(found, settings.min_light);
         summary.lights_per_frame.push_back(static_cast<int>(found.size()));
-        figures.emplace_back("lights", static_cast<double>(found.size()));
-        figures.insert(figures.end(), detected.begin(), detected.end());
+        report.figures.emplace_back("lights", static_cast<double>(found.size()));
+        report.figures.insert(report.figures.end(), report.detected.begin(), report.detected.end());
         return found;
     }
 
@@ -504,7 +576,7 @@ struct FlareStage::State {
         }
         if (!point_lights.empty()) {
             const auto t = Clock::now();
-            renderer->render_add(system, view, point_lights, render_options, rgb);
+            renderer->render_add(lens.system, view, point_lights, render_options, rgb);
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
         }
@@ -523,22 +595,11 @@ struct FlareStage::State {
         return view;
     }
 
-    // direct_power at (ax, ay) from the table over the frame's field (made at the first light, kept on disk).
+    // direct_power at (ax, ay), from the table over the frame's field up to its corners.
     std::array<double, 3> direct_power_at(const FlareGeometry& geo, double ax, double ay) {
-        if (direct.empty()) {
-            const auto [cx, cy] = geo.angles_at(0.0, 0.0);
-            const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
-            direct = flare::DirectPowerTable(system, std::min(89.0, 1.02 * corner), 12, 96, passes);
-            direct_key = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens_text, direct.max_field_deg(), flare::passes_key(passes));
-            if (const std::string dir = flare::cache_dir_of(settings.accel.cache_dir); !dir.empty()) {
-                direct_file = flare::cache_file(dir, "direct", flare::key_hash(direct_key));
-                direct.load(direct_file, direct_key);
-            }
-        }
-        const int traced_before = direct.traced();
-        const std::array<double, 3> power = direct.at(ax, ay);
-        if (direct.traced() != traced_before && !direct_file.empty()) direct.save(direct_file, direct_key);
-        return power;
+        const auto [cx, cy] = geo.angles_at(0.0, 0.0);
+        const double corner = std::atan(std::hypot(std::tan(cx / kDegrees), std::tan(cy / kDegrees))) * kDegrees;
+        return direct.at(lens, passes, corner, settings.accel.cache_dir, ax, ay);
     }
 
     // The factor per channel a light's ghosts are added with: its irradiance at the lens (the energy its image
@@ -561,7 +622,7 @@ struct FlareStage::State {
     // The added lights each found light stands for (the nearest one whose disc it reaches, if any).
     std::vector<std::vector<const UnheldLight*>> unheld_of(const std::vector<detect::Light>& found) const {
         std::vector<std::vector<const UnheldLight*>> of(found.size());
-        for (const UnheldLight& u : detection_input.unheld()) {
+        for (const UnheldLight& u : finder.input.unheld()) {
             std::optional<std::size_t> nearest;
             double nearest_px = std::numeric_limits<double>::infinity();
             for (std::size_t i = 0; i < found.size(); ++i) {
@@ -576,19 +637,14 @@ struct FlareStage::State {
 
     // The starburst texture (computed or read from the cache at the first light).
     const optics::Starburst& starburst_texture() {
-        if (!starburst) {
-            optics::StarburstOptions options = starburst_options;
-            options.xyz_to_rgb = *xyz_to_rgb;
-            starburst = flare::cached_starburst(system.aperture, options, flare::cache_dir_of(settings.accel.cache_dir));
-        }
-        return *starburst;
+        return starburst.texture(lens.system.aperture, *xyz_to_rgb, settings.accel.cache_dir);
     }
 
     // The radius (texels) of the pattern's core a light's recorded pixels hold; never more than its own pixel,
     // or a small light would show a hole.
     double core_texels(const FlareGeometry& geo) {
         const optics::Starburst& sb = starburst_texture();
-        const double texel_px = sb.texel_per_fnumber_mm * f_number / (geo.sensor_width_mm / geo.width);
+        const double texel_px = sb.texel_per_fnumber_mm * lens.f_number / (geo.sensor_width_mm / geo.width);
         return std::min(optics::starburst_core_radius_texels(sb), 0.75 / texel_px);
     }
 
@@ -605,8 +661,8 @@ struct FlareStage::State {
             std::array<double, 3> energy{};
             for (std::size_t c = 0; c < 3; ++c) energy[c] = std::min(u->flux[c] * geo.pixel_area_mm2() * light.weight, kMaxLightScale);
             const optics::SourceEllipse disc{u->light.radius, u->light.radius, 0.0};
-            optics::draw_starburst_core(starburst_texture(), system.aperture, settings.starburst_scale,
-                                        {u->light.x, u->light.y, f_number, core_texels(geo), disc}, energy, sensor_image(geo, rgb));
+            optics::draw_starburst_core(starburst_texture(), lens.system.aperture, settings.starburst_scale,
+                                        {u->light.x, u->light.y, lens.f_number, core_texels(geo), disc}, energy, sensor_image(geo, rgb));
         }
     }
 
@@ -621,12 +677,12 @@ struct FlareStage::State {
         const optics::SensorImage image = sensor_image(geo, rgb);
         const double core = core_texels(geo);
         if (is_extended(light)) {
-            add_extended_starburst(starburst_texture(), system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core}, energy,
+            add_extended_starburst(starburst_texture(), lens.system.aperture, settings.starburst_scale, {light.x, light.y, lens.f_number, core}, energy,
                                    *light.shape, image);
         } else {
             // Spread over the light's own extent: a sun 8 px across has spikes 8 px wide.
             const optics::SourceEllipse source{light.extent.major, light.extent.minor, light.extent.angle_deg};
-            optics::draw_starburst(starburst_texture(), system.aperture, settings.starburst_scale, {light.x, light.y, f_number, core, source},
+            optics::draw_starburst(starburst_texture(), lens.system.aperture, settings.starburst_scale, {light.x, light.y, lens.f_number, core, source},
                                    energy, image);
         }
     }
@@ -635,7 +691,7 @@ struct FlareStage::State {
     // footprint, for a point light or an extended light whose ghosts all image as from a point.
     std::vector<FootprintGroup> ghost_groups(const detect::Light& light, double pixel_mm) {
         if (!is_extended(light)) return std::vector<FootprintGroup>(1);
-        if (!ghost_imaging) ghost_imaging = GhostImagingTable::cached(system, lens_text, flare::cache_dir_of(settings.accel.cache_dir));
+        if (!ghost_imaging) ghost_imaging = GhostImagingTable::cached(lens.system, lens.text, flare::cache_dir_of(settings.accel.cache_dir));
         const GhostImagingTable& t = *ghost_imaging;
         std::vector<FootprintGroup> groups = footprint_groups(t.ghosts, t.imaging, t.axial_power, *light.shape, pixel_mm);
         if (groups.size() == 1 && groups[0].magnification == 0.0) groups[0].ghosts.clear();  // every ghost: a point light's caches
@@ -659,7 +715,7 @@ struct FlareStage::State {
             if (settings.band_filter) {
                 view.only_ghosts = group.ghosts;
                 flare::FlareImage flare = gpu::render_band_filtered(
-                    system, view, [&](const flare::FlareView& one) { return renderer->render(system, one, render_options); });
+                    lens.system, view, [&](const flare::FlareView& one) { return renderer->render(lens.system, one, render_options); });
                 view.only_ghosts.clear();
                 if (flare.width != view.width || flare.height != view.height)
                     throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
@@ -674,7 +730,7 @@ struct FlareStage::State {
                 group_options.draw_only = group.ghosts;
                 group_options.spread_px = group.magnification != 0.0 ? footprint_reach_px(*light.shape, group.magnification) : 0.0;
                 group_rgb.assign(display_px * 3, 0.0f);
-                renderer->render_add(system, view, std::span(&scaled, 1), group_options, group_rgb);
+                renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, group_rgb);
             }
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
@@ -703,14 +759,14 @@ struct FlareStage::State {
         constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
         if (renderer && static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) > kKeepTargetsPixels)
             renderer->release_targets();
-        figures.emplace_back("ghosts drawn", static_cast<double>(tally.ghosts_drawn));
-        figures.emplace_back("ghosts culled", static_cast<double>(tally.ghosts_culled));
+        report.figures.emplace_back("ghosts drawn", static_cast<double>(tally.ghosts_drawn));
+        report.figures.emplace_back("ghosts culled", static_cast<double>(tally.ghosts_culled));
         summary.ghosts_drawn += tally.ghosts_drawn;
         summary.ghosts_culled += tally.ghosts_culled;
-        times.emplace_back("direct", tally.direct_ms);
-        times.emplace_back("starburst", tally.starburst_ms);
-        times.emplace_back("ghosts", tally.ghosts_ms);
-        times.emplace_back("extended", tally.extended_ms);
+        report.times.emplace_back("direct", tally.direct_ms);
+        report.times.emplace_back("starburst", tally.starburst_ms);
+        report.times.emplace_back("ghosts", tally.ghosts_ms);
+        report.times.emplace_back("extended", tally.extended_ms);
     }
 };
 
@@ -718,12 +774,12 @@ FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, 
     : state_(std::make_unique<State>(std::move(settings), std::move(gpu), std::move(working_rgb_to_xyz))) {}
 FlareStage::~FlareStage() = default;
 
-std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->times; }
-std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { return state_->figures; }
+std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->report.times; }
+std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { return state_->report.figures; }
 const LightSummary& FlareStage::summary() const { return state_->summary; }
 
 std::size_t FlareStage::held_bytes(const ImageSpec& spec) const {
-    if (!state_->parts.ghosts || state_->measured_lens) return 0;
+    if (!state_->parts.ghosts || state_->lens.measured) return 0;
     const double bytes = gpu::render_target_bytes(spec.full_width, spec.full_height);
     return static_cast<std::size_t>(std::min(bytes, 0x1p60));  // a hostile window is refused by the stage itself
 }
@@ -731,7 +787,7 @@ std::size_t FlareStage::held_bytes(const ImageSpec& spec) const {
 // lights -> fade -> model -> composite.
 void FlareStage::process(Frame& frame) {
     State& s = *state_;
-    s.start_frame();
+    s.report.clear();
     check_flare_channels(frame);
     const std::vector<detect::Light> lights = s.frame_lights(frame);
     if (s.settings.flare_only) std::fill(frame.rgb.begin(), frame.rgb.end(), 0.0f);
@@ -741,7 +797,7 @@ void FlareStage::process(Frame& frame) {
         return;
     }
     const FlareGeometry geo = s.geometry(frame);
-    if (s.measured_lens) return s.add_measured_flare(frame, lights, geo);
+    if (s.lens.measured) return s.add_measured_flare(frame, lights, geo);
     // The flare over the display window, composited into the frame once every light is in; when the data
     // window is the display window (and R, G, B are the target), added into the frame's R, G, B directly.
     const bool into_frame = frame.spec.data_is_display() && !layer;
@@ -749,7 +805,7 @@ void FlareStage::process(Frame& frame) {
     s.finish_model(s.add_model(lights, geo, flare_rgb), geo);
     const auto t = Clock::now();
     if (!into_frame) composite(frame, flare_rgb, geo, s.settings.layer);
-    s.times.emplace_back("composite", ms_since(t));
+    s.report.times.emplace_back("composite", ms_since(t));
 }
 
 }  // namespace lensfx::filter
