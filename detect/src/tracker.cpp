@@ -50,26 +50,46 @@ void Tracker::reset() {
 
 std::vector<Light> Tracker::update(const Detection& detection) {
     ++frames_;
-    const auto& hist = detection.stats.histogram;
-    last_was_cut_ = !previous_histogram_.empty() && histogram_distance(previous_histogram_, hist) > options_.cut_threshold;
+    forget_tracks_at_cut(detection.stats.histogram);
+    const std::vector<Prediction> predicted = predict();
+    const Association association = associate(predicted, detection.sources);
+    for (std::size_t t = 0; t < tracks_.size(); ++t) {
+        const int s = association.match_of_track[t];
+        if (s < 0) {
+            coast(tracks_[t], predicted[t]);
+        } else {
+            correct(tracks_[t], predicted[t], detection.sources[static_cast<std::size_t>(s)]);
+        }
+    }
+    std::erase_if(tracks_, [](const Track& tr) { return tr.missed > 0 && tr.weight <= 0.0; });
+    start_tracks(detection, association.source_taken);
+    fresh_ = false;
+    return visible_lights();
+}
+
+void Tracker::forget_tracks_at_cut(const std::vector<float>& histogram) {
+    last_was_cut_ = !previous_histogram_.empty() && histogram_distance(previous_histogram_, histogram) > options_.cut_threshold;
     if (last_was_cut_) {
         tracks_.clear();
         fresh_ = true;
     }
-    previous_histogram_ = hist;
+    previous_histogram_ = histogram;
+}
 
-    // Prediction (constant velocity, constant flux slope).
-    struct Prediction { double x, y; std::array<double, 3> flux; };
+// Constant velocity, constant flux slope.
+std::vector<Tracker::Prediction> Tracker::predict() const {
     std::vector<Prediction> pred(tracks_.size());
     for (std::size_t t = 0; t < tracks_.size(); ++t) {
         const Track& tr = tracks_[t];
         pred[t].x = tr.x + tr.vx;
         pred[t].y = tr.y + tr.vy;
-        for (int c = 0; c < 3; ++c) pred[t].flux[static_cast<std::size_t>(c)] = std::max(0.0, tr.flux[static_cast<std::size_t>(c)] + tr.dflux[static_cast<std::size_t>(c)]);
+        for (std::size_t c = 0; c < 3; ++c) pred[t].flux[c] = std::max(0.0, tr.flux[c] + tr.dflux[c]);
     }
+    return pred;
+}
 
-    // Gated candidate pairs, cheapest first; ties broken by track then source order.
-    const auto& sources = detection.sources;
+// Greedy: gated candidate pairs, cheapest first; ties broken by track then source order.
+Tracker::Association Tracker::associate(const std::vector<Prediction>& pred, const std::vector<Source>& sources) const {
     std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
     const double log_gate = std::log(options_.gate_flux_ratio);
     for (std::size_t t = 0; t < tracks_.size(); ++t) {
@@ -84,69 +104,83 @@ std::vector<Light> Tracker::update(const Detection& detection) {
         }
     }
     std::sort(pairs.begin(), pairs.end());
-    std::vector<int> match_of_track(tracks_.size(), -1);
-    std::vector<bool> source_taken(sources.size(), false);
+    Association a{std::vector<int>(tracks_.size(), -1), std::vector<bool>(sources.size(), false)};
     for (const auto& [cost, t, s] : pairs) {
-        if (match_of_track[t] >= 0 || source_taken[s]) continue;
-        match_of_track[t] = static_cast<int>(s);
-        source_taken[s] = true;
+        if (a.match_of_track[t] >= 0 || a.source_taken[s]) continue;
+        a.match_of_track[t] = static_cast<int>(s);
+        a.source_taken[s] = true;
     }
+    return a;
+}
 
+double Tracker::fade_in_step() const { return options_.fade_in_frames > 0 ? 1.0 / options_.fade_in_frames : 1.0; }
+
+double Tracker::fade_out_step() const { return options_.fade_out_frames > 0 ? 1.0 / options_.fade_out_frames : 1.0; }
+
+// No detection: keep moving, hold the flux; after coast_frames, fade out.
+void Tracker::coast(Track& tr, const Prediction& p) const {
+    tr.x = p.x;
+    tr.y = p.y;
+    tr.dflux = {};
+    ++tr.missed;
+    if (tr.missed > options_.coast_frames) tr.weight = std::max(0.0, tr.weight - fade_out_step());
+}
+
+// A detection: move the filters towards it, take its extent and shape, fade in.
+void Tracker::correct(Track& tr, const Prediction& p, const Source& s) const {
+    if (tr.updates == 1) {
+        start_velocity(tr, s);
+    } else {
+        filter_motion(tr, p, s);
+    }
+    smooth_extent(tr.extent, s.extent, options_.extent_alpha);
+    tr.clipped = s.clipped;
+    tr.shape = s.shape;
+    ++tr.updates;
+    tr.missed = 0;
+    tr.weight = std::min(1.0, tr.weight + fade_in_step());
+}
+
+// Second detection: two-point start of the velocity, so a steady motion is followed without lag.
+void Tracker::start_velocity(Track& tr, const Source& s) {
+    tr.vx = s.x - tr.x;
+    tr.vy = s.y - tr.y;
+    tr.x = s.x;
+    tr.y = s.y;
+    for (std::size_t c = 0; c < 3; ++c) {
+        tr.dflux[c] = s.flux[c] - tr.flux[c];
+        tr.flux[c] = s.flux[c];
+    }
+}
+
+// Alpha-beta filters of position and flux, driven by the residual to the prediction.
+void Tracker::filter_motion(Track& tr, const Prediction& p, const Source& s) const {
     const double pa = options_.position_alpha, pb = critically_damped_beta(pa, options_.position_beta);
     const double fa = options_.flux_alpha, fb = critically_damped_beta(fa, options_.flux_beta);
-    const double ea = options_.extent_alpha;
-    const double fade_in = options_.fade_in_frames > 0 ? 1.0 / options_.fade_in_frames : 1.0;
-    const double fade_out = options_.fade_out_frames > 0 ? 1.0 / options_.fade_out_frames : 1.0;
-
-    for (std::size_t t = 0; t < tracks_.size(); ++t) {
-        Track& tr = tracks_[t];
-        const Prediction& p = pred[t];
-        if (match_of_track[t] < 0) {
-            // Coast: keep moving, hold the flux; after coast_frames, fade out.
-            tr.x = p.x;
-            tr.y = p.y;
-            tr.dflux = {};
-            ++tr.missed;
-            if (tr.missed > options_.coast_frames) tr.weight = std::max(0.0, tr.weight - fade_out);
-            continue;
-        }
-        const Source& s = sources[static_cast<std::size_t>(match_of_track[t])];
-        if (tr.updates == 1) {
-            // Second detection: two-point start of the velocity, so a steady motion is followed without lag.
-            tr.vx = s.x - tr.x;
-            tr.vy = s.y - tr.y;
-            tr.x = s.x;
-            tr.y = s.y;
-            for (std::size_t c = 0; c < 3; ++c) {
-                tr.dflux[c] = s.flux[c] - tr.flux[c];
-                tr.flux[c] = s.flux[c];
-            }
-        } else {
-            const double rx = s.x - p.x, ry = s.y - p.y;
-            tr.x = p.x + pa * rx;
-            tr.y = p.y + pa * ry;
-            tr.vx += pb * rx;
-            tr.vy += pb * ry;
-            for (std::size_t c = 0; c < 3; ++c) {
-                const double r = s.flux[c] - p.flux[c];
-                tr.flux[c] = std::max(0.0, p.flux[c] + fa * r);
-                tr.dflux[c] += fb * r;
-            }
-        }
-        tr.extent.major += ea * (s.extent.major - tr.extent.major);
-        tr.extent.minor += ea * (s.extent.minor - tr.extent.minor);
-        double da = s.extent.angle_deg - tr.extent.angle_deg;  // axes: angles modulo 180
-        da -= 180.0 * std::round(da / 180.0);
-        tr.extent.angle_deg = std::fmod(tr.extent.angle_deg + ea * da + 180.0, 180.0);
-        tr.clipped = s.clipped;
-        tr.shape = s.shape;
-        ++tr.updates;
-        tr.missed = 0;
-        tr.weight = std::min(1.0, tr.weight + fade_in);
+    const double rx = s.x - p.x, ry = s.y - p.y;
+    tr.x = p.x + pa * rx;
+    tr.y = p.y + pa * ry;
+    tr.vx += pb * rx;
+    tr.vy += pb * ry;
+    for (std::size_t c = 0; c < 3; ++c) {
+        const double r = s.flux[c] - p.flux[c];
+        tr.flux[c] = std::max(0.0, p.flux[c] + fa * r);
+        tr.dflux[c] += fb * r;
     }
-    std::erase_if(tracks_, [](const Track& tr) { return tr.missed > 0 && tr.weight <= 0.0; });
+}
 
-    // Births: unmatched sources whose peak reaches the birth threshold (the hysteresis upper edge).
+// Exponential smoothing of the axes; the angle of an axis is modulo 180 degrees.
+void Tracker::smooth_extent(Extent& e, const Extent& seen, double alpha) {
+    e.major += alpha * (seen.major - e.major);
+    e.minor += alpha * (seen.minor - e.minor);
+    double da = seen.angle_deg - e.angle_deg;
+    da -= 180.0 * std::round(da / 180.0);
+    e.angle_deg = std::fmod(e.angle_deg + alpha * da + 180.0, 180.0);
+}
+
+// Births: unmatched sources whose peak reaches the birth threshold (the hysteresis upper edge).
+void Tracker::start_tracks(const Detection& detection, const std::vector<bool>& source_taken) {
+    const auto& sources = detection.sources;
     for (std::size_t s = 0; s < sources.size(); ++s) {
         if (source_taken[s] || sources[s].peak < detection.stats.threshold) continue;
         Track tr;
@@ -157,12 +191,14 @@ std::vector<Light> Tracker::update(const Detection& detection) {
         tr.extent = sources[s].extent;
         tr.clipped = sources[s].clipped;
         tr.shape = sources[s].shape;
-        tr.weight = fresh_ ? 1.0 : fade_in;
+        tr.weight = fresh_ ? 1.0 : fade_in_step();
         tr.updates = 1;
         tracks_.push_back(std::move(tr));
     }
-    fresh_ = false;
+}
 
+// The tracks of non-zero weight, as lights; tracks_ is in birth order, so ids increase.
+std::vector<Light> Tracker::visible_lights() const {
     std::vector<Light> lights;
     for (const Track& tr : tracks_) {
         if (tr.weight <= 0.0) continue;
@@ -177,7 +213,7 @@ std::vector<Light> Tracker::update(const Detection& detection) {
         l.shape = tr.shape;
         lights.push_back(std::move(l));
     }
-    return lights;  // tracks_ is in birth order, so ids increase
+    return lights;
 }
 
 }  // namespace lensfx::detect

@@ -78,6 +78,132 @@ DeviceChoice pick_device() {
     return best;
 }
 
+struct ClientPlatforms {
+    bool device = false;       // EGL_EXT_platform_device with device enumeration
+    bool surfaceless = false;  // EGL_MESA_platform_surfaceless
+};
+
+// The platforms this EGL client library offers; throws when it offers no client extensions at all.
+ClientPlatforms query_client_platforms() {
+    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    if (!client) {
+        throw std::runtime_error("EGL: no client extensions (EGL 1.5 or EGL_EXT_client_extensions needed); "
+                                 "is an EGL driver (libEGL + Mesa) installed?");
+    }
+    return {has_extension(client, "EGL_EXT_platform_device") && has_extension(client, "EGL_EXT_device_enumeration"),
+            has_extension(client, "EGL_MESA_platform_surfaceless")};
+}
+
+struct OpenDisplay {
+    EGLDisplay display = EGL_NO_DISPLAY;
+    Platform platform = Platform::Auto;
+    std::string device;     // the device's description (device platform only)
+    bool software = false;  // the device is a software one
+};
+
+// A device display when one is requested or (for auto) a hardware device exists or surfaceless is missing;
+// an empty OpenDisplay when auto falls back to surfaceless.
+OpenDisplay open_device_display(Platform requested, const ClientPlatforms& client) {
+    const DeviceChoice choice = client.device ? pick_device() : DeviceChoice{};
+    const bool take = choice.device != EGL_NO_DEVICE_EXT &&
+                      (requested == Platform::Device || !choice.software || !client.surfaceless);
+    if (take) {
+        const EGLDisplay display = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, choice.device, nullptr);
+        if (display == EGL_NO_DISPLAY) fail(Platform::Device, "eglGetPlatformDisplayEXT failed");
+        return {display, Platform::Device, choice.description, choice.software};
+    }
+    if (requested == Platform::Device) {
+        throw std::runtime_error(client.device ? "EGL (device platform): no EGL device found"
+                                               : "EGL (device platform): EGL_EXT_platform_device is not supported "
+                                                 "by this EGL; try --gpu surfaceless");
+    }
+    return {};
+}
+
+OpenDisplay open_surfaceless_display(const ClientPlatforms& client) {
+    if (!client.surfaceless) {
+        throw std::runtime_error("EGL: neither a usable EGL device nor EGL_MESA_platform_surfaceless is "
+                                 "available; install Mesa's EGL (libegl-mesa0) or a GPU driver");
+    }
+    const EGLDisplay display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (display == EGL_NO_DISPLAY) fail(Platform::Surfaceless, "eglGetPlatformDisplayEXT failed");
+    return {display, Platform::Surfaceless, {}, false};
+}
+
+// The requested platform's display; auto tries a device first, then surfaceless.
+OpenDisplay open_display(Platform requested) {
+    const ClientPlatforms client = query_client_platforms();
+    if (requested == Platform::Device || requested == Platform::Auto) {
+        OpenDisplay opened = open_device_display(requested, client);
+        if (opened.display != EGL_NO_DISPLAY) return opened;
+    }
+    return open_surfaceless_display(client);
+}
+
+// A config for the context, or none where the display takes contexts without one
+// (EGL_KHR_no_config_context); the display must allow contexts without a surface.
+EGLConfig choose_config(EGLDisplay display, Platform used) {
+    const char* display_ext = eglQueryString(display, EGL_EXTENSIONS);
+    if (!has_extension(display_ext, "EGL_KHR_surfaceless_context")) {
+        throw std::runtime_error(fmt::format("EGL ({} platform): EGL_KHR_surfaceless_context is missing",
+                                             platform_name(used)));
+    }
+    EGLConfig config = EGL_NO_CONFIG_KHR;
+    if (!has_extension(display_ext, "EGL_KHR_no_config_context")) {
+        const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
+        EGLint n = 0;
+        if (!eglChooseConfig(display, config_attribs, &config, 1, &n) || n < 1) {
+            fail(used, "eglChooseConfig found no OpenGL config");
+        }
+    }
+    return config;
+}
+
+// An OpenGL core context of the required version (with the debug flag in debug builds).
+EGLContext create_core_context(EGLDisplay display, EGLConfig config, Platform used) {
+    const EGLint context_attribs[] = {
+        EGL_CONTEXT_MAJOR_VERSION, required_major,
+        EGL_CONTEXT_MINOR_VERSION, required_minor,
+        EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+#ifndef NDEBUG
+        EGL_CONTEXT_OPENGL_DEBUG, EGL_TRUE,
+#endif
+        EGL_NONE};
+    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
+    if (context == EGL_NO_CONTEXT) {
+        fail(used, fmt::format("eglCreateContext could not create an OpenGL {}.{} core context",
+                               required_major, required_minor));
+    }
+    return context;
+}
+
+// The current context's GL strings and version numbers.
+void read_gl_info(ContextInfo& info) {
+    auto gl_string = [](GLenum name) {
+        const auto* s = reinterpret_cast<const char*>(glGetString(name));
+        return std::string(s ? s : "");
+    };
+    info.gl_vendor = gl_string(GL_VENDOR);
+    info.gl_renderer = gl_string(GL_RENDERER);
+    info.gl_version = gl_string(GL_VERSION);
+    info.glsl_version = gl_string(GL_SHADING_LANGUAGE_VERSION);
+    glGetIntegerv(GL_MAJOR_VERSION, &info.gl_major);
+    glGetIntegerv(GL_MINOR_VERSION, &info.gl_minor);
+}
+
+bool meets_required_version(const ContextInfo& info) {
+    return info.gl_major * 10 + info.gl_minor >= required_major * 10 + required_minor;
+}
+
+bool is_software_renderer(const std::string& renderer) {
+    return renderer.find("llvmpipe") != std::string::npos || renderer.find("softpipe") != std::string::npos;
+}
+
+void destroy_context(EGLDisplay display, EGLContext context) {
+    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(display, context);
+}
+
 }  // namespace
 
 Platform parse_platform(std::string_view name) {
@@ -97,109 +223,37 @@ std::string_view platform_name(Platform platform) {
 }
 
 Context::Context(Platform requested) {
-    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    if (!client) {
-        throw std::runtime_error("EGL: no client extensions (EGL 1.5 or EGL_EXT_client_extensions needed); "
-                                 "is an EGL driver (libEGL + Mesa) installed?");
-    }
-    const bool device_ok = has_extension(client, "EGL_EXT_platform_device") &&
-                           has_extension(client, "EGL_EXT_device_enumeration");
-    const bool surfaceless_ok = has_extension(client, "EGL_MESA_platform_surfaceless");
-
-    EGLDisplay display = EGL_NO_DISPLAY;
-    Platform used = requested;
-    if (requested == Platform::Device || requested == Platform::Auto) {
-        DeviceChoice choice = device_ok ? pick_device() : DeviceChoice{};
-        const bool take = choice.device != EGL_NO_DEVICE_EXT &&
-                          (requested == Platform::Device || !choice.software || !surfaceless_ok);
-        if (take) {
-            display = eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT, choice.device, nullptr);
-            if (display == EGL_NO_DISPLAY) fail(Platform::Device, "eglGetPlatformDisplayEXT failed");
-            used = Platform::Device;
-            info_.device = choice.description;
-            info_.software = choice.software;
-        } else if (requested == Platform::Device) {
-            throw std::runtime_error(device_ok ? "EGL (device platform): no EGL device found"
-                                               : "EGL (device platform): EGL_EXT_platform_device is not supported "
-                                                 "by this EGL; try --gpu surfaceless");
-        }
-    }
-    if (display == EGL_NO_DISPLAY) {
-        if (!surfaceless_ok) {
-            throw std::runtime_error("EGL: neither a usable EGL device nor EGL_MESA_platform_surfaceless is "
-                                     "available; install Mesa's EGL (libegl-mesa0) or a GPU driver");
-        }
-        display = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-        if (display == EGL_NO_DISPLAY) fail(Platform::Surfaceless, "eglGetPlatformDisplayEXT failed");
-        used = Platform::Surfaceless;
-    }
+    const OpenDisplay opened = open_display(requested);
+    const Platform used = opened.platform;
     info_.platform = used;
+    info_.device = opened.device;
+    info_.software = opened.software;
 
+    // Initialise the display and bind desktop OpenGL.
     EGLint egl_major = 0;
     EGLint egl_minor = 0;
-    if (!eglInitialize(display, &egl_major, &egl_minor)) fail(used, "eglInitialize failed");
-    display_ = display;
+    if (!eglInitialize(opened.display, &egl_major, &egl_minor)) fail(used, "eglInitialize failed");
+    display_ = opened.display;
     if (!eglBindAPI(EGL_OPENGL_API)) fail(used, "eglBindAPI(EGL_OPENGL_API) failed: no desktop OpenGL");
-    if (const char* v = eglQueryString(display, EGL_VENDOR)) info_.egl_vendor = v;
-    if (const char* v = eglQueryString(display, EGL_VERSION)) info_.egl_version = v;
+    if (const char* v = eglQueryString(display_, EGL_VENDOR)) info_.egl_vendor = v;
+    if (const char* v = eglQueryString(display_, EGL_VERSION)) info_.egl_version = v;
 
-    const char* display_ext = eglQueryString(display, EGL_EXTENSIONS);
-    if (!has_extension(display_ext, "EGL_KHR_surfaceless_context")) {
-        throw std::runtime_error(fmt::format("EGL ({} platform): EGL_KHR_surfaceless_context is missing",
-                                             platform_name(used)));
-    }
-    EGLConfig config = EGL_NO_CONFIG_KHR;
-    if (!has_extension(display_ext, "EGL_KHR_no_config_context")) {
-        const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
-        EGLint n = 0;
-        if (!eglChooseConfig(display, config_attribs, &config, 1, &n) || n < 1) {
-            fail(used, "eglChooseConfig found no OpenGL config");
-        }
-    }
-    const EGLint context_attribs[] = {
-        EGL_CONTEXT_MAJOR_VERSION, required_major,
-        EGL_CONTEXT_MINOR_VERSION, required_minor,
-        EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-#ifndef NDEBUG
-        EGL_CONTEXT_OPENGL_DEBUG, EGL_TRUE,
-#endif
-        EGL_NONE};
-    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
-    if (context == EGL_NO_CONTEXT) {
-        fail(used, fmt::format("eglCreateContext could not create an OpenGL {}.{} core context",
-                               required_major, required_minor));
-    }
-    context_ = context;
+    context_ = create_core_context(display_, choose_config(display_, used), used);
     make_current();
 
-    auto gl_string = [](GLenum name) {
-        const auto* s = reinterpret_cast<const char*>(glGetString(name));
-        return std::string(s ? s : "");
-    };
-    info_.gl_vendor = gl_string(GL_VENDOR);
-    info_.gl_renderer = gl_string(GL_RENDERER);
-    info_.gl_version = gl_string(GL_VERSION);
-    info_.glsl_version = gl_string(GL_SHADING_LANGUAGE_VERSION);
-    glGetIntegerv(GL_MAJOR_VERSION, &info_.gl_major);
-    glGetIntegerv(GL_MINOR_VERSION, &info_.gl_minor);
-    if (info_.gl_major * 10 + info_.gl_minor < required_major * 10 + required_minor) {
-        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-        eglDestroyContext(display_, context_);
+    // Check the version the driver gave; a software renderer counts as software whatever the device.
+    read_gl_info(info_);
+    if (!meets_required_version(info_)) {
+        destroy_context(display_, context_);
         throw std::runtime_error(fmt::format("OpenGL {}.{} found ({}), {}.{} core needed", info_.gl_major,
                                              info_.gl_minor, info_.gl_renderer, required_major, required_minor));
     }
-    const std::string renderer = info_.gl_renderer;
-    if (renderer.find("llvmpipe") != std::string::npos || renderer.find("softpipe") != std::string::npos) {
-        info_.software = true;
-    }
+    if (is_software_renderer(info_.gl_renderer)) info_.software = true;
 }
 
 Context::~Context() {
     // The EGLDisplay of a platform is shared by every Context in the process, so it is not terminated here.
-    if (context_) {
-        eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-        eglDestroyContext(display_, context_);
-    }
+    if (context_) destroy_context(display_, context_);
 }
 
 void Context::make_current() const {

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <algorithm>
 
 #include <fmt/core.h>
@@ -146,86 +147,122 @@ Lens parse_pbrt_dat(std::string_view text, std::string_view origin) {
     return lens;
 }
 
+namespace {
+
+// What a lentil file states outside its table rows.
+struct LentilPreamble {
+    double scale = 1.0;  // #!scale: every length is multiplied by it
+    std::string header;  // the first comment line
+};
+
+// Reads a line that is no table row (a #!scale or #EFL directive, a comment, a blank line) into the
+// preamble or the stated focal lengths; false for a table row.
+bool read_lentil_non_row(const std::string& line, std::string_view origin, int line_no, LentilPreamble& pre,
+                         std::vector<double>& stated_focal_mm) {
+    if (line.starts_with("#!scale")) {
+        pre.scale = number(trim(std::string_view(line).substr(7)), origin, line_no, "#!scale");
+        if (pre.scale <= 0.0) fail(origin, line_no, "#!scale: must be positive");
+        return true;
+    }
+    if (line.starts_with("#EFL")) {
+        for (const auto& w : split(std::string_view(line).substr(4))) {
+            const auto v = to_number(w);
+            if (!v) break;
+            stated_focal_mm.push_back(*v);
+        }
+        return true;
+    }
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos) return true;
+    if (line[first] == '#' || line.compare(first, 2, "//") == 0) {
+        if (pre.header.empty()) pre.header = trim(std::string_view(line).substr(first + (line[first] == '#' ? 1 : 2)));
+        return true;
+    }
+    return false;
+}
+
+// The row's material (iris, air, or a glass from index and Abbe number) into s; returns the column of the
+// semi-aperture that follows it.
+std::size_t read_lentil_material(const std::vector<std::string>& cols, std::string_view origin, int line_no, Surface& s) {
+    const std::string& material = cols[2];
+    std::string lower = material;
+    for (auto& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    if (lower.starts_with("cx_"))
+        fail(origin, line_no, fmt::format("material: '{}' is a cylindrical (anamorphic) surface, which lensfx does not support", material));
+    if (lower == "iris") {
+        s.is_stop = true;
+        return 3;
+    }
+    if (lower == "air") return 3;
+    if (cols.size() < 6) fail(origin, line_no, "expected index and Abbe number after the material");
+    const double nd = number(cols[3], origin, line_no, "index");
+    const double vd = number(cols[4], origin, line_no, "vno");
+    if (nd < 1.0) fail(origin, line_no, fmt::format("index: {} is not a refractive index", nd));
+    try {
+        s.medium = vd == 0.0 ? constant_glass(nd) : glass_from_abbe(nd, vd, lower == "abbe" ? "" : material);
+    } catch (const std::invalid_argument& e) {
+        fail(origin, line_no, fmt::format("vno: {}", e.what()));
+    }
+    return 5;
+}
+
+// A `#!aspheric=k,A4,A6,A8,A10` tag on the row: conic and coefficients, scaled; it keeps a large radius
+// that would otherwise read as a plane.
+void read_aspheric_tag(const std::string& line, std::string_view origin, int line_no, double scale, double radius,
+                       Surface& s) {
+    const auto tag = line.find("#!aspheric=");
+    if (tag == std::string::npos) return;
+    const auto values = split(trim(std::string_view(line).substr(tag + 11)), ",");
+    if (values.empty() || values.size() > 5) fail(origin, line_no, "#!aspheric: expected k,A4,A6,A8,A10");
+    s.conic = number(values[0], origin, line_no, "#!aspheric k");
+    for (std::size_t i = 1; i < values.size(); ++i) {
+        // z(h) scales as h: a_2k h^2k -> a_2k s^(1-2k) (s h)^2k.
+        const double a = number(values[i], origin, line_no, "#!aspheric");
+        s.aspheric.push_back(a * std::pow(scale, 1.0 - 2.0 * static_cast<double>(i + 1)));
+    }
+    if (radius != 0.0 && s.radius_mm == 0.0) s.radius_mm = radius * scale;
+}
+
+// One table row as a surface; none where lentil ends the table (a zero radius, thickness or semi-aperture).
+std::optional<Surface> parse_lentil_row(const std::string& line, std::string_view origin, int line_no, double scale) {
+    const auto cols = split(line);
+    if (cols.size() < 3) fail(origin, line_no, "expected radius thickness material ... semi-aperture");
+    const double radius = number(cols[0], origin, line_no, "radius");
+    if (radius == 0.0) return std::nullopt;
+
+    Surface s;
+    s.source_line = line_no;
+    for (const auto& part : split(cols[1], "/")) s.thickness_mm.push_back(number(part, origin, line_no, "thickness") * scale);
+    if (s.thickness_mm.empty() || s.thickness_mm[0] == 0.0) return std::nullopt;
+    const std::size_t sa_column = read_lentil_material(cols, origin, line_no, s);
+    if (cols.size() <= sa_column) fail(origin, line_no, "sa: missing (clear semi-aperture)");
+    const double sa = number(cols[sa_column], origin, line_no, "sa");
+    if (sa == 0.0) return std::nullopt;
+    s.semi_diameter_mm = sa * scale;
+    s.radius_mm = (s.is_stop || std::abs(radius) >= 1e4) ? 0.0 : radius * scale;
+    read_aspheric_tag(line, origin, line_no, scale, radius, s);
+    return s;
+}
+
+}  // namespace
+
 Lens parse_lentil_fx(std::string_view text, std::string_view origin) {
     Lens lens;
     lens.name = stem_of(origin);
-    double scale = 1.0;
-    std::string header;
+    LentilPreamble pre;
     int line_no = 0;
     for (const auto& line : lines_of(text)) {
         ++line_no;
-        if (line.starts_with("#!scale")) {
-            scale = number(trim(std::string_view(line).substr(7)), origin, line_no, "#!scale");
-            if (scale <= 0.0) fail(origin, line_no, "#!scale: must be positive");
-            continue;
-        }
-        if (line.starts_with("#EFL")) {
-            for (const auto& w : split(std::string_view(line).substr(4))) {
-                const auto v = to_number(w);
-                if (!v) break;
-                lens.stated_focal_mm.push_back(*v);
-            }
-            continue;
-        }
-        const auto first = line.find_first_not_of(" \t");
-        if (first == std::string::npos) continue;
-        if (line[first] == '#' || line.compare(first, 2, "//") == 0) {
-            if (header.empty()) header = trim(std::string_view(line).substr(first + (line[first] == '#' ? 1 : 2)));
-            continue;
-        }
-        auto cols = split(line);
-        if (cols.size() < 3) fail(origin, line_no, "expected radius thickness material ... semi-aperture");
-        const double radius = number(cols[0], origin, line_no, "radius");
-        if (radius == 0.0) break;  // lentil ends the table here
-
-        Surface s;
-        s.source_line = line_no;
-        for (const auto& part : split(cols[1], "/")) s.thickness_mm.push_back(number(part, origin, line_no, "thickness") * scale);
-        if (s.thickness_mm.empty() || s.thickness_mm[0] == 0.0) break;
-        std::string material = cols[2];
-        std::string lower = material;
-        for (auto& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-        if (lower.starts_with("cx_"))
-            fail(origin, line_no, fmt::format("material: '{}' is a cylindrical (anamorphic) surface, which lensfx does not support", material));
-        std::size_t next = 3;
-        if (lower == "iris") {
-            s.is_stop = true;
-        } else if (lower != "air") {
-            if (cols.size() < 6) fail(origin, line_no, "expected index and Abbe number after the material");
-            const double nd = number(cols[3], origin, line_no, "index");
-            const double vd = number(cols[4], origin, line_no, "vno");
-            if (nd < 1.0) fail(origin, line_no, fmt::format("index: {} is not a refractive index", nd));
-            try {
-                s.medium = vd == 0.0 ? constant_glass(nd) : glass_from_abbe(nd, vd, lower == "abbe" ? "" : material);
-            } catch (const std::invalid_argument& e) {
-                fail(origin, line_no, fmt::format("vno: {}", e.what()));
-            }
-            next = 5;
-        }
-        if (cols.size() <= next) fail(origin, line_no, "sa: missing (clear semi-aperture)");
-        const double sa = number(cols[next], origin, line_no, "sa");
-        if (sa == 0.0) break;
-        s.semi_diameter_mm = sa * scale;
-        s.radius_mm = (s.is_stop || std::abs(radius) >= 1e4) ? 0.0 : radius * scale;
-        const auto tag = line.find("#!aspheric=");
-        if (tag != std::string::npos) {
-            const auto values = split(trim(std::string_view(line).substr(tag + 11)), ",");
-            if (values.empty() || values.size() > 5) fail(origin, line_no, "#!aspheric: expected k,A4,A6,A8,A10");
-            s.conic = number(values[0], origin, line_no, "#!aspheric k");
-            for (std::size_t i = 1; i < values.size(); ++i) {
-                // z(h) scales as h: a_2k h^2k -> a_2k s^(1-2k) (s h)^2k.
-                const double a = number(values[i], origin, line_no, "#!aspheric");
-                s.aspheric.push_back(a * std::pow(scale, 1.0 - 2.0 * static_cast<double>(i + 1)));
-            }
-            if (radius != 0.0 && s.radius_mm == 0.0) s.radius_mm = radius * scale;
-        }
-        lens.surfaces.push_back(std::move(s));
+        if (read_lentil_non_row(line, origin, line_no, pre, lens.stated_focal_mm)) continue;
+        std::optional<Surface> surface = parse_lentil_row(line, origin, line_no, pre.scale);
+        if (!surface) break;
+        lens.surfaces.push_back(std::move(*surface));
     }
-    for (auto& f : lens.stated_focal_mm) f *= scale;
-    lens.source = header;
+    for (auto& f : lens.stated_focal_mm) f *= pre.scale;
+    lens.source = pre.header;
     lens.notes = fmt::format("imported from a lentil .fx file{}; media from nd/Vd (glass_from_abbe); "
                              "radii of 1e4 mm or more read as planes",
-                             scale != 1.0 ? fmt::format(", #!scale {} applied", scale) : std::string());
+                             pre.scale != 1.0 ? fmt::format(", #!scale {} applied", pre.scale) : std::string());
     lens.sensor_as_written = false;
     coat_air_glass(lens);
     validate_lens(lens, origin);

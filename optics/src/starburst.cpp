@@ -78,72 +78,105 @@ std::array<double, 3> Starburst::sums() const {
     return s;
 }
 
-Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
+namespace {
+
+void validate_options(const StarburstOptions& o) {
     if (o.size < 16 || o.size > 8192) throw std::invalid_argument(fmt::format("starburst size {} outside 16..8192", o.size));
     if (o.pupil_samples < 8) throw std::invalid_argument(fmt::format("starburst pupil samples {} below 8", o.pupil_samples));
     if (!(o.step_nm > 0.0) || !(o.last_nm >= o.first_nm) || !(o.first_nm > 0.0))
         throw std::invalid_argument("starburst wavelength range must be positive and increasing");
+}
 
-    // FFT size: the shortest wavelength stretches the spectrum least, so it must still cover the texture,
-    // and the iris must be padded at least 2x for the power spectrum to be sampled finely enough.
+// FFT size: the shortest wavelength stretches the spectrum least, so it must still cover the texture,
+// and the iris must be padded at least 2x for the power spectrum to be sampled finely enough.
+int fft_size(const StarburstOptions& o) {
     const double reach = 0.5 * o.size * kReferenceNm / o.first_nm + 2.0;
     int m = 64;
     while (m < 2.0 * reach || m < 4 * o.pupil_samples) m *= 2;
+    return m;
+}
 
-    const std::size_t mm = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
-    const std::size_t half = static_cast<std::size_t>(m / 2 + 1);
-    auto in = fftw_buffer<double>(mm);
-    auto out = fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * half);
-    fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.get(), out.get(), FFTW_ESTIMATE);
-    if (!plan) throw std::runtime_error("FFTW could not plan the starburst transform");
-    if (o.image.empty()) {
-        rasterise_aperture(aperture, m, o.pupil_samples, in.get());
-    } else {
-        rasterise_image(o.image, m, o.pupil_samples, in.get());
-    }
-    apply_imperfections(o.dirt, m, o.pupil_samples, in.get());
-    fftw_execute(plan);
-    fftw_destroy_plan(plan);
+// The iris's power spectrum on an m x m grid, centred: frequency (0, 0) at (m/2, m/2).
+struct PowerSpectrum {
+    int m = 0;
+    std::vector<double> power;
 
-    // Centred power spectrum P[y][x], frequency (0, 0) at (m/2, m/2); the real input's spectrum is
-    // conjugate-symmetric, so the missing half is the mirrored one.
-    std::vector<double> power(mm);
-    for (int y = 0; y < m; ++y) {
-        for (int x = 0; x < m; ++x) {
-            int fx = x - m / 2, fy = y - m / 2;
-            if (fx < 0) { fx = -fx; fy = -fy; }
-            const int row = (fy % m + m) % m;
-            const fftw_complex& c = out[static_cast<std::size_t>(row) * half + static_cast<std::size_t>(fx)];
-            power[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = c[0] * c[0] + c[1] * c[1];
-        }
-    }
-    const auto sample = [&](double fx, double fy) {
+    // Bilinear at (fx, fy) FFT bins from the centre; 0 outside the grid.
+    double sample(double fx, double fy) const {
         const double px = fx + m / 2, py = fy + m / 2;
         const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
         if (x0 < 0 || y0 < 0 || x0 + 1 >= m || y0 + 1 >= m) return 0.0;
         const double ax = px - x0, ay = py - y0;
         const auto at = [&](int x, int y) { return power[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)]; };
         return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x0 + 1, y0)) + ay * ((1 - ax) * at(x0, y0 + 1) + ax * at(x0 + 1, y0 + 1));
-    };
+    }
+};
 
-    // One FFT bin at 550 nm is one texel: wavelength x N x (2 r / m) on the sensor (eq. 2 with z0/D = N).
+// The transmission grid: the aperture's outline or the options' image, with the pupil's imperfections.
+void rasterise_iris(const Aperture& aperture, const StarburstOptions& o, int m, double* out) {
+    if (o.image.empty()) {
+        rasterise_aperture(aperture, m, o.pupil_samples, out);
+    } else {
+        rasterise_image(o.image, m, o.pupil_samples, out);
+    }
+    apply_imperfections(o.dirt, m, o.pupil_samples, out);
+}
+
+// |F|^2 of a real m x m transform's half spectrum, centred; the real input's spectrum is
+// conjugate-symmetric, so the missing half is the mirrored one.
+std::vector<double> centred_power(const fftw_complex* half_spectrum, int m) {
+    const std::size_t half = static_cast<std::size_t>(m / 2 + 1);
+    std::vector<double> power(static_cast<std::size_t>(m) * static_cast<std::size_t>(m));
+    for (int y = 0; y < m; ++y) {
+        for (int x = 0; x < m; ++x) {
+            int fx = x - m / 2, fy = y - m / 2;
+            if (fx < 0) { fx = -fx; fy = -fy; }
+            const int row = (fy % m + m) % m;
+            const fftw_complex& c = half_spectrum[static_cast<std::size_t>(row) * half + static_cast<std::size_t>(fx)];
+            power[static_cast<std::size_t>(y) * static_cast<std::size_t>(m) + static_cast<std::size_t>(x)] = c[0] * c[0] + c[1] * c[1];
+        }
+    }
+    return power;
+}
+
+PowerSpectrum iris_power_spectrum(const Aperture& aperture, const StarburstOptions& o, int m) {
+    const std::size_t mm = static_cast<std::size_t>(m) * static_cast<std::size_t>(m);
+    const std::size_t half = static_cast<std::size_t>(m / 2 + 1);
+    auto in = fftw_buffer<double>(mm);
+    auto out = fftw_buffer<fftw_complex>(static_cast<std::size_t>(m) * half);
+    fftw_plan plan = fftw_plan_dft_r2c_2d(m, m, in.get(), out.get(), FFTW_ESTIMATE);
+    if (!plan) throw std::runtime_error("FFTW could not plan the starburst transform");
+    rasterise_iris(aperture, o, m, in.get());
+    fftw_execute(plan);
+    fftw_destroy_plan(plan);
+    return {m, centred_power(out.get(), m)};
+}
+
+using XyzPlanes = std::array<std::vector<double>, 3>;
+
+// The pattern in CIE XYZ over the options' wavelengths, o.size texels square. One FFT bin at 550 nm is one
+// texel: wavelength x N x (2 r / m) on the sensor (eq. 2 with z0/D = N).
+XyzPlanes integrate_wavelengths(const PowerSpectrum& spectrum, const StarburstOptions& o) {
     const int n = o.size;
     const std::size_t nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
-    std::array<std::vector<double>, 3> xyz{std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0)};
+    XyzPlanes xyz{std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0)};
     for (double l = o.first_nm; l <= o.last_nm + 1e-9; l += o.step_nm) {
         const std::array<double, 3> cmf = cie1931_xyz(l);
         const double s = kReferenceNm / l;          // texel -> FFT bin at this wavelength
         const double energy = s * s;                // a pattern stretched by 1/s spreads its energy over 1/s^2 the area
         for (int y = 0; y < n; ++y) {
             for (int x = 0; x < n; ++x) {
-                const double p = sample((x - n / 2) * s, (y - n / 2) * s) * energy;
+                const double p = spectrum.sample((x - n / 2) * s, (y - n / 2) * s) * energy;
                 const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x);
                 for (std::size_t c = 0; c < 3; ++c) xyz[c][i] += cmf[c] * p;
             }
         }
     }
-    for (auto& plane : xyz) blur(plane, n, o.smoothing);
-    // The texture ends at its inscribed circle, fading over its outer third so no square edge shows.
+    return xyz;
+}
+
+// The texture ends at its inscribed circle, fading over its outer third (smoothstep) so no square edge shows.
+void fade_to_inscribed_circle(XyzPlanes& xyz, int n) {
     for (int y = 0; y < n; ++y) {
         for (int x = 0; x < n; ++x) {
             const double r = std::hypot(x - n / 2, y - n / 2) / (0.5 * n);
@@ -153,21 +186,39 @@ Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
             for (auto& plane : xyz) plane[i] *= w;
         }
     }
+}
 
-    Starburst sb;
-    sb.size = n;
-    sb.texel_per_fnumber_mm = kReferenceNm * 1e-6 * 2.0 * o.pupil_samples / m;
-    sb.rgb.assign(nn * 3, 0.0f);
+// Interleaved RGB in the working space, negative values clipped, each channel scaled to sum 1.
+std::vector<float> unit_sum_rgb(const XyzPlanes& xyz, const Mat3& xyz_to_rgb) {
+    const std::size_t nn = xyz[0].size();
     std::array<double, 3> total{};
     std::vector<double> rgb(nn * 3);
     for (std::size_t i = 0; i < nn; ++i) {
         for (std::size_t c = 0; c < 3; ++c) {
-            const double v = std::max(0.0, row_times(o.xyz_to_rgb, c, {xyz[0][i], xyz[1][i], xyz[2][i]}));
+            const double v = std::max(0.0, row_times(xyz_to_rgb, c, {xyz[0][i], xyz[1][i], xyz[2][i]}));
             rgb[i * 3 + c] = v;
             total[c] += v;
         }
     }
-    for (std::size_t i = 0; i < nn * 3; ++i) sb.rgb[i] = total[i % 3] > 0.0 ? static_cast<float>(rgb[i] / total[i % 3]) : 0.0f;
+    std::vector<float> out(nn * 3, 0.0f);
+    for (std::size_t i = 0; i < nn * 3; ++i) out[i] = total[i % 3] > 0.0 ? static_cast<float>(rgb[i] / total[i % 3]) : 0.0f;
+    return out;
+}
+
+}  // namespace
+
+Starburst make_starburst(const Aperture& aperture, const StarburstOptions& o) {
+    validate_options(o);
+    const int m = fft_size(o);
+    const PowerSpectrum spectrum = iris_power_spectrum(aperture, o, m);
+    XyzPlanes xyz = integrate_wavelengths(spectrum, o);
+    for (auto& plane : xyz) blur(plane, o.size, o.smoothing);
+    fade_to_inscribed_circle(xyz, o.size);
+
+    Starburst sb;
+    sb.size = o.size;
+    sb.texel_per_fnumber_mm = kReferenceNm * 1e-6 * 2.0 * o.pupil_samples / m;
+    sb.rgb = unit_sum_rgb(xyz, o.xyz_to_rgb);
     return sb;
 }
 
@@ -338,7 +389,7 @@ void deposit(float* rgb, int width, int height, double x, double y, const std::a
 }
 
 // What the tail adds at radius r (mm) beyond the texture: 1 where the texture has faded out, rising across
-// its fade (the outer third of its radius, smoothstep as in make_starburst).
+// its fade (the outer third of its radius, smoothstep as in fade_to_inscribed_circle).
 struct TailRamp {
     double fade_begin_mm, fade_end_mm;
     double operator()(double r) const {

@@ -57,6 +57,30 @@ private:
         int missed = 0;   // consecutive frames without one
     };
 
+    struct Prediction {  // where a track is expected in this frame, before its detection
+        double x = 0.0, y = 0.0;
+        std::array<double, 3> flux{};
+    };
+    struct Association {
+        std::vector<int> match_of_track;  // source index per track, -1 when none
+        std::vector<bool> source_taken;   // per source
+    };
+
+    // The steps of update, in order.
+    void forget_tracks_at_cut(const std::vector<float>& histogram);
+    [[nodiscard]] std::vector<Prediction> predict() const;
+    [[nodiscard]] Association associate(const std::vector<Prediction>& pred, const std::vector<Source>& sources) const;
+    void coast(Track& tr, const Prediction& p) const;
+    void correct(Track& tr, const Prediction& p, const Source& s) const;
+    void start_tracks(const Detection& detection, const std::vector<bool>& source_taken);
+    [[nodiscard]] std::vector<Light> visible_lights() const;
+
+    static void start_velocity(Track& tr, const Source& s);
+    void filter_motion(Track& tr, const Prediction& p, const Source& s) const;
+    static void smooth_extent(Extent& e, const Extent& seen, double alpha);
+    [[nodiscard]] double fade_in_step() const;
+    [[nodiscard]] double fade_out_step() const;
+
     TrackerOptions options_;
     std::vector<Track> tracks_;
     std::vector<float> previous_histogram_;
