@@ -59,11 +59,24 @@ std::string compression_name(Imf::Compression c) {
     return {};  // a newer OpenEXR's method: outputs fall back to piz
 }
 
+// Removes attribute `name` when the header has it. OpenEXR's Header::erase drops the map entry without deleting
+// the attribute it owns (a leak per call, seen under LeakSanitizer), so the header is rebuilt without it; its
+// compression levels live beside the attributes and are carried over.
+void erase_attribute(Imf::Header& header, const std::string& name) {
+    if (header.find(name) == header.end()) return;
+    Imf::Header kept;
+    for (auto it = header.begin(); it != header.end(); ++it)
+        if (name != it.name()) kept.insert(it.name(), it.attribute());
+    kept.zipCompressionLevel() = header.zipCompressionLevel();
+    kept.dwaCompressionLevel() = header.dwaCompressionLevel();
+    header = kept;
+}
+
 // "name" or "name:level" (zip and dwa levels) into the header.
 void set_compression(Imf::Header& header, const std::string& text) {
     const auto colon = text.find(':');
     const std::string name = text.substr(0, colon);
-    if (header.find("dwaCompressionLevel") != header.end()) header.erase("dwaCompressionLevel");  // the input's
+    erase_attribute(header, "dwaCompressionLevel");  // the input's
     for (const auto& [value, known] : kCompressions) {
         if (name != known) continue;
         header.compression() = value;
@@ -405,7 +418,7 @@ Frame read_exr_file(Imf::MultiPartInputFile& file, const std::string& path, cons
 Imf::Header output_header(const ImageSpec& spec, const std::string& compression) {
     Imf::Header header = spec.exr ? spec.exr->header : Imf::Header();
     for (const char* name : {"tiles", "type", "chunkCount", "version", "maxSamplesPerPixel"})
-        if (header.find(name) != header.end()) header.erase(name);
+        erase_attribute(header, name);
     header.dataWindow() = Imath::Box2i({spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1});
     header.displayWindow() = Imath::Box2i({spec.full_x, spec.full_y}, {spec.full_x + spec.full_width - 1, spec.full_y + spec.full_height - 1});
     header.lineOrder() = Imf::INCREASING_Y;
@@ -415,10 +428,10 @@ Imf::Header output_header(const ImageSpec& spec, const std::string& compression)
         const auto& c = *spec.chromaticities;
         Imf::addChromaticities(header, Imf::Chromaticities({c[0], c[1]}, {c[2], c[3]}, {c[4], c[5]}, {c[6], c[7]}));
     } else if (header.find("chromaticities") != header.end()) {
-        header.erase("chromaticities");
+        erase_attribute(header, "chromaticities");
     }
     for (const auto& [name, value] : spec.text) {
-        if (header.find(name) != header.end()) header.erase(name);  // an input's of another type
+        erase_attribute(header, name);  // an input's of another type
         header.insert(name, Imf::StringAttribute(value));
     }
     Imf::ChannelList list;
