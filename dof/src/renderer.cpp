@@ -210,7 +210,7 @@ private:
 std::vector<double> cell_blur_radii(const std::vector<float>& level3, int cells, const RayTable& table) {
     std::vector<double> radius(static_cast<std::size_t>(cells), 0.0);
     for (std::size_t c = 0; c < radius.size(); ++c) {
-        const double lo = level3[2 * c], hi = level3[2 * c + 1];
+        const double lo = static_cast<double>(level3[2 * c]), hi = static_cast<double>(level3[2 * c + 1]);
         if (lo <= hi) radius[c] = table.max_slope * std::max(std::abs(hi - table.focus_w), std::abs(lo - table.focus_w));
     }
     return radius;
