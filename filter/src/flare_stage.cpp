@@ -223,8 +223,8 @@ struct GhostImagingTable {
         return t;
     }
 
-    // The table from the disk cache (<dir>/imaging-<hash>.bin, keyed by the lens's text) or made and saved there
-    // and hash (best effort): its traces cost canon-70-200 (528 ghosts) some 0.11 CPU s a run.
+    // The table from the disk cache (<dir>/imaging-<hash>.bin, keyed by the lens's text and system hash), or
+    // made and saved there (best effort): its traces cost canon-70-200 (528 ghosts) some 0.11 CPU s a run.
     static GhostImagingTable cached(const optics::System& system, const std::string& lens_text, const std::string& dir) {
         const std::string key = fmt::format("lensfx-ghost-imaging-1\n{}\nsystem {:016x}", lens_text, flare::system_hash(system));
         const std::string path = dir.empty() ? std::string() : flare::cache_file(dir, "imaging", flare::key_hash(key));

@@ -96,7 +96,8 @@ bool failed_outline(const GhostEstimate& e) { return e.failed_edge > 0.0; }
 // pixel, at less than half the cost; at about a pixel it samples the mesh's shading unevenly and hands
 // sub-pixel triangles over to splats, and both show (rings beating against the pixels, a dotted seam). A
 // caustic ghost on the default grid keeps point sampling: its triangles are large but at the caustic, and
-// area coverage there cost canon-70-200's 49 caustic ghosts some 40% of a frame for no visible change.
+// area coverage there cost canon-70-200's 49 caustic ghosts some 40% of a 1080p frame for a structure error
+// 0.005 lower (docs/benchmarks.md, look7).
 constexpr double kAreaCoveragePx = 16.0;
 
 // A ghost's mean triangle on the sensor (mm^2) at `grid` cells a side: its sensor box over the triangles of
