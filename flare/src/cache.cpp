@@ -141,6 +141,12 @@ void write_key(std::ostream& out, std::string_view key) {
     out.write(key.data(), static_cast<std::streamsize>(key.size()));
 }
 
+std::ifstream open_cache_file(const std::filesystem::path& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return {};
+    return std::ifstream(path, std::ios::binary);
+}
+
 bool read_key(std::istream& in, std::string_view key) {
     std::uint64_t size = 0;
     if (!in.read(reinterpret_cast<char*>(&size), sizeof size) || size != key.size()) return false;

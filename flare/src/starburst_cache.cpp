@@ -32,7 +32,7 @@ std::string starburst_key(const optics::Aperture& a, const optics::StarburstOpti
 }
 
 std::optional<optics::Starburst> read_starburst(const std::string& path, const std::string& key) {
-    std::ifstream in(path, std::ios::binary);
+    std::ifstream in = open_cache_file(path);
     if (!in) return std::nullopt;
     char magic[sizeof(kStarburstMagic)] = {};
     optics::Starburst sb;

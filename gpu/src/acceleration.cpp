@@ -334,7 +334,7 @@ constexpr int kFieldsPerGhost = 15;
 int BoundsTable::load() {
     const std::string file = path();
     if (file.empty()) return 0;
-    std::ifstream in(file, std::ios::binary);
+    std::ifstream in = flare::open_cache_file(file);
     if (!in) return 0;
     char magic[8];
     std::uint64_t key = 0;

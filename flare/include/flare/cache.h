@@ -7,6 +7,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iosfwd>
 #include <string>
@@ -45,6 +47,10 @@ std::string cache_file(const std::string& dir, std::string_view kind, std::uint6
 void write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write);
 // The same, returning false instead of throwing (callers for which the cache is best effort).
 bool try_write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write);
+
+// A cache file opened for reading, or a closed stream (read as a miss) when the path is not a regular file:
+// a FIFO or device left in the cache folder would otherwise block or feed the reader for ever.
+std::ifstream open_cache_file(const std::filesystem::path& path);
 
 // The key as a file stores it (its length as uint64, then its bytes), and whether a stream holds exactly it.
 void write_key(std::ostream& out, std::string_view key);
