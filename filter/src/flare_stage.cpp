@@ -2,6 +2,8 @@
 #include <filter/flare_stage.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -176,6 +178,33 @@ void composite(Frame& frame, const std::vector<float>& flare_rgb, const FlareGeo
 double footprint_reach_px(const detect::Shape& shape, double m) {
     return std::abs(m) * shape.cell * std::hypot(static_cast<double>(shape.width), static_cast<double>(shape.height)) + 4.0;
 }
+
+// An extended light's magnified groups, each convolved with its footprint at its level (1/1 .. 1/16 of the
+// frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged).
+struct LevelSums {
+    std::array<std::vector<float>, 5> sum;  // by log2 of the level; empty: no group at that level
+    std::array<int, 5> width{}, height{};
+    std::vector<float> scratch;  // one group's image, before its footprint
+
+    // The sum at `level` (an image of width x height), zero when first asked for.
+    std::vector<float>& at(int level, int w, int h) {
+        const auto k = static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(level)));
+        if (sum[k].empty()) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        width[k] = w;
+        height[k] = h;
+        return sum[k];
+    }
+    // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly.
+    void add_enlarged_into(std::vector<float>& rgb, int w, int h) const {
+        const RgbView frame{rgb.data(), 0, 0, w, h};
+        for (std::size_t k = 0; k < sum.size(); ++k) {
+            if (sum[k].empty()) continue;
+            const ConstRgbView level{sum[k].data(), 0, 0, width[k], height[k]};
+            if (k == 0) add(frame, level, frame.region());
+            else flare::add_enlarged(frame, level, 1 << k);
+        }
+    }
+};
 
 // A light with a footprint (a window, a lamp shade): its ghosts and starburst are spread over it.
 bool is_extended(const detect::Light& light) { return light.shape && !light.shape->weights.empty(); }
@@ -707,44 +736,78 @@ struct FlareStage::State {
         if (is_extended(light)) tally.extended_ms += ms_since(t);
         const bool as_point = groups.size() == 1 && groups[0].magnification == 0.0;
         if (as_point && !settings.band_filter) return false;
+        if (settings.band_filter) {
+            for (const FootprintGroup& group : groups) add_band_filtered_group(light, scale, group, view, rgb, tally);
+            return true;
+        }
         const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
-        const std::size_t display_px = static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height);
-        std::vector<float> group_rgb;  // the group's ghosts, before its footprint
-        for (const FootprintGroup& group : groups) {
-            t = Clock::now();
-            if (settings.band_filter) {
-                view.only_ghosts = group.ghosts;
-                flare::FlareImage flare = gpu::render_band_filtered(
-                    lens.system, view, [&](const flare::FlareView& one) { return renderer->render(lens.system, one, render_options); });
-                view.only_ghosts.clear();
-                if (flare.width != view.width || flare.height != view.height)
-                    throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
-                                                         view.width, view.height));
-                group_rgb = std::move(flare.rgb);
-                for (std::size_t i = 0; i < display_px; ++i)
-                    for (std::size_t c = 0; c < 3; ++c) group_rgb[i * 3 + c] = scaled_within_float(group_rgb[i * 3 + c], scale[c]);
-            } else {
-                // The group's ghosts out of the whole lens's (one bounds table and estimate for all groups), at
-                // the light's strength, so scene culling weighs them in the frame's units.
-                gpu::GpuFlareOptions group_options = render_options;
-                group_options.draw_only = group.ghosts;
-                group_options.spread_px = group.magnification != 0.0 ? footprint_reach_px(*light.shape, group.magnification) : 0.0;
-                group_rgb.assign(display_px * 3, 0.0f);
-                renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, group_rgb);
-            }
+        LevelSums sums;
+        for (const FootprintGroup& group : groups) add_group_ghosts(light, scaled, group, view, rgb, sums, tally);
+        t = Clock::now();
+        sums.add_enlarged_into(rgb, view.width, view.height);
+        tally.extended_ms += ms_since(t);
+        return true;
+    }
+
+    // A footprint group's ghosts drawn at the level its footprint's blur allows (gpu::spread_level: a group
+    // spread over a disc of radius r is drawn and convolved at 1/(r/4) of the frame, up to 1/16), convolved
+    // there and summed with the light's other groups of that level; a group drawn as from a point, into rgb.
+    void add_group_ghosts(const detect::Light& light, const gpu::ScaledLight& scaled, const FootprintGroup& group,
+                          const flare::FlareView& view, std::vector<float>& rgb, LevelSums& sums, FrameTally& tally) {
+        auto t = Clock::now();
+        // The group's ghosts out of the whole lens's (one bounds table and estimate for all groups), at the
+        // light's strength, so scene culling weighs them in the frame's units.
+        gpu::GpuFlareOptions group_options = render_options;
+        group_options.draw_only = group.ghosts;
+        const bool spread = group.magnification != 0.0;
+        if (!spread) {
+            renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, rgb);
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
-            // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
-            if (!settings.band_filter && renderer->last_stats().ghosts_drawn == 0) continue;
-            if (group.magnification != 0.0) {
-                t = Clock::now();
-                convolve_footprint(group_rgb, view.width, view.height, *light.shape, group.magnification);
-                tally.extended_ms += ms_since(t);
-            }
-            const RgbView display{rgb.data(), 0, 0, view.width, view.height};
-            add(display, ConstRgbView{group_rgb.data(), 0, 0, view.width, view.height}, display.region());
+            return;
         }
-        return true;
+        group_options.spread = {footprint_reach_px(*light.shape, group.magnification),
+                                flare::footprint_peak_share(*light.shape, group.magnification)};
+        const int level = gpu::spread_level(group_options.spread);
+        const int w = flare::reduced_side(view.width, level), h = flare::reduced_side(view.height, level);
+        sums.scratch.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, sums.scratch, level);
+        count_ghosts(tally);
+        tally.ghosts_ms += ms_since(t);
+        // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
+        if (renderer->last_stats().ghosts_drawn == 0) return;
+        t = Clock::now();
+        convolve_footprint(sums.scratch, w, h, flare::reduced_footprint(*light.shape, level), group.magnification);
+        std::vector<float>& sum = sums.at(level, w, h);
+        const RgbView into{sum.data(), 0, 0, w, h};
+        add(into, ConstRgbView{sums.scratch.data(), 0, 0, w, h}, into.region());
+        tally.extended_ms += ms_since(t);
+    }
+
+    // --band-filter: a group's ghosts rendered one band at a time (gpu::render_band_filtered), scaled, convolved
+    // with the footprint at full size and added into rgb.
+    void add_band_filtered_group(const detect::Light& light, const std::array<float, 3>& scale, const FootprintGroup& group,
+                                 flare::FlareView& view, std::vector<float>& rgb, FrameTally& tally) {
+        auto t = Clock::now();
+        view.only_ghosts = group.ghosts;
+        flare::FlareImage flare = gpu::render_band_filtered(
+            lens.system, view, [&](const flare::FlareView& one) { return renderer->render(lens.system, one, render_options); });
+        view.only_ghosts.clear();
+        if (flare.width != view.width || flare.height != view.height)
+            throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
+                                                 view.width, view.height));
+        const std::size_t pixels = flare.rgb.size() / 3;
+        for (std::size_t i = 0; i < pixels; ++i)
+            for (std::size_t c = 0; c < 3; ++c) flare.rgb[i * 3 + c] = scaled_within_float(flare.rgb[i * 3 + c], scale[c]);
+        count_ghosts(tally);
+        tally.ghosts_ms += ms_since(t);
+        if (group.magnification != 0.0) {
+            t = Clock::now();
+            convolve_footprint(flare.rgb, view.width, view.height, *light.shape, group.magnification);
+            tally.extended_ms += ms_since(t);
+        }
+        const RgbView display{rgb.data(), 0, 0, view.width, view.height};
+        add(display, ConstRgbView{flare.rgb.data(), 0, 0, view.width, view.height}, display.region());
     }
 
     void count_ghosts(FrameTally& tally) const {

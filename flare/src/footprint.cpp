@@ -85,18 +85,21 @@ LitBox lit_box(const std::vector<float>& rgb, int width, int height) {
 // 0 or 1 keeps it (convolve_whole), and a part convolved alone stays on the reduced image's cells.
 int kernel_reduction(int rx, int ry) { return std::max(rx, ry) / (kMaxKernelRadius / 2); }
 
-// The footprint in the pixels of an image reduced by `factor` (reduced_side's mapping).
-detect::Shape reduced_shape(detect::Shape shape, int factor) {
-    shape.cell /= factor;
-    shape.origin_x /= factor;
-    shape.origin_y /= factor;
-    return shape;
-}
+// The footprint at magnification m as a kernel of half-widths rx, ry (pixels, known to be in range),
+// normalised to a sum of 1; empty when none of it is left.
+cv::Mat footprint_kernel(const detect::Shape& shape, double m, int rx, int ry);
 
 // convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
 void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
 
 }  // namespace
+
+detect::Shape reduced_footprint(detect::Shape shape, int factor) {
+    shape.cell /= factor;
+    shape.origin_x /= factor;
+    shape.origin_y /= factor;
+    return shape;
+}
 
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m) {
     const FootprintSampler weight_at{shape};
@@ -131,9 +134,6 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
 namespace {
 
 void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry) {
-    const FootprintSampler weight_at{shape};
-    const double cell = weight_at.cell;
-    const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     if (const int factor = kernel_reduction(rx, ry); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and enlarge bilinearly (image_ops.h's
@@ -141,11 +141,25 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
         const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
         std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
         reduce_area(RgbView{small.data(), 0, 0, sw, sh}, ConstRgbView{rgb.data(), 0, 0, width, height}, factor);
-        convolve_footprint(small, sw, sh, reduced_shape(shape, factor), m);
+        convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), m);
         std::fill(rgb.begin(), rgb.end(), 0.0f);
         add_enlarged(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
         return;
     }
+    const cv::Mat kernel = footprint_kernel(shape, m, rx, ry);
+    if (kernel.empty()) return;  // nothing of the footprint left: the ghost stays the point light's
+    cv::Mat flipped;
+    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
+    cv::Mat image(height, width, CV_32FC3, rgb.data());
+    cv::Mat out;
+    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
+    out.copyTo(image);
+}
+
+cv::Mat footprint_kernel(const detect::Shape& shape, double m, int rx, int ry) {
+    const FootprintSampler weight_at{shape};
+    const double cell = weight_at.cell;
+    const double x0 = weight_at.x0, y0 = weight_at.y0, x1 = weight_at.x1, y1 = weight_at.y1;
     cv::Mat kernel(2 * ry + 1, 2 * rx + 1, CV_32F, cv::Scalar(0.0));
     if (std::abs(m) >= 1.0) {  // enlarged: each kernel pixel looks up where it came from
         for (int ky = -ry; ky <= ry; ++ky)
@@ -167,17 +181,27 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
         }
     }
     const double sum = cv::sum(kernel)[0];
-    if (!(sum > 0.0)) return;  // nothing of the footprint left: the ghost stays the point light's
+    if (!(sum > 0.0)) return {};
     kernel /= sum;
-    cv::Mat flipped;
-    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
-    cv::Mat image(height, width, CV_32FC3, rgb.data());
-    cv::Mat out;
-    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
-    out.copyTo(image);
+    return kernel;
 }
 
 }  // namespace
+
+double footprint_peak_share(const detect::Shape& shape, double m) {
+    const FootprintSampler weight_at{shape};
+    const int rx = weight_at.reach_x(m), ry = weight_at.reach_y(m);
+    if (rx >= FootprintSampler::kMaxReach || ry >= FootprintSampler::kMaxReach) return 0.0;  // the image is cleared
+    // Convolved reduced (convolve_whole): a reduced pixel holds the mean of factor^2 pixels, so its kernel's
+    // largest weight spreads 1/factor^2 of a pixel's light at most, and enlarging bilinearly adds no maximum.
+    if (const int factor = kernel_reduction(rx, ry); factor >= 2)
+        return footprint_peak_share(reduced_footprint(shape, factor), m) / (static_cast<double>(factor) * factor);
+    const cv::Mat kernel = footprint_kernel(shape, m, rx, ry);
+    if (kernel.empty()) return 1.0;  // not convolved: the ghost keeps its own peak
+    double largest = 0.0;
+    cv::minMaxLoc(kernel, nullptr, &largest);
+    return largest;
+}
 
 namespace {
 
@@ -252,7 +276,7 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
         for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
             if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
                 std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
-    convolve_footprint(small, sw, sh, reduced_shape(shape, factor), 1.0);
+    convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), 1.0);
     // Enlarged to the frame, pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f).
     std::vector<float> full(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3, 0.0f);
     add_enlarged(RgbView{full.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);

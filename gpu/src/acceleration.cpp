@@ -125,6 +125,14 @@ double sensor_size_mm(const GhostEstimate& e) {
 
 }  // namespace
 
+int spread_level(const GhostSpread& spread) {
+    if (!(spread.peak_share > 0.0 && spread.peak_share < 1.0)) return 1;
+    const double radius_px = std::sqrt(1.0 / (std::numbers::pi * spread.peak_share));
+    int level = 1;
+    while (level < 16 && 2.0 * level <= 0.25 * radius_px) level *= 2;
+    return level;
+}
+
 double caustic_spike(const GhostEstimate& e) {
     return e.area_cv >= kReducedMaxCv ? kCausticSpike : 1.0;
 }

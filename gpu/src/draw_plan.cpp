@@ -2,6 +2,7 @@
 #include <gpu/draw_plan.h>
 
 #include <cmath>
+#include <limits>
 
 #include <gpu/flare_renderer.h>
 
@@ -45,11 +46,17 @@ std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::
 
 CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
                    const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
-                   double spread_px) {
-    if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !(e.peak > 0.0)) return {};
+                   const GhostSpread& spread) {
+    // The peak as drawn, and as the caller's spread leaves it: the kernel's largest weight times the power.
+    const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
+    const double spread_peak = spread.peak_share > 0.0 && e.power > 0.0
+                                   ? kSpreadPowerMargin * e.power * spread.peak_share / (pixel_w * pixel_h)
+                                   : std::numeric_limits<double>::infinity();
+    const double drawn_peak = e.peak > 0.0 ? e.peak : std::numeric_limits<double>::infinity();
+    const double peak = std::min(drawn_peak, spread_peak);
+    if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !std::isfinite(peak)) return {};
     const double c = std::cos(rotation), sn = std::sin(rotation);
     const std::array<double, 2> offset = style ? style->offset_mm : std::array<double, 2>{};
-    const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
     CullItem item{1e300, 1e300, -1e300, -1e300, {}};
     for (const double sx : {e.sensor.x0, e.sensor.x1})
         for (const double sy : {e.sensor.y0, e.sensor.y1}) {
@@ -60,27 +67,31 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
             item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), {}};
         }
     constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
-    const double spread = kSpreadPx + spread_px;
-    item.x0 -= spread;
-    item.y0 -= spread;
-    item.x1 += spread;
-    item.y1 += spread;
+    const double spread_px = kSpreadPx + spread.px;
+    item.x0 -= spread_px;
+    item.y0 -= spread_px;
+    item.x1 += spread_px;
+    item.y1 += spread_px;
     for (std::size_t k = 0; k < 3; ++k)
-        item.peak[k] = e.peak * std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
-    item.spike = caustic_spike(e);
+        item.peak[k] = peak * std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
+    // A caustic's spike (a pixel or two) reaches over its coarse peak when drawn; spread, its light is shared
+    // out as any other, and it adds no more than its power times the kernel's largest share.
+    double spike_peak = drawn_peak * caustic_spike(e);
+    if (spread.peak_share > 0.0) spike_peak = std::min(spike_peak, drawn_peak * (1.0 + caustic_spike(e) * kSpikePixels * spread.peak_share));
+    item.spike = std::min(spike_peak, spread_peak) / peak;
     return item;
 }
 
 LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::span<const ScaledLight> lights,
                           const std::vector<SpectralPass>& passes, const GhostSelection& selection,
-                          const FlareView& view, double spread_px, VisibilityMap& map) {
+                          const FlareView& view, const GhostSpread& spread, VisibilityMap& map) {
     const std::size_t ghosts = selection.drawn.size();
     std::vector<CullItem> items;
     for (std::size_t l = 0; l < lights.size(); ++l)
         for (std::size_t p = 0; p < passes.size(); ++p)
             for (std::size_t g = 0; g < ghosts; ++g)
                 items.push_back(selection.drawn[g] ? cull_item(estimates[l].pass[p][g], estimates[l].rotation, lights[l].scale,
-                                                               passes[p].weight, selection.style[g], view, spread_px)
+                                                               passes[p].weight, selection.style[g], view, spread)
                                                    : CullItem{});
     const std::vector<SceneVerdict> all = scene_cull(items, map);
     LightVerdicts verdicts(lights.size());
@@ -93,10 +104,23 @@ LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::spa
     return verdicts;
 }
 
+namespace {
+
+// Ghosts the caller spreads over spread_level's disc: drawn at that level at least, with no sharp rim.
+void coarsen_to_spread(std::vector<GhostPlan>& plans, int level) {
+    for (GhostPlan& plan : plans) {
+        plan.reduce = std::max(plan.reduce, level);
+        plan.rim = false;
+    }
+}
+
+}  // namespace
+
 PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
                    const GhostSelection& selection, const DetailSettings& detail, int band) {
     PassPlan out;
     out.plans = plan_ghosts(estimates, detail.accel, detail.base_grid, detail.pixel_mm, detail.per_ghost_power, total_power, verdicts);
+    if (detail.spread_level > 1) coarsen_to_spread(out.plans, detail.spread_level);
     for (std::size_t g = 0; g < estimates.size(); ++g) {
         if (!selection.drawn[g] || selection.dark(g)) continue;
         const SceneVerdict verdict = verdicts.empty() ? SceneVerdict::Draw : verdicts[g];

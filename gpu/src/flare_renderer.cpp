@@ -522,8 +522,10 @@ public:
     void cull_scene();
     // Band `band` of the full-size target (and in band 0 every reduced target): every light's passes.
     void draw_band(int band, std::vector<float>& rgb);
-    // The reduced targets upsampled into rgb, or the per-ghost sums and powers.
+    // The reduced targets upsampled into rgb (at 1/image_level of the view), or the per-ghost sums and powers.
     void read_back(std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
+    // Every ghost drawn at 1/level of the view or coarser, and read back into an image of that size.
+    void set_image_level(int level) { image_level_ = level; }
     int bands() const { return bands_.count; }
     // The trace step alone on ghost g at the first pass (for tests): the batch's vertices read back.
     std::vector<float> trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect);
@@ -549,6 +551,7 @@ private:
     std::vector<LightEstimates> estimates_;  // per light
     std::vector<double> pass_total_;
     LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
+    int image_level_ = 1;                    // read back at 1/image_level_ of the view, no ghost drawn finer
 
     void set_up_gl();
     FloatTarget& full_target() { return s_.targets.full(view_.width, bands_.target_rows()); }
@@ -876,7 +879,7 @@ void FlareRenderer::Drawing::estimate_lights() {
 void FlareRenderer::Drawing::cull_scene() {
     verdicts_.assign(lights_.size(), {});
     if (options_.visibility && !options_.per_ghost_power && !ghosts_.empty())
-        verdicts_ = cull_lights(estimates_, lights_, passes_, selection_, view_, options_.spread_px, *options_.visibility);
+        verdicts_ = cull_lights(estimates_, lights_, passes_, selection_, view_, options_.spread, *options_.visibility);
 }
 
 void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
@@ -885,6 +888,7 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
         for (std::size_t l = 0; l < lights_.size(); ++l)
             for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(l, p);
     if (options_.per_ghost_power || !drawn_into_[0]) return;
+    if (image_level_ > 1) throw std::logic_error(fmt::format("a ghost drawn at full size for an image at 1/{}", image_level_));
     add_full_band(full_target(), rgb, view_.width, bands_, band);
     drawn_into_[0] = false;  // the next band clears it
 }
@@ -906,8 +910,9 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
         glBindTextureUnit(1, s_.iris.ringing(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
     const GhostSequences& seq = sequences(p).seq;
     const std::vector<GhostEstimate>& estimates = estimates_[l].pass[p];
-    const DetailSettings detail{options_.accel, options_.grid, view_.sensor_width_mm / view_.width, options_.per_ghost_power,
-                                options_.batch_faint};
+    const DetailSettings detail{options_.accel,        options_.grid,        view_.sensor_width_mm / view_.width,
+                                options_.per_ghost_power, options_.batch_faint,
+                                std::max(spread_level(options_.spread), image_level_)};
     const PassPlan plan = plan_pass(estimates, pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
                                     selection_, detail, band_);
     s_.report.stats.ghosts_skipped += plan.skipped;
@@ -1148,10 +1153,11 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
         std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
         for (int slot : {1, 2, 3, 4}) {
             if (!drawn_into_[slot]) continue;
+            if ((1 << slot) < image_level_) throw std::logic_error(fmt::format("a ghost drawn at 1/{} for an image at 1/{}", 1 << slot, image_level_));
             const FloatTarget& t = s_.targets.reduced(1 << slot, view_.width, view_.height);
             readbacks.emplace_back(t);
         }
-        add_targets(readbacks, rgb, view_.width, view_.height);
+        add_targets(readbacks, rgb, flare::reduced_side(view_.width, image_level_), flare::reduced_side(view_.height, image_level_));
     }
     glUseProgram(0);
     glBindVertexArray(0);
@@ -1183,8 +1189,9 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
 }
 
 void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
-                         const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
+                         const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers, int level) {
     Drawing drawing = start_drawing(system, view, lights, options);
+    drawing.set_image_level(level);
     drawing.estimate_lights();
     drawing.cull_scene();
     for (int band = 0; band < drawing.bands(); ++band) drawing.draw_band(band, rgb);
@@ -1226,12 +1233,14 @@ FlareImage FlareRenderer::render(const System& system, const FlareView& view, co
 }
 
 void FlareRenderer::render_add(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
-                               const GpuFlareOptions& options, std::vector<float>& rgb) {
+                               const GpuFlareOptions& options, std::vector<float>& rgb, int level) {
     if (options.per_ghost_power) throw std::invalid_argument("render_add: per-ghost power needs one light (render)");
-    if (rgb.size() != static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3)
-        throw std::invalid_argument(fmt::format("render_add: the image holds {} values, {}x{} RGB expected", rgb.size(),
-                                                view.width, view.height));
-    draw(system, view, lights, options, rgb, nullptr);
+    if (level != 1 && level != 2 && level != 4 && level != 8 && level != 16)
+        throw std::invalid_argument(fmt::format("render_add: level {} is not 1, 2, 4, 8 or 16", level));
+    const int w = flare::reduced_side(view.width, level), h = flare::reduced_side(view.height, level);
+    if (rgb.size() != static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3)
+        throw std::invalid_argument(fmt::format("render_add: the image holds {} values, {}x{} RGB expected", rgb.size(), w, h));
+    draw(system, view, lights, options, rgb, nullptr, level);
 }
 
 const RenderStats& FlareRenderer::last_stats() const { return state_->report.stats; }

@@ -147,6 +147,45 @@ TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     EXPECT_NEAR(peak, 5.0f / (200.0f * 200.0f), 0.15f * 5.0f / (200.0f * 200.0f)) << "spread over 200 x 200 px";
 }
 
+TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
+    // The bar brighter on its left, at magnifications that enlarge, shrink, turn round and reduce the image.
+    detect::Shape bar;
+    bar.width = 11;
+    bar.height = 7;
+    bar.cell = 2.0;
+    bar.origin_x = -11.0;
+    bar.origin_y = -7.0;
+    for (int j = 0; j < bar.height; ++j)
+        for (int i = 0; i < bar.width; ++i) bar.weights.push_back(static_cast<float>(2.0 - i / 10.0));
+    const int w = 400, h = 300;
+    for (const double m : {3.0, 0.6, -1.5, 9.0}) {
+        const double share = flare::footprint_peak_share(bar, m);
+        ASSERT_GT(share, 0.0) << m;
+        ASSERT_LE(share, 1.0) << m;
+        // A point of power 1 (value 1 in one pixel) peaks at the share: the bound is tight.
+        std::vector<float> point(static_cast<std::size_t>(w * h * 3), 0.0f);
+        point[static_cast<std::size_t>(150 * w + 200) * 3] = 1.0f;
+        flare::convolve_footprint(point, w, h, bar, m);
+        float peak = 0.0f;
+        for (std::size_t i = 0; i < point.size(); i += 3) peak = std::max(peak, point[i]);
+        EXPECT_LE(peak, 1.0001 * share) << m;
+        EXPECT_GE(peak, 0.5 * share) << m;
+        // Any image's peak after convolution is at most its sum times the share: a sharp spike and a spread
+        // ghost of 37 pixels, each of sum 1.
+        std::vector<float> ghost(static_cast<std::size_t>(w * h * 3), 0.0f);
+        for (int k = 0; k < 37; ++k) ghost[static_cast<std::size_t>((140 + k % 6) * w + 190 + k / 6) * 3] = k == 0 ? 0.64f : 0.01f;
+        flare::convolve_footprint(ghost, w, h, bar, m);
+        float ghost_peak = 0.0f;
+        for (std::size_t i = 0; i < ghost.size(); i += 3) ghost_peak = std::max(ghost_peak, ghost[i]);
+        EXPECT_LE(ghost_peak, 1.0001 * share) << m;
+    }
+    // Nothing convolved keeps the ghost's own peak; a kernel that clears the image leaves nothing.
+    detect::Shape empty = bar;
+    std::fill(empty.weights.begin(), empty.weights.end(), 0.0f);
+    EXPECT_EQ(flare::footprint_peak_share(empty, 2.0), 1.0);
+    EXPECT_EQ(flare::footprint_peak_share(bar, 1e12), 0.0);
+}
+
 namespace {
 
 // A 22 x 14 px bar of 2 px cells round the light, brighter on its left.

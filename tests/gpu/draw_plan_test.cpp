@@ -2,6 +2,7 @@
 // given estimates), the batches and bands, the draw_only mask; and the GL trace step of one ghost against
 // the CPU tracer.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <memory>
@@ -9,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <flare/image_ops.h>
 #include <gpu/context.h>
 #include <gpu/draw_plan.h>
 #include <gpu/flare_renderer.h>
@@ -144,6 +146,43 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     detail.batch_faint = false;
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).todo, (std::vector<std::size_t>{0, 1}));
     EXPECT_TRUE(plan_pass(e, 0.0, verdicts, selection, detail, 0).batched.empty());
+}
+
+// A ghost the caller spreads (an extended light's footprint) weighs against the frame with what the spread
+// leaves of its peak: at most its power (with kSpreadPowerMargin) times the kernel's largest share over a
+// pixel's area, and its caustic spike no higher; its box grows by the spread.
+TEST(CullItem, SpreadGhostsPeakAtTheirPowerTimesTheKernelsLargestShare) {
+    FlareView view;
+    view.width = 1000;
+    view.height = 500;
+    view.sensor_width_mm = 10.0;
+    view.sensor_height_mm = 5.0;  // pixels of 0.01 mm, 1e-4 mm^2
+    GhostEstimate e;
+    e.rect = {-1.0, -1.0, 1.0, 1.0};
+    e.sensor = {-0.5, -0.5, 0.5, 0.5};  // 100 px square at the centre
+    e.peak = 3.0;
+    e.power = 1e-2;  // 100 pixels' worth at irradiance 1
+    e.area_cv = 1.0;  // caustics: its spike may reach kCausticSpike x peak when drawn
+    const std::array<double, 3> unit{1.0, 1.0, 1.0};
+    const CullItem sharp = cull_item(e, 0.0, unit, unit, nullptr, view);
+    EXPECT_DOUBLE_EQ(sharp.peak[1], 3.0);
+    EXPECT_DOUBLE_EQ(sharp.spike, caustic_spike(e));
+    // Spread so one pixel keeps at most 1/400 of a ghost's light: 100 / 400 = 0.25 (with the margin 0.5),
+    // times the pass's weight 2.
+    const CullItem spread = cull_item(e, 0.0, unit, {0.0, 2.0, 0.0}, nullptr, view, {30.0, 1.0 / 400.0});
+    EXPECT_DOUBLE_EQ(spread.peak[1], 2.0 * kSpreadPowerMargin * 100.0 / 400.0);
+    EXPECT_DOUBLE_EQ(spread.peak[0], 0.0);
+    EXPECT_DOUBLE_EQ(spread.spike, 1.0);  // the spread bounds the spike too
+    EXPECT_DOUBLE_EQ(spread.x0, sharp.x0 - 30.0);
+    EXPECT_DOUBLE_EQ(spread.y1, sharp.y1 + 30.0);
+    // A spread that keeps more than the ghost's own peak changes nothing but the box.
+    const CullItem wide = cull_item(e, 0.0, unit, unit, nullptr, view, {30.0, 0.9});
+    EXPECT_DOUBLE_EQ(wide.peak[2], 3.0);
+    EXPECT_DOUBLE_EQ(wide.spike, caustic_spike(e));
+    // A peak the coarse pass did not find is drawn unspread (not known), but a spread one is bounded by its power.
+    e.peak = 0.0;
+    EXPECT_LE(cull_item(e, 0.0, unit, unit, nullptr, view).x1, cull_item(e, 0.0, unit, unit, nullptr, view).x0);
+    EXPECT_DOUBLE_EQ(cull_item(e, 0.0, unit, unit, nullptr, view, {30.0, 1.0 / 400.0}).peak[0], kSpreadPowerMargin * 100.0 / 400.0);
 }
 
 // A faint ghost's grid: 8 cells when its outline loses no light to dropped cells (no failed rays in the
@@ -306,6 +345,42 @@ TEST(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     double largest = 0.0;
     for (std::size_t i = 0; i < alone.size(); ++i) largest = std::max(largest, static_cast<double>(std::abs(batched[i] - alone[i])));
     EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
+}
+
+// render_add at a level (for ghosts the caller blurs): an image of the view reduced by that level, holding what
+// the full-size render holds averaged over each level pixel's block, with no ghost drawn finer (a ghost drawn
+// at full size there would be a logic error); the same light in all, and a level that is no power of 2 refused.
+TEST(RenderAddReduced, HoldsTheFullRendersBlockMeansAtThatLevel) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.width = 324;  // not a multiple of 8: the last column of blocks is partly outside
+    view.height = 200;
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    const GpuFlareOptions options;
+    const std::vector<ScaledLight> lights = {{6.0, 3.0, {1.0, 0.8, 0.6}}};
+    std::vector<float> full(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
+    renderer.render_add(system, view, lights, options, full);
+    const int level = 8, w = flare::reduced_side(view.width, level), h = flare::reduced_side(view.height, level);
+    std::vector<float> reduced(static_cast<std::size_t>(w * h * 3), 0.0f);
+    renderer.render_add(system, view, lights, options, reduced, level);
+    EXPECT_GT(renderer.last_stats().ghosts_drawn, 10);
+    EXPECT_EQ(renderer.last_stats().ghosts_reduced, renderer.last_stats().ghosts_drawn);
+    std::vector<float> expected(reduced.size(), 0.0f);
+    flare::reduce_area(flare::RgbView{expected.data(), 0, 0, w, h}, flare::ConstRgbView{full.data(), 0, 0, view.width, view.height}, level);
+    double sum_full = 0.0, sum_reduced = 0.0, err = 0.0, norm = 0.0;
+    for (std::size_t i = 0; i < reduced.size(); ++i) {
+        sum_full += static_cast<double>(expected[i]);
+        sum_reduced += static_cast<double>(reduced[i]);
+        err += std::abs(static_cast<double>(reduced[i] - expected[i]));
+        norm += static_cast<double>(expected[i]);
+    }
+    ASSERT_GT(sum_full, 0.0);
+    EXPECT_NEAR(sum_reduced / sum_full, 1.0, 0.03);  // the same light
+    EXPECT_LT(err / norm, 0.25);                     // where it lands, within the level's blur
+    std::vector<float> wrong(reduced.size());
+    EXPECT_THROW(renderer.render_add(system, view, lights, options, wrong, 3), std::invalid_argument);
+    EXPECT_THROW(renderer.render_add(system, view, lights, options, full, 4), std::invalid_argument);  // wrong size
 }
 
 }  // namespace

@@ -38,6 +38,15 @@ std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& g
 inline constexpr int kMaxKernelRadius = 64;
 void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
 
+// The footprint in the pixels of an image reduced by `factor` (flare/image_ops.h's reduced_side mapping).
+detect::Shape reduced_footprint(detect::Shape shape, int factor);
+
+// The largest share of a point's light one pixel holds after convolve_footprint at magnification m (the
+// kernel's largest weight, normalised, in the image's pixels; for a kernel applied reduced, over the reduction
+// squared): a ghost of power P convolved so peaks at P x share per pixel area, however sharp it was. 1 when
+// nothing is convolved, 0 when the kernel clears the image.
+double footprint_peak_share(const detect::Shape& shape, double m);
+
 // An extended light's diffraction: every point's starburst over its footprint (magnification 1), less what
 // the recorded source already holds, added to an RGB image of width x height (arguments as
 // optics::splat_starburst's). Each point's pattern within the footprint's radius (the disc of its cells'

@@ -129,6 +129,22 @@ struct VisibilityMap {
                                  // budget (scene_cull fills it), shared by every render of the frame
 };
 
+// How the caller spreads each ghost after it is drawn (an extended light's footprint, convolved with the
+// group's image): how far beyond where the ghost lands, and the largest share of the ghost's power one pixel
+// keeps (the footprint kernel's largest weight over its sum; 0: not spread). A spread ghost's peak is at most
+// its power times that share over a pixel's area, however sharp it was drawn.
+struct GhostSpread {
+    double px = 0.0;
+    double peak_share = 0.0;
+};
+// The coarsest level a spread ghost is drawn at: the spread blurs it over a disc of 1 / peak_share pixels, so
+// it is drawn at 1/2, 1/4 ... 1/16 of the image while the level's pixel is at most a quarter of that disc's
+// radius (the level's upsampling then blurs it far less than the spread does); 1 when not spread.
+int spread_level(const GhostSpread& spread);
+// A caustic's spike is a pixel or two; spread, it adds at most its power times the kernel's largest share:
+// kSpikePixels pixels at kCausticSpike times the peak.
+inline constexpr double kSpikePixels = 4.0;
+
 // One ghost of one light and pass as scene culling sees it: its box on the image (pixels, upright, row 0 at
 // the top; x1 <= x0: not known) and the largest value it adds to each of R, G, B there (frame units; a
 // spectral pass adds to one channel, or to several with their own factors).

@@ -47,14 +47,16 @@ std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::
 using LightVerdicts = std::vector<std::vector<std::vector<SceneVerdict>>>;
 LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::span<const ScaledLight> lights,
                           const std::vector<SpectralPass>& passes, const GhostSelection& selection,
-                          const FlareView& view, double spread_px, VisibilityMap& map);
+                          const FlareView& view, const GhostSpread& spread, VisibilityMap& map);
 
 // One ghost of one light and pass as scene culling sees it (its sensor box turned to the light's azimuth,
-// moved by its style, grown by the splats' and reduced levels' spread and spread_px; its peak times the
-// factor each channel adds it with).
+// moved by its style, grown by the splats' and reduced levels' spread and the caller's; its peak, or for a
+// spread ghost the least of that and what the spread leaves of its power (kSpreadPowerMargin times it), times
+// the factor each channel adds it with).
+inline constexpr double kSpreadPowerMargin = 2.0;
 CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
                    const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
-                   double spread_px);
+                   const GhostSpread& spread = {});
 
 // What the level of detail needs besides the estimates (plan_ghosts' arguments).
 struct DetailSettings {
@@ -63,6 +65,7 @@ struct DetailSettings {
     double pixel_mm = 0.1;       // the sensor width of one pixel
     bool per_ghost_power = false;
     bool batch_faint = true;     // GpuFlareOptions::batch_faint
+    int spread_level = 1;        // no ghost drawn finer (spread_level of GpuFlareOptions::spread)
 };
 
 // Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution

@@ -37,7 +37,7 @@ struct GpuFlareOptions {
     // Scene culling (issue 17): what the frame shows where the ghosts land; null: every ghost the level of
     // detail keeps is drawn. Ignored with per_ghost_power.
     std::shared_ptr<VisibilityMap> visibility;  // its per-cell budget is spent by every render that uses it
-    double spread_px = 0.0;  // how far the caller spreads each ghost beyond where it lands (a footprint), for culling
+    GhostSpread spread;  // how the caller spreads each ghost after it is drawn (a footprint), for culling
     // Draw only these ghosts ((Ghost::first, Ghost::second); empty: all). Unlike FlareView::only_ghosts the
     // renderer keeps the whole lens's ghost list, so the groups of an extended light share one bounds table,
     // one set of sequences and one coarse estimate per light.
@@ -92,8 +92,10 @@ public:
     FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
     // The ghosts of several lights seen through the same view (its angles ignored) added into rgb (view.width x
     // view.height, top row first), each light's scaled: the targets are cleared and read back once for all.
+    // With level 2, 4, 8 or 16, rgb is the view reduced by level (flare::reduced_side; its pixel i covers the
+    // view's pixels [i level, (i + 1) level)) and no ghost is drawn finer: for ghosts the caller blurs anyway.
     void render_add(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
-                    const GpuFlareOptions& options, std::vector<float>& rgb);
+                    const GpuFlareOptions& options, std::vector<float>& rgb, int level = 1);
     const RenderStats& last_stats() const;  // of the last render or render_add (summed over its lights)
     // Frees the render targets (made again by the next render): a large frame's (at 8K over 1 GB) are
     // then not held while the frame is stored and written.
@@ -114,7 +116,7 @@ private:
     Drawing start_drawing(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
                           const GpuFlareOptions& options);
     void draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
-              const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
+              const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers, int level = 1);
     struct State;
     std::unique_ptr<State> state_;
 };
