@@ -47,10 +47,19 @@ std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::
 CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<double, 3>& light_scale,
                    const std::array<double, 3>& pass_weight, const optics::GhostStyle* style, const FlareView& view,
                    const GhostSpread& spread) {
-    // The peak as drawn, and as the caller's spread leaves it: the kernel's largest weight times the power.
+    // What each of R, G, B adds the ghost with (the light's irradiance and gains, the pass weight, a look's
+    // gain), and what estimate_light scaled its power by (the light over the pass's channels).
+    std::array<double, 3> factor{};
+    double light_weight = 0.0;
+    for (std::size_t k = 0; k < 3; ++k) {
+        factor[k] = std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
+        light_weight += std::abs(pass_weight[k] * light_scale[k]);
+    }
+    // The peak per unit of those factors as drawn, and as the caller's spread leaves it: the kernel's largest
+    // share of the ghost's power.
     const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
-    const double spread_peak = spread.peak_share > 0.0 && e.power > 0.0
-                                   ? kSpreadPowerMargin * e.power * spread.peak_share / (pixel_w * pixel_h)
+    const double spread_peak = spread.peak_share > 0.0 && e.power > 0.0 && light_weight > 0.0
+                                   ? kSpreadPowerMargin * e.power / light_weight * spread.peak_share / (pixel_w * pixel_h)
                                    : std::numeric_limits<double>::infinity();
     const double drawn_peak = e.peak > 0.0 ? e.peak : std::numeric_limits<double>::infinity();
     const double peak = std::min(drawn_peak, spread_peak);
@@ -72,8 +81,7 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     item.y0 -= spread_px;
     item.x1 += spread_px;
     item.y1 += spread_px;
-    for (std::size_t k = 0; k < 3; ++k)
-        item.peak[k] = peak * std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
+    for (std::size_t k = 0; k < 3; ++k) item.peak[k] = peak * factor[k];
     // A caustic's spike (a pixel or two) reaches over its coarse peak when drawn; spread, its light is shared
     // out as any other, and it adds no more than its power times the kernel's largest share.
     double spike_peak = drawn_peak * caustic_spike(e);

@@ -161,28 +161,37 @@ TEST(CullItem, SpreadGhostsPeakAtTheirPowerTimesTheKernelsLargestShare) {
     e.rect = {-1.0, -1.0, 1.0, 1.0};
     e.sensor = {-0.5, -0.5, 0.5, 0.5};  // 100 px square at the centre
     e.peak = 3.0;
-    e.power = 1e-2;  // 100 pixels' worth at irradiance 1
+    e.power = 2e-2;  // as estimate_light gives it: 100 pixels' worth at irradiance 1, times the pass's weight 2
     e.area_cv = 1.0;  // caustics: its spike may reach kCausticSpike x peak when drawn
     const std::array<double, 3> unit{1.0, 1.0, 1.0};
-    const CullItem sharp = cull_item(e, 0.0, unit, unit, nullptr, view);
-    EXPECT_DOUBLE_EQ(sharp.peak[1], 3.0);
+    const CullItem sharp = cull_item(e, 0.0, unit, {0.0, 2.0, 0.0}, nullptr, view);
+    EXPECT_DOUBLE_EQ(sharp.peak[1], 6.0);
     EXPECT_DOUBLE_EQ(sharp.spike, caustic_spike(e));
     // Spread so one pixel keeps at most 1/400 of a ghost's light: 100 / 400 = 0.25 (with the margin 0.5),
     // times the pass's weight 2.
-    const CullItem spread = cull_item(e, 0.0, unit, {0.0, 2.0, 0.0}, nullptr, view, {30.0, 1.0 / 400.0});
+    const std::array<double, 3> green{0.0, 2.0, 0.0};
+    const CullItem spread = cull_item(e, 0.0, unit, green, nullptr, view, {30.0, 1.0 / 400.0});
     EXPECT_DOUBLE_EQ(spread.peak[1], 2.0 * kSpreadPowerMargin * 100.0 / 400.0);
     EXPECT_DOUBLE_EQ(spread.peak[0], 0.0);
     EXPECT_DOUBLE_EQ(spread.spike, 1.0);  // the spread bounds the spike too
     EXPECT_DOUBLE_EQ(spread.x0, sharp.x0 - 30.0);
     EXPECT_DOUBLE_EQ(spread.y1, sharp.y1 + 30.0);
     // A spread that keeps more than the ghost's own peak changes nothing but the box.
-    const CullItem wide = cull_item(e, 0.0, unit, unit, nullptr, view, {30.0, 0.9});
-    EXPECT_DOUBLE_EQ(wide.peak[2], 3.0);
+    const CullItem wide = cull_item(e, 0.0, unit, green, nullptr, view, {30.0, 0.9});
+    EXPECT_DOUBLE_EQ(wide.peak[1], 6.0);
     EXPECT_DOUBLE_EQ(wide.spike, caustic_spike(e));
     // A peak the coarse pass did not find is drawn unspread (not known), but a spread one is bounded by its power.
     e.peak = 0.0;
-    EXPECT_LE(cull_item(e, 0.0, unit, unit, nullptr, view).x1, cull_item(e, 0.0, unit, unit, nullptr, view).x0);
-    EXPECT_DOUBLE_EQ(cull_item(e, 0.0, unit, unit, nullptr, view, {30.0, 1.0 / 400.0}).peak[0], kSpreadPowerMargin * 100.0 / 400.0);
+    EXPECT_LE(cull_item(e, 0.0, unit, green, nullptr, view).x1, cull_item(e, 0.0, unit, green, nullptr, view).x0);
+    EXPECT_DOUBLE_EQ(cull_item(e, 0.0, unit, green, nullptr, view, {30.0, 1.0 / 400.0}).peak[1], 2.0 * kSpreadPowerMargin * 100.0 / 400.0);
+    // The power is the light's over the pass's channels: a light 10 times as bright, and a look's gain of 3 on
+    // green, scale the spread peak as they scale the drawn one.
+    e.power = 10.0 * 2e-2;
+    const CullItem bright = cull_item(e, 0.0, {10.0, 10.0, 10.0}, green, nullptr, view, {30.0, 1.0 / 400.0});
+    EXPECT_DOUBLE_EQ(bright.peak[1], 10.0 * 2.0 * kSpreadPowerMargin * 100.0 / 400.0);
+    const optics::GhostStyle look{0, 1, {1.0, 3.0, 1.0}, {0.0, 0.0}};
+    EXPECT_DOUBLE_EQ(cull_item(e, 0.0, {10.0, 10.0, 10.0}, green, &look, view, {30.0, 1.0 / 400.0}).peak[1],
+                     3.0 * bright.peak[1]);
 }
 
 // A faint ghost's grid: 8 cells when its outline loses no light to dropped cells (no failed rays in the
