@@ -61,7 +61,13 @@ std::string after_version(const std::string& source, const std::string& text) {
 
 // A shader's source with the batched draw's job buffer declared after its #version line.
 std::string with_jobs(const std::string& source) { return after_version(source, shaders::ghost_job_glsl); }
-// A compute pass's source with the job buffer and the batched vertex numbering (grid_vertex) declared.
+// The work groups of 64 vertices, one after another (grid_vertex), of a grid of res cells a side.
+GLuint vertex_groups(int res) {
+    const auto side = static_cast<GLuint>(res + 1);
+    return (side * side + 63) / 64;
+}
+
+// A compute pass's source with the job buffer and the vertex numbering (grid_vertex) declared.
 std::string compute_with_jobs(const std::string& source) {
     return after_version(source, std::string{shaders::ghost_job_glsl} + shaders::grid_vertex_glsl);
 }
@@ -705,8 +711,7 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
     glUniform1ui(s_.programs.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
     glUniform4f(s_.programs.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
                 static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-    glDispatchCompute(groups, groups, 1);
+    glDispatchCompute(vertex_groups(res), 1, 1);
 }
 
 // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
@@ -722,8 +727,7 @@ void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, 
     glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
     glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
-    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-    glDispatchCompute(groups, groups, 1);
+    glDispatchCompute(vertex_groups(res), 1, 1);
 }
 
 namespace {
@@ -1071,8 +1075,7 @@ void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghos
     }
     upload_jobs(ghosts, grid, reduce, pd);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    const auto side = static_cast<GLuint>(grid + 1);
-    const GLuint groups = (side * side + 63) / 64;  // of 64 vertices, one after another (grid_vertex)
+    const GLuint groups = vertex_groups(grid);
     trace_uniforms(grid, pd.rotation, pd.direction);
     dispatch_batched(s_.programs.trace, groups, n);
     shade_uniforms(grid, reduce, false);

@@ -18,14 +18,13 @@ layout(std430, binding = 3) readonly buffer Jobs { GhostJob jobs[]; };
 uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the instance), not the uniforms
 )GLSL";
 
-// The grid vertex a batched compute invocation takes (inserted after ghost_job_glsl in the trace and shade
-// passes; work groups of 8 x 8): alone, the (x, y) of its global id; batched, the work groups of a ghost (its z)
-// run along its vertices row after row, so that no 8-wide row of a group is left mostly idle past the grid's
-// edge (a grid of 8 is 9 x 9 vertices: 18 such rows of 2 x 2 groups, 11 in a row). Beyond the last vertex: a
-// row past the grid.
+// The grid vertex a compute invocation takes (inserted after ghost_job_glsl in the trace and shade passes;
+// work groups of 8 x 8, dispatched as FlareRenderer's vertex_groups along x): a ghost's work groups (batched:
+// its z) run along its vertices row after row, so that no 8-wide row of a group is left mostly idle past the
+// grid's edge (a grid of 8 is 9 x 9 vertices: 18 such rows in 2 x 2 groups, 11 in a row; of 16, 51 and 37).
+// Beyond the last vertex: a row past the grid.
 inline constexpr const char* grid_vertex_glsl = R"GLSL(
 uvec2 grid_vertex(int grid) {
-    if (!batched) return gl_GlobalInvocationID.xy;
     uint side = uint(grid + 1);
     uint index = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
     return uvec2(index % side, index / side);
