@@ -61,6 +61,7 @@ std::string after_version(const std::string& source, const std::string& text) {
 
 // A shader's source with the batched draw's job buffer declared after its #version line.
 std::string with_jobs(const std::string& source) { return after_version(source, shaders::ghost_job_glsl); }
+
 // The work groups of 64 vertices, one after another (grid_vertex), of a grid of res cells a side.
 GLuint vertex_groups(int res) {
     const auto side = static_cast<GLuint>(res + 1);
