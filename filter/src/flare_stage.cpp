@@ -143,7 +143,7 @@ std::array<double, 3> as_double(const std::array<float, 3>& v) {
 
 // Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
 // `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
-// frame directly; the GL targets (RGBA float at full size and at 1/2..1/16, read back in bands) for
+// frame directly; the GL targets (RGBA float at full size and at 1/2..1/32, read back in bands) for
 // ghosts, and a single-light image for extended lights; at most the data window's growth to the display
 // window with its R, G, B; a layer's copy.
 double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool extended, bool layer) {

@@ -76,6 +76,10 @@ constexpr double kSharpQuarterExtentPx = 2048.0;
 // every faint ghost lost light along the outline (pan1080, canon-70-200: 0.09% and 1.6% of 8-bit sRGB values 2
 // codes off, against under 0.02% at 16).
 constexpr double kFaintCells = 64.0;
+// The most reduced level a faint ghost is drawn at: 1/32 (a ghost at least 2048 px across). Its fragments were
+// most of a faint ghost's cost (canon-70-200 on pan1080: 943 faint draws at 1/16, ~0.3 s of raster into a
+// 120 x 68 target that a ghost wider than the frame covers whole), and 1/32 has a quarter of them.
+constexpr int kFaintMaxReduce = 32;
 // A faint ghost whose coarse pass found no outline of failed rays (no cell with some corners passing and
 // some not) loses no light along its outline to whole dropped cells: its outline is cut per pixel (r_rel, the
 // iris), so a coarser grid changes only how finely its shading is sampled. Such a ghost, when also smooth
@@ -110,7 +114,7 @@ double mean_triangle_mm2(const GhostEstimate& e, int grid) {
 
 int faint_reduce(double extent_px) {
     int reduce = 1;
-    while (reduce < 16 && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
+    while (reduce < kFaintMaxReduce && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
     return reduce;
 }
 

@@ -62,6 +62,17 @@ std::string after_version(const std::string& source, const std::string& text) {
 // A shader's source with the batched draw's job buffer declared after its #version line.
 std::string with_jobs(const std::string& source) { return after_version(source, shaders::ghost_job_glsl); }
 
+// The work groups of 64 vertices, one after another (grid_vertex), of a grid of res cells a side.
+GLuint vertex_groups(int res) {
+    const auto side = static_cast<GLuint>(res + 1);
+    return (side * side + 63) / 64;
+}
+
+// A compute pass's source with the job buffer and the vertex numbering (grid_vertex) declared.
+std::string compute_with_jobs(const std::string& source) {
+    return after_version(source, std::string{shaders::ghost_job_glsl} + shaders::grid_vertex_glsl);
+}
+
 // The grid raster's two stages (shaders::ghost_raster_vert and ghost_raster_frag), point-sampled or, with
 // `define` "#define AREA_COVERAGE\n", with area coverage.
 std::vector<ShaderStage> raster_stages(const std::string& define) {
@@ -86,8 +97,8 @@ namespace {
 // The renderer's shader programs: the trace and shade compute passes and the raster (point-sampled or with
 // area coverage) and splat draws.
 struct GhostPrograms {
-    Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_trace_comp)}}};
-    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, with_jobs(shaders::ghost_shade_comp)}}};
+    Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_trace_comp)}}};
+    Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster", raster_stages("")};
     Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
     Program splat{"ghost_splat",
@@ -545,7 +556,7 @@ private:
     double f_number_;                  // for the iris ringing's order (0 without ringing)
     FullBands bands_;
     int band_ = 0;
-    bool drawn_into_[5] = {};  // targets drawn into (and cleared) by this render
+    bool drawn_into_[RenderTargets::kSlots] = {};  // targets drawn into (and cleared) by this render
     std::vector<GhostPower> powers_;
     std::vector<double> accumulated_;  // per-ghost mode: the image summed on the CPU
     std::vector<LightEstimates> estimates_;  // per light
@@ -704,8 +715,7 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
     glUniform1ui(s_.programs.trace.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
     glUniform4f(s_.programs.trace.uniform("rect"), static_cast<float>(rect.x0), static_cast<float>(rect.y0),
                 static_cast<float>(rect.x1), static_cast<float>(rect.y1));
-    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-    glDispatchCompute(groups, groups, 1);
+    glDispatchCompute(vertex_groups(res), 1, 1);
 }
 
 // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
@@ -721,8 +731,7 @@ void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, 
     glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
     glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
-    const GLuint groups = static_cast<GLuint>((res + 1 + 7) / 8);
-    glDispatchCompute(groups, groups, 1);
+    glDispatchCompute(vertex_groups(res), 1, 1);
 }
 
 namespace {
@@ -953,7 +962,7 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
 // kRimReduce times their level's resolution (ghost_raster_frag's rim_mode 2), grouped by target. Later bands
 // draw only into the full-size target.
 void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
-    for (const int reduce : {16, 8, 4, 2, 1}) {
+    for (const int reduce : {32, 16, 8, 4, 2, 1}) {
         if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
         bool bound = false;
         for (const BatchJob& job : batch) {
@@ -1072,7 +1081,7 @@ void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghos
     }
     upload_jobs(ghosts, grid, reduce, pd);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    const GLuint groups = static_cast<GLuint>((grid + 1 + 7) / 8);
+    const GLuint groups = vertex_groups(grid);
     trace_uniforms(grid, pd.rotation, pd.direction);
     dispatch_batched(s_.programs.trace, groups, n);
     shade_uniforms(grid, reduce, false);
@@ -1082,11 +1091,11 @@ void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghos
     check_gl(fmt::format("drawing {} faint ghosts at {} nm", n, pd.pass.wavelength_nm));
 }
 
-// The bound compute program dispatched over n ghosts' grids (groups x groups each) in batched mode, then the
-// vertices' barrier.
+// The bound compute program dispatched over n ghosts' grids in batched mode (`groups` work groups each, along
+// the grid's vertices: grid_vertex), then the vertices' barrier.
 void FlareRenderer::Drawing::dispatch_batched(const Program& program, GLuint groups, GLuint n) {
     glUniform1i(program.uniform("batched"), 1);
-    glDispatchCompute(groups, groups, n);
+    glDispatchCompute(groups, 1, n);
     glUniform1i(program.uniform("batched"), 0);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
 }
@@ -1151,7 +1160,7 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
         if (ghost_powers) *ghost_powers = std::move(powers_);
     } else {
         std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
-        for (int slot : {1, 2, 3, 4}) {
+        for (int slot = 1; slot < static_cast<int>(RenderTargets::kSlots); ++slot) {
             if (!drawn_into_[slot]) continue;
             if ((1 << slot) < image_level_) throw std::logic_error(fmt::format("a ghost drawn at 1/{} for an image at 1/{}", 1 << slot, image_level_));
             const FloatTarget& t = s_.targets.reduced(1 << slot, view_.width, view_.height);

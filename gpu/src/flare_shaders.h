@@ -18,6 +18,19 @@ layout(std430, binding = 3) readonly buffer Jobs { GhostJob jobs[]; };
 uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the instance), not the uniforms
 )GLSL";
 
+// The grid vertex a compute invocation takes (inserted after ghost_job_glsl in the trace and shade passes;
+// work groups of 8 x 8, dispatched as FlareRenderer's vertex_groups along x): a ghost's work groups (batched:
+// its z) run along its vertices row after row, so that no 8-wide row of a group is left mostly idle past the
+// grid's edge (a grid of 8 is 9 x 9 vertices: 18 such rows in 2 x 2 groups, 11 in a row; of 16, 51 and 37).
+// Beyond the last vertex: a row past the grid.
+inline constexpr const char* grid_vertex_glsl = R"GLSL(
+uvec2 grid_vertex(int grid) {
+    uint side = uint(grid + 1);
+    uint index = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
+    return uvec2(index % side, index / side);
+}
+)GLSL";
+
 // One invocation per grid vertex. Steps: geom = (vertex z, curvature, conic, semi-diameter),
 // media = (n_in, n_out, kind 0 refract / 1 reflect / 2 stop + 4 x its factor table, forward 1 / backward 0).
 // Output per vertex:
@@ -48,7 +61,7 @@ float factor(int table, float cos_i) {
 }
 
 void main() {
-    uvec2 id = gl_GlobalInvocationID.xy;
+    uvec2 id = grid_vertex(grid);
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     int first_step = batched ? jobs[gl_WorkGroupID.z].steps.x : step_offset;
     int steps_n = batched ? jobs[gl_WorkGroupID.z].steps.y : step_count;
@@ -208,7 +221,7 @@ float triangle_area(uint a, uint b, uint c) {
 }
 
 void main() {
-    uvec2 id = gl_GlobalInvocationID.xy;
+    uvec2 id = grid_vertex(grid);
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     first = batched ? uint(jobs[gl_WorkGroupID.z].steps.z) : vertex_offset;
     crossings = batched ? jobs[gl_WorkGroupID.z].steps.w : stop_crossings;

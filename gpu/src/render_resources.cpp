@@ -18,6 +18,7 @@ std::size_t RenderTargets::slot(int reduce) {
         case 4: return 2;
         case 8: return 3;
         case 16: return 4;
+        case 32: return 5;
         default: throw std::logic_error(fmt::format("no render target at 1/{} of the image", reduce));
     }
 }

@@ -325,6 +325,23 @@ std::shared_ptr<VisibilityMap> everything_faint(int width, int height) {
     map->budget = 0.0;
     return map;
 }
+// A faint ghost is drawn at the most reduced level that keeps 64 of its level's pixels across it: 1/32 from 2048
+// pixels across (its fragments at 1/16 were most of its cost), 1/16 below. Drawn (not faint), the same ghost
+// keeps the smooth ghosts' 1/16.
+TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
+    const double pixel_mm = 0.01;
+    std::vector<GhostEstimate> e = five_estimates(pixel_mm);  // ghost 0: smooth, 2100 px across
+    const GhostSelection selection = five_ghosts();
+    const DetailSettings detail = detail_32(pixel_mm);
+    const std::vector<SceneVerdict> verdicts = {SceneVerdict::Faint, SceneVerdict::Draw, SceneVerdict::Draw,
+                                                SceneVerdict::Cull, SceneVerdict::Faint};
+    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 32);
+    EXPECT_EQ(plan_pass(e, 0.0, {}, selection, detail, 0).plans[0].reduce, 16);
+    e[0].extent_mm = 2000 * pixel_mm;
+    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 16);
+    e[0].extent_mm = 1000 * pixel_mm;
+    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
+}
 
 // The batched draw of faint ghosts (one trace, one shade and one instanced draw per grid and level) makes the
 // image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands.

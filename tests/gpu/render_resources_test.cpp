@@ -29,6 +29,9 @@ TEST(RenderTargets, KeptAtTheSameSizeAndRemadeAtAnother) {
     EXPECT_EQ(targets.made(), 5);
     EXPECT_THROW(targets.reduced(3, 90, 90), std::logic_error);
     EXPECT_EQ(RenderTargets::slot(16), 4u);
+    EXPECT_EQ(RenderTargets::slot(32), 5u);  // faint ghosts at least 2048 px across
+    EXPECT_EQ(targets.reduced(32, 1920, 1080).width(), 60);
+    EXPECT_THROW(targets.reduced(64, 1920, 1080), std::logic_error);
 }
 
 TEST(IrisTextures, UploadedOncePerIrisAndOrder) {

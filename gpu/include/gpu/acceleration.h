@@ -30,7 +30,7 @@ struct Acceleration {
     bool lod = true;               // skip dim ghosts, fewer rays for ghosts under 1% of the estimated total
     double ghost_threshold = 1e-4; // lod: skip ghosts below this fraction of the estimated total power
     int max_ghosts = 0;            // lod: draw at most this many (the brightest); 0 = no budget
-    bool reduced = true;           // draw large ghosts at 1/2, 1/4, 1/8 or 1/16 resolution and upsample
+    bool reduced = true;           // draw large ghosts at 1/2, 1/4, 1/8 or 1/16 (faint ones 1/32) resolution and upsample
     // Aperture culling (section 4.2): leave out the ghosts that cross the stop three times (first reflection
     // behind the stop, second in front), mostly blocked when the iris is small. Off by default: the level
     // of detail already skips them when they are dim, and wide open they are not.

@@ -48,7 +48,7 @@ struct GpuFlareOptions {
 };
 
 // Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
-// target's band (GpuFlareOptions::full_target_bytes) and the reduced targets (1/2 ... 1/16).
+// target's band (GpuFlareOptions::full_target_bytes) and the reduced targets (1/2 ... 1/32).
 double render_target_bytes(int width, int height, double full_target_bytes = GpuFlareOptions{}.full_target_bytes);
 
 // Bytes of the per-lens tables the renderer builds for `system` at `passes` wavelengths: the ghost list,

@@ -13,11 +13,12 @@
 namespace lensfx::gpu {
 
 // The RGBA32F targets ghosts are drawn into: the full-size one (or a band of its rows) and those at 1/2, 1/4,
-// 1/8 and 1/16 of the image. Each is kept while it is asked for at the same size and remade at another.
+// 1/8, 1/16 and (faint ghosts only) 1/32 of the image. Each is kept while it is asked for at the same size and remade at another.
 class RenderTargets {
 public:
-    // Which of the five targets holds 1/reduce of the image (0 the full size ... 4 the 1/16); throws
-    // std::logic_error for a reduce other than 1, 2, 4, 8 or 16.
+    static constexpr std::size_t kSlots = 6;
+    // Which of the kSlots targets holds 1/reduce of the image (0 the full size ... 5 the 1/32); throws
+    // std::logic_error for a reduce other than 1, 2, 4, 8, 16 or 32.
     static std::size_t slot(int reduce);
     // The full-size target for a band of `rows` rows of a width-wide image.
     FloatTarget& full(int width, int rows);
@@ -29,7 +30,7 @@ public:
 
 private:
     FloatTarget& sized(std::size_t slot, int width, int height);
-    std::optional<FloatTarget> targets_[5];
+    std::optional<FloatTarget> targets_[kSlots];
     int made_ = 0;
 };
 
