@@ -93,7 +93,7 @@ std::string ray_table_path(const std::string& dir, const std::string& key) {
 }
 
 std::optional<RayTable> read_ray_table(const std::string& path, const std::string& key) {
-    std::ifstream in(path, std::ios::binary);
+    std::ifstream in = flare::open_cache_file(path);  // a FIFO or device under the name is a miss, not a wait
     if (!in) return std::nullopt;
     std::error_code ec;
     const std::uintmax_t file_size = std::filesystem::file_size(path, ec);

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <cmath>
@@ -389,54 +391,123 @@ void learn_peak(GhostEstimate& coarse, const GhostEstimate& fine) {
                      std::max(coarse.sensor.x1, fine.sensor.x1), std::max(coarse.sensor.y1, fine.sensor.y1)};
 }
 
-// A render target read back a band of rows at a time (RGBA, rows bottom to top as GL stores them): rows are
-// asked for from the top of the image down, so a band is read ending just above the row asked for.
+// The columns [first, end) of an RGBA row of w texels that hold anything but zeros (any bit set: -0 and NaN
+// count); {0, 0} when none do. A render target is cleared to zeros and drawn into by adding, so what a draw
+// left untouched is exactly zero.
+std::pair<int, int> lit_span(const float* rgba, int w) {
+    const std::size_t n = static_cast<std::size_t>(w) * 4;
+    std::uint32_t any = 0;
+    for (std::size_t i = 0; i < n; ++i) any |= std::bit_cast<std::uint32_t>(rgba[i]);  // vectorised
+    if (any == 0) return {0, 0};
+    std::size_t first = 0, last = n - 1;
+    while (std::bit_cast<std::uint32_t>(rgba[first]) == 0) ++first;
+    while (std::bit_cast<std::uint32_t>(rgba[last]) == 0) --last;
+    return {static_cast<int>(first / 4), static_cast<int>(last / 4) + 1};
+}
+
+// Grows `lit` by the lit columns of GL row `row` of its target.
+void add_lit_row(TexelRect& lit, int row, std::pair<int, int> span) {
+    if (span.first == span.second) return;
+    if (lit.empty()) lit = {span.first, row, span.second, row + 1};
+    lit.x0 = std::min(lit.x0, span.first), lit.x1 = std::max(lit.x1, span.second);
+    lit.y0 = std::min(lit.y0, row), lit.y1 = std::max(lit.y1, row + 1);
+}
+
+constexpr int kBandRows = 64;  // rows of a target read back at a time
+
+// Where a target holds anything but zeros: read back a band of rows at a time; empty when nowhere.
+TexelRect lit_rect(const FloatTarget& target) {
+    const int w = target.width(), h = target.height();
+    std::vector<float> band(static_cast<std::size_t>(w) * static_cast<std::size_t>(std::min(kBandRows, h)) * 4);
+    TexelRect lit;
+    for (int first = 0; first < h; first += kBandRows) {
+        const int rows = std::min(kBandRows, h - first);
+        target.read_rgba_rows(first, rows, band.data());
+        for (int r = 0; r < rows; ++r) add_lit_row(lit, first + r, lit_span(band.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(w) * 4, w));
+    }
+    return lit;
+}
+
+// A render target read back a band of rows at a time (RGBA, rows bottom to top as GL stores them), within
+// `window` only: what lies outside it reads as zeros (where a read-back found it zero, lit_rect). Rows are asked
+// for from the top of the image down, so a band is read ending just above the row asked for.
 class BandReader {
 public:
-    explicit BandReader(const FloatTarget& target) : target_(&target) {}
+    BandReader(const FloatTarget& target, const TexelRect& window) : target_(&target), window_(window) {}
     int width() const { return target_->width(); }
     int height() const { return target_->height(); }
+    const TexelRect& window() const { return window_; }
     const float* row(int r) {
-        if (r < first_ || r >= first_ + rows_) {
-            first_ = std::max(0, r + 2 - kBandRows);
-            rows_ = std::min(kBandRows, height() - first_);
-            band_.resize(static_cast<std::size_t>(width()) * static_cast<std::size_t>(rows_) * 4);
-            target_->read_rgba_rows(first_, rows_, band_.data());
+        const auto w4 = static_cast<std::size_t>(width()) * 4;
+        if (r < window_.y0 || r >= window_.y1) {
+            if (zeros_.empty()) zeros_.assign(w4, 0.0f);
+            return zeros_.data();
         }
-        return band_.data() + static_cast<std::size_t>(r - first_) * static_cast<std::size_t>(width()) * 4;
+        if (r < first_ || r >= first_ + rows_) {
+            first_ = std::max(window_.y0, r + 2 - kBandRows);
+            rows_ = std::min(kBandRows, window_.y1 - first_);
+            // made once: the columns beyond the window are never read into, and stay zero
+            if (band_.empty()) band_.assign(w4 * static_cast<std::size_t>(std::min(kBandRows, window_.y1 - window_.y0)), 0.0f);
+            target_->read_rgba_rect({window_.x0, first_, window_.x1, first_ + rows_}, band_.data());
+        }
+        return band_.data() + static_cast<std::size_t>(r - first_) * w4;
     }
 
 private:
-    static constexpr int kBandRows = 64;
     const FloatTarget* target_;
-    std::vector<float> band_;
+    TexelRect window_;
+    std::vector<float> band_, zeros_;
     int first_ = 0, rows_ = 0;
 };
 
 // Adds band b of the full-size target into the top-down RGB image w pixels wide, read back a band of rows
-// at a time: no copy of the whole target is made.
-void add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, const FullBands& bands, int b) {
-    BandReader reader(target);
-    const auto width = static_cast<std::size_t>(w);
+// at a time (no copy of the whole target is made), only the lit columns of each row. Returns where the target
+// is lit (GL rows, all columns), which is all of it that was read when the image is one band.
+TexelRect add_full_band(const FloatTarget& target, std::vector<float>& rgb, int w, const FullBands& bands, int b) {
+    BandReader reader(target, {0, 0, target.width(), target.height()});
     const int top = bands.drawn_first(b), rows = bands.rows_drawn(b);
+    TexelRect lit;
     for (int y = bands.first(b); y < bands.end(b); ++y) {
-        const float* in = reader.row(rows - 1 - (y - top));  // GL rows run bottom-up
-        float* out = rgb.data() + static_cast<std::size_t>(y) * width * 3;
-        for (std::size_t x = 0; x < width; ++x)
+        const int row = rows - 1 - (y - top);  // GL rows run bottom-up
+        const float* in = reader.row(row);
+        const auto [x0, x1] = lit_span(in, w);
+        add_lit_row(lit, row, {x0, x1});
+        float* out = rgb.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) * 3;
+        for (auto x = static_cast<std::size_t>(x0); x < static_cast<std::size_t>(x1); ++x)
             for (std::size_t c = 0; c < 3; ++c) out[x * 3 + c] += in[x * 4 + c];
     }
+    if (!lit.empty()) lit.x0 = 0, lit.x1 = target.width();
+    return lit;
+}
+
+// The span [first, end) of the image's rows or columns whose Mitchell taps reach [lo, hi) of a target's: the
+// others blend only zeros there.
+std::pair<int, int> reached(const std::vector<flare::CubicTap>& taps, int lo, int hi) {
+    int first = static_cast<int>(taps.size()), end = 0;
+    for (std::size_t k = 0; k < taps.size(); ++k)
+        for (const int i : taps[k].i)
+            if (i >= lo && i < hi) first = std::min(first, static_cast<int>(k)), end = std::max(end, static_cast<int>(k) + 1);
+    return {first, end};
 }
 
 // A reduced target's rows widened to the image's w columns through the Mitchell cubic (flare::mitchell_taps),
 // four held at a time: an output row blends four of them, and the next output row mostly needs the same four.
+// Only the columns whose taps reach the target's lit window are widened (the rest would be zero).
 class WidenedTarget {
 public:
     WidenedTarget(BandReader& readback, int w, int h)
         : readback_(&readback), xs_(flare::mitchell_taps(w, readback.width())), ys_(flare::mitchell_taps(h, readback.height())) {
         for (auto& row : rows_) row.assign(static_cast<std::size_t>(w) * 3, 0.0f);
+        const TexelRect& lit = readback.window();
+        columns_ = reached(xs_, lit.x0, lit.x1);
+        const auto [r0, r1] = reached(ys_, lit.y0, lit.y1);  // ys_ runs bottom-up, as GL rows
+        rows_reached_ = {h - r1, h - r0};
     }
     // The taps of image row y (from the top; GL rows run bottom-up).
     const flare::CubicTap& taps_of(int y) const { return ys_[ys_.size() - 1 - static_cast<std::size_t>(y)]; }
+    // The image's columns and rows (top down) this target adds to: [first, end).
+    std::pair<int, int> columns() const { return columns_; }
+    bool reaches_row(int y) const { return y >= rows_reached_.first && y < rows_reached_.second; }
     // Target row `row` widened; a row `needed` names is not evicted for it.
     const float* row(int row, const flare::CubicTap& needed) {
         for (int k = 0; k < 4; ++k)
@@ -448,7 +519,7 @@ public:
         }
         const float* in = readback_->row(row);
         float* out = rows_[k].data();
-        for (std::size_t x = 0; x < xs_.size(); ++x) {
+        for (auto x = static_cast<std::size_t>(columns_.first); x < static_cast<std::size_t>(columns_.second); ++x) {
             const flare::CubicTap& t = xs_[x];
             for (std::size_t c = 0; c < 3; ++c) {
                 float v = 0.0f;
@@ -463,9 +534,21 @@ public:
 private:
     BandReader* readback_;
     std::vector<flare::CubicTap> xs_, ys_;
+    std::pair<int, int> columns_, rows_reached_;
     std::vector<float> rows_[4];
     int held_[4] = {-1, -1, -1, -1};
 };
+
+// out[i] += max(0, blend of rows a[0..N) by weights f) over [first, end): the blend summed in the order given,
+// from zero, exactly as adding each weighted row into a zeroed row would.
+template <int N>
+void blend_rows(const float* const (&a)[4], const float (&f)[4], float* out, std::size_t first, std::size_t end) {
+    for (std::size_t i = first; i < end; ++i) {
+        float v = 0.0f;
+        for (int k = 0; k < N; ++k) v += f[k] * a[k][i];
+        out[i] += std::max(0.0f, v);
+    }
+}
 
 // Adds reduced targets (read back in bands) into a top-down RGB image of w x h, enlarged with the Mitchell
 // cubic (flare::mitchell_taps: pixel centres aligned, edge pixels repeated beyond the border; what each target
@@ -473,25 +556,32 @@ private:
 // structure error 0.732, against bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render
 // time the same within noise. Separably, and every target per output row, so the image is read and written
 // once: each output row adds, for every target, a blend of four widened rows (a loop the compiler vectorises).
-// Not flare::add_resized: the targets are read from GL in bands, never whole (the 1/2 target of an 8K frame
-// is 127 MB).
+// Only the part of the image each target's lit window reaches is visited: an extended light's groups light a
+// few ghosts each. Not flare::add_resized: the targets are read from GL in bands, never whole (the 1/2 target
+// of an 8K frame is 127 MB).
 void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
     std::vector<WidenedTarget> srcs;
     for (BandReader& r : sources) srcs.emplace_back(r, w, h);
     const std::size_t row_values = static_cast<std::size_t>(w) * 3;
-    std::vector<float> blend(row_values);
     for (int y = 0; y < h; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
         for (WidenedTarget& src : srcs) {
+            if (!src.reaches_row(y)) continue;
             const flare::CubicTap& t = src.taps_of(y);
-            std::fill(blend.begin(), blend.end(), 0.0f);
-            for (int j = 3; j >= 0; --j) {
-                if (t.f[j] == 0.0f) continue;
-                const float* a = src.row(t.i[j], t);
-                const float f = t.f[j];
-                for (std::size_t i = 0; i < row_values; ++i) blend[i] += f * a[i];
+            const std::size_t first = static_cast<std::size_t>(src.columns().first) * 3, end = static_cast<std::size_t>(src.columns().second) * 3;
+            // The four rows' blend, summed from the last tap to the first and skipping zero weights, in one pass.
+            const float* a[4];
+            float f[4];
+            int n = 0;
+            for (int j = 3; j >= 0; --j)
+                if (t.f[j] != 0.0f) a[n] = src.row(t.i[j], t), f[n++] = t.f[j];
+            switch (n) {
+                case 4: blend_rows<4>(a, f, out, first, end); break;
+                case 3: blend_rows<3>(a, f, out, first, end); break;
+                case 2: blend_rows<2>(a, f, out, first, end); break;
+                case 1: blend_rows<1>(a, f, out, first, end); break;
+                default: blend_rows<0>(a, f, out, first, end); break;
             }
-            for (std::size_t i = 0; i < row_values; ++i) out[i] += std::max(0.0f, blend[i]);
         }
     }
 }
@@ -605,7 +695,7 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
     // ghosts are all drawn reduced never needs it.
     if (options.per_ghost_power) {
         bind_full();
-        full_target().clear();
+        s_.targets.clear(0);
         drawn_into_[0] = true;
     }
     for (const auto& pass : passes_) {
@@ -650,7 +740,7 @@ void FlareRenderer::Drawing::bind_level(int reduce) {
     FloatTarget& t = reduce == 1 ? full_target() : s_.targets.reduced(reduce, view_.width, view_.height);
     if (reduce == 1) bind_full();  // the full-size target holds the band being drawn
     else t.bind();
-    if (!drawn_into_[slot]) t.clear();
+    if (!drawn_into_[slot]) s_.targets.clear(slot);
     drawn_into_[slot] = true;
 }
 
@@ -898,7 +988,8 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
             for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(l, p);
     if (options_.per_ghost_power || !drawn_into_[0]) return;
     if (image_level_ > 1) throw std::logic_error(fmt::format("a ghost drawn at full size for an image at 1/{}", image_level_));
-    add_full_band(full_target(), rgb, view_.width, bands_, band);
+    const TexelRect lit = add_full_band(full_target(), rgb, view_.width, bands_, band);
+    if (bands_.count == 1) s_.targets.lit_within(0, lit);  // read whole: the next render clears only that
     drawn_into_[0] = false;  // the next band clears it
 }
 
@@ -1145,7 +1236,7 @@ void FlareRenderer::Drawing::add_ghost_power(std::size_t g) {
             powers_[g].power[c] += value * pixel_area;
         }
     }
-    full_target().clear();
+    s_.targets.clear(0);
 }
 
 void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers) {
@@ -1159,12 +1250,14 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
         }
         if (ghost_powers) *ghost_powers = std::move(powers_);
     } else {
-        std::vector<BandReader> readbacks;  // the reduced targets, read back in bands of rows
+        std::vector<BandReader> readbacks;  // the reduced targets' lit parts, read back in bands of rows
         for (int slot = 1; slot < static_cast<int>(RenderTargets::kSlots); ++slot) {
             if (!drawn_into_[slot]) continue;
             if ((1 << slot) < image_level_) throw std::logic_error(fmt::format("a ghost drawn at 1/{} for an image at 1/{}", 1 << slot, image_level_));
             const FloatTarget& t = s_.targets.reduced(1 << slot, view_.width, view_.height);
-            readbacks.emplace_back(t);
+            const TexelRect lit = lit_rect(t);
+            s_.targets.lit_within(static_cast<std::size_t>(slot), lit);
+            if (!lit.empty()) readbacks.emplace_back(t, lit);
         }
         add_targets(readbacks, rgb, flare::reduced_side(view_.width, image_level_), flare::reduced_side(view_.height, image_level_));
     }

@@ -164,6 +164,12 @@ void FloatTarget::clear(float alpha) const {
     glClearTexImage(texture_.get(), 0, GL_RGBA, GL_FLOAT, value);
 }
 
+void FloatTarget::clear(const TexelRect& rect) const {
+    if (rect.empty()) return;
+    const float value[4] = {0.f, 0.f, 0.f, 0.f};
+    glClearTexSubImage(texture_.get(), 0, rect.x0, rect.y0, 0, rect.x1 - rect.x0, rect.y1 - rect.y0, 1, GL_RGBA, GL_FLOAT, value);
+}
+
 std::vector<float> FloatTarget::read_rgba() const {
     std::vector<float> pixels(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 4);
     read_rgba_rows(0, height_, pixels.data());
@@ -175,6 +181,17 @@ void FloatTarget::read_rgba_rows(int first_row, int rows, float* out) const {
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     glReadPixels(0, first_row, width_, rows, GL_RGBA, GL_FLOAT, out);
     check_gl("reading back the float render target");
+}
+
+void FloatTarget::read_rgba_rect(const TexelRect& rect, float* out) const {
+    if (rect.empty()) return;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_.get());
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, width_);
+    glReadPixels(rect.x0, rect.y0, rect.x1 - rect.x0, rect.y1 - rect.y0, GL_RGBA, GL_FLOAT,
+                 out + static_cast<std::size_t>(rect.x0) * 4);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    check_gl("reading back part of the float render target");
 }
 
 }  // namespace lensfx::gpu

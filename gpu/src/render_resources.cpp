@@ -27,6 +27,7 @@ FloatTarget& RenderTargets::sized(std::size_t slot, int width, int height) {
     std::optional<FloatTarget>& t = targets_[slot];
     if (!t || t->width() != width || t->height() != height) {
         t.emplace(width, height);
+        lit_[slot].reset();  // its texels are undefined until cleared whole
         ++made_;
     }
     return *t;
@@ -38,8 +39,16 @@ FloatTarget& RenderTargets::reduced(int reduce, int width, int height) {
     return sized(slot(reduce), (width + reduce - 1) / reduce, (height + reduce - 1) / reduce);
 }
 
+void RenderTargets::clear(std::size_t slot) {
+    const FloatTarget& t = *targets_[slot];
+    if (lit_[slot]) t.clear(*lit_[slot]);
+    else t.clear();
+    lit_[slot].reset();  // to be drawn into: lit anywhere until read back
+}
+
 void RenderTargets::release() {
     for (std::optional<FloatTarget>& t : targets_) t.reset();
+    for (std::optional<TexelRect>& l : lit_) l.reset();
     // The driver (llvmpipe) keeps the last framebuffer's textures until another framebuffer is drawn to:
     // a clear of a 1 x 1 target lets them go now.
     const FloatTarget tiny(1, 1);

@@ -56,6 +56,22 @@ void write_image(const fs::path& path, std::vector<std::string> channels, OIIO::
 
 void write_rgb(const fs::path& path) { write_image(path, {"R", "G", "B"}); }
 
+// A 160x100 R, G, B frame, dim grey with one uniform disc (an extended light when its radius is many pixels).
+void write_disc(const fs::path& path, double cx, double cy, double radius, float value) {
+    const int width = 160, height = 100;
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeFloat);
+    std::vector<float> px(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3);
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+            for (std::size_t c = 0; c < 3; ++c)
+                px[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3 + c] =
+                    std::hypot(x + 0.5 - cx, y + 0.5 - cy) < radius ? value : 0.05f;
+    auto out = OIIO::ImageOutput::create(path.string());
+    ASSERT_TRUE(out && out->open(path.string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeFloat, px.data()));
+    ASSERT_TRUE(out->close());
+}
+
 // The failure contract: a non-zero exit and exactly one line on stderr, starting "lensfx: ".
 void expect_one_line_refusal(const RunResult& r, const std::string& mentions) {
     EXPECT_NE(r.exit_code, 0) << r.stderr_text;
@@ -316,6 +332,37 @@ TEST(Hostile, SpecialFilesAreRefused) {
     expect_one_line_refusal(run(t + lensfx_cmd() + fmt::format(" lens info {}/fifo.exr", d)), "fifo.exr");  // not read: no hang
     expect_one_line_refusal(run(t + lensfx_cmd() + " flare --lens brendel-tessar --angle 5,0 --size 32x24 --flare-look /dev/zero -o " + d + "/f.exr"),
                             "/dev/zero: not a regular file");
+    fs::remove_all(dir);
+}
+
+// Class 9 (cache folder): a named pipe under a cache file's name is read as a miss, not opened (opening it
+// waited for a writer for ever). Two runs fill the cache (flare with a point and an extended light: bounds,
+// direct power, starburst, ghost imaging; the lens blur: its ray table), every file is swapped for a pipe,
+// and the same runs must finish, under a timeout, and leave real cache files in the pipes' places.
+TEST(Hostile, PipesInTheCacheFolderAreMisses) {
+    const auto dir = scratch_dir("hostile-cache-fifo");
+    const fs::path cache = dir / "cache";
+    write_image(dir / "in.exr", {"R", "G", "B", "Z"}, OIIO::TypeFloat, 96, 64);
+    write_disc(dir / "disc.exr", 60.3, 40.6, 12.0, 200.0);
+    const std::string d = dir.string(), t = "timeout 60 env ";
+    const std::string flare = lensfx_in(dir) + fmt::format(" -i {0}/disc.exr -o {0}/f.exr", d) + kLens;
+    const std::string point = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/p.exr", d) + kLens;
+    const std::string dof = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/d.exr --dof --dof-only --lens brendel-tessar --focus 1 -q", d);
+    for (const std::string& c : {flare, point, dof}) ASSERT_EQ(run(t + c).exit_code, 0) << c;
+    std::vector<fs::path> files;
+    for (const auto& f : fs::directory_iterator(cache)) files.push_back(f.path());
+    for (const char* kind : {"bounds-", "direct-", "starburst-", "imaging-", "dof-rays-"})
+        EXPECT_TRUE(std::any_of(files.begin(), files.end(), [&](const fs::path& f) { return f.filename().string().rfind(kind, 0) == 0; }))
+            << "no " << kind << " file: the test no longer covers that cache";
+    for (const fs::path& f : files) {
+        fs::remove(f);
+        ASSERT_EQ(::mkfifo(f.c_str(), 0600), 0) << f;
+    }
+    for (const std::string& c : {flare, point, dof}) {
+        const RunResult r = run(t + c);
+        EXPECT_EQ(r.exit_code, 0) << c << ": " << r.stderr_text;  // 124: a reader blocked on a pipe
+    }
+    for (const fs::path& f : files) EXPECT_TRUE(fs::is_regular_file(f)) << f << ": the cache file was not made again";
     fs::remove_all(dir);
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -407,6 +408,38 @@ TEST(RenderAddReduced, HoldsTheFullRendersBlockMeansAtThatLevel) {
     std::vector<float> wrong(reduced.size());
     EXPECT_THROW(renderer.render_add(system, view, lights, options, wrong, 3), std::invalid_argument);
     EXPECT_THROW(renderer.render_add(system, view, lights, options, full, 4), std::invalid_argument);  // wrong size
+}
+
+// A renderer clears its targets before a render only where the last read-back saw them lit: a render after
+// others (a wide one, one of a few ghosts drawn at every level) is bit for bit the image a fresh renderer makes,
+// one band or three.
+TEST(FlareRenderer, ARenderAfterOthersIsTheImageOfAFreshRenderer) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.width = 320;
+    view.height = 200;
+    const Context context(Platform::Surfaceless);
+    const std::vector<ScaledLight> wide = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
+    const std::vector<ScaledLight> one = {{-9.0, -4.0, {2.0, 2.0, 2.0}}};
+    GpuFlareOptions few;
+    few.draw_only = {{6, 0}, {4, 1}, {5, 3}};
+    auto image = [&](FlareRenderer& renderer, std::span<const ScaledLight> lights, const GpuFlareOptions& options) {
+        std::vector<float> rgb(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
+        renderer.render_add(system, view, lights, options, rgb);
+        return rgb;
+    };
+    for (const double full_target_bytes : {GpuFlareOptions{}.full_target_bytes, 16.0 * view.width * view.height / 3.0}) {
+        GpuFlareOptions all;
+        all.full_target_bytes = few.full_target_bytes = full_target_bytes;
+        FlareRenderer fresh_one(context), fresh_few(context), reused(context);
+        const std::vector<float> one_alone = image(fresh_one, one, all), few_alone = image(fresh_few, wide, few);
+        ASSERT_GT(fresh_one.last_stats().ghosts_reduced, 0);
+        ASSERT_GT(fresh_few.last_stats().ghosts_drawn, 0);
+        image(reused, wide, all);
+        EXPECT_EQ(image(reused, one, all), one_alone);
+        EXPECT_EQ(image(reused, wide, few), few_alone);
+        EXPECT_EQ(image(reused, one, all), one_alone);
+    }
 }
 
 }  // namespace

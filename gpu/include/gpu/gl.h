@@ -56,17 +56,28 @@ private:
     GlObject program_;
 };
 
+// A rectangle of a target's texels: columns [x0, x1), rows [y0, y1) (GL's order: row 0 is the bottom).
+struct TexelRect {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    bool empty() const { return x1 <= x0 || y1 <= y0; }
+};
+
 // A float RGBA render target (RGBA32F colour attachment) with readback.
 class FloatTarget {
 public:
     FloatTarget(int width, int height);
     int width() const { return width_; }
     int height() const { return height_; }
+    unsigned texture() const { return texture_.get(); }
     void bind() const;    // as the draw framebuffer, viewport set
     void clear(float alpha = 0.0f) const;   // RGB to zero, alpha to `alpha`, whatever the colour mask
+    void clear(const TexelRect& rect) const;  // RGBA to zero within `rect` only
     std::vector<float> read_rgba() const;  // rows bottom to top as GL stores them, 4 floats per pixel
     // Rows [first_row, first_row + rows) (GL's order: 0 is the bottom) into `out`, 4 floats per pixel.
     void read_rgba_rows(int first_row, int rows, float* out) const;
+    // The texels of `rect` into `out`, which holds rows rect.y0, rect.y0 + 1, ... of width() texels each, every
+    // texel at its own column: what `out` holds beyond the rect's columns is left as it was.
+    void read_rgba_rect(const TexelRect& rect, float* out) const;
 
 private:
     int width_;
