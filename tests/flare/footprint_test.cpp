@@ -147,16 +147,28 @@ TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     EXPECT_NEAR(peak, 5.0f / (200.0f * 200.0f), 0.15f * 5.0f / (200.0f * 200.0f)) << "spread over 200 x 200 px";
 }
 
-TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
-    // The bar brighter on its left, at magnifications that enlarge, shrink, turn round and reduce the image.
+namespace {
+
+// A 22 x 14 px bar of 2 px cells round the light, brighter on its left.
+detect::Shape bar_footprint() {
     detect::Shape bar;
     bar.width = 11;
     bar.height = 7;
     bar.cell = 2.0;
     bar.origin_x = -11.0;
     bar.origin_y = -7.0;
+    double sum = 0.0;
     for (int j = 0; j < bar.height; ++j)
-        for (int i = 0; i < bar.width; ++i) bar.weights.push_back(static_cast<float>(2.0 - i / 10.0));
+        for (int i = 0; i < bar.width; ++i) sum += static_cast<double>(bar.weights.emplace_back(static_cast<float>(2.0 - i / 10.0)));
+    for (float& w : bar.weights) w = static_cast<float>(static_cast<double>(w) / sum);
+    return bar;
+}
+
+}  // namespace
+
+TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
+    // The bar brighter on its left, at magnifications that enlarge, shrink, turn round and reduce the image.
+    const detect::Shape bar = bar_footprint();
     const int w = 400, h = 300;
     for (const double m : {3.0, 0.6, -1.5, 9.0}) {
         const double share = flare::footprint_peak_share(bar, m);
@@ -185,25 +197,6 @@ TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
     EXPECT_EQ(flare::footprint_peak_share(empty, 2.0), 1.0);
     EXPECT_EQ(flare::footprint_peak_share(bar, 1e12), 0.0);
 }
-
-namespace {
-
-// A 22 x 14 px bar of 2 px cells round the light, brighter on its left.
-detect::Shape bar_footprint() {
-    detect::Shape bar;
-    bar.width = 11;
-    bar.height = 7;
-    bar.cell = 2.0;
-    bar.origin_x = -11.0;
-    bar.origin_y = -7.0;
-    double sum = 0.0;
-    for (int j = 0; j < bar.height; ++j)
-        for (int i = 0; i < bar.width; ++i) sum += static_cast<double>(bar.weights.emplace_back(static_cast<float>(2.0 - i / 10.0)));
-    for (float& w : bar.weights) w = static_cast<float>(static_cast<double>(w) / sum);
-    return bar;
-}
-
-}  // namespace
 
 TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
     // The pattern (texels half a pixel, ~64 px across) round a 22 x 14 px bar, in the frame and cut by its
