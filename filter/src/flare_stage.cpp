@@ -144,8 +144,8 @@ std::array<double, 3> as_double(const std::array<float, 3>& v) {
 // Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
 // `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
 // frame directly; the GL targets (RGBA float at full size and at 1/2..1/32, read back in bands) for
-// ghosts, and a single-light image for extended lights; at most the data window's growth to the display
-// window with its R, G, B; a layer's copy.
+// ghosts, and for extended lights a group's image and the sums of the reduced ones (LevelSums: under a third
+// of an image); at most the data window's growth to the display window with its R, G, B; a layer's copy.
 double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool extended, bool layer) {
     const ImageSpec& spec = frame.spec;
     const double display = bytes_of(spec.full_width, spec.full_height, 1.0);
@@ -154,7 +154,7 @@ double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool 
     double bytes = static_cast<double>(frame.pixels.size()) + data * rgb;
     if (!into_frame) bytes += display * rgb + display * (pixel + rgb);  // the flare image; growth at most
     if (ghosts) bytes += gpu::render_target_bytes(spec.full_width, spec.full_height);
-    if (extended) bytes += display * rgb;
+    if (extended) bytes += display * rgb * 4.0 / 3.0;
     if (layer) bytes += display * (rgb + pixel + rgb);
     return bytes;
 }
@@ -179,14 +179,15 @@ double footprint_reach_px(const detect::Shape& shape, double m) {
     return std::abs(m) * shape.cell * std::hypot(static_cast<double>(shape.width), static_cast<double>(shape.height)) + 4.0;
 }
 
-// An extended light's magnified groups, each convolved with its footprint at its level (1/1 .. 1/16 of the
-// frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged).
+// An extended light's magnified groups, each convolved with its footprint at its level (1/2 .. 1/16 of the
+// frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged); together
+// under a third of the frame's image.
 struct LevelSums {
     std::array<std::vector<float>, 5> sum;  // by log2 of the level; empty: no group at that level
     std::array<int, 5> width{}, height{};
     std::vector<float> scratch;  // one group's image, before its footprint
 
-    // The sum at `level` (an image of width x height), zero when first asked for.
+    // The sum at `level` (2 .. 16; an image of width x height), zero when first asked for.
     std::vector<float>& at(int level, int w, int h) {
         const auto k = static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(level)));
         if (sum[k].empty()) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
@@ -197,12 +198,8 @@ struct LevelSums {
     // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly.
     void add_enlarged_into(std::vector<float>& rgb, int w, int h) const {
         const RgbView frame{rgb.data(), 0, 0, w, h};
-        for (std::size_t k = 0; k < sum.size(); ++k) {
-            if (sum[k].empty()) continue;
-            const ConstRgbView level{sum[k].data(), 0, 0, width[k], height[k]};
-            if (k == 0) add(frame, level, frame.region());
-            else flare::add_enlarged(frame, level, 1 << k);
-        }
+        for (std::size_t k = 1; k < sum.size(); ++k)
+            if (!sum[k].empty()) flare::add_enlarged(frame, ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]}, 1 << k);
     }
 };
 
@@ -778,9 +775,10 @@ struct FlareStage::State {
         if (renderer->last_stats().ghosts_drawn == 0) return;
         t = Clock::now();
         convolve_footprint(sums.scratch, w, h, flare::reduced_footprint(*light.shape, level), group.magnification);
-        std::vector<float>& sum = sums.at(level, w, h);
-        const RgbView into{sum.data(), 0, 0, w, h};
-        add(into, ConstRgbView{sums.scratch.data(), 0, 0, w, h}, into.region());
+        // At full size straight into the frame; reduced, into the level's sum.
+        std::vector<float>& into = level == 1 ? rgb : sums.at(level, w, h);
+        const RgbView view_of{into.data(), 0, 0, w, h};
+        add(view_of, ConstRgbView{sums.scratch.data(), 0, 0, w, h}, view_of.region());
         tally.extended_ms += ms_since(t);
     }
 
