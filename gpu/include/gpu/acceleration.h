@@ -142,7 +142,9 @@ struct GhostSpread {
 // radius (the level's upsampling then blurs it far less than the spread does); 1 when not spread.
 int spread_level(const GhostSpread& spread);
 // A caustic's spike is a pixel or two; spread, it adds at most its power times the kernel's largest share:
-// kSpikePixels pixels at kCausticSpike times the peak.
+// kSpikePixels pixels at kCausticSpike times the peak. An assumption with a margin, not a bound: a caustic line
+// bright over many pixels would exceed it (measured: bench_cull within 1 code at 99.9% and 4 anywhere on the
+// issue-17 frames with the four biggest presets, docs/benchmarks.md).
 inline constexpr double kSpikePixels = 4.0;
 
 // One ghost of one light and pass as scene culling sees it: its box on the image (pixels, upright, row 0 at
