@@ -24,6 +24,7 @@
 
 #include <filter/flare_stage.h>
 #include <filter/pipeline.h>
+#include <filter/process_heap.h>
 
 namespace fs = std::filesystem;
 using namespace lensfx::filter;
@@ -114,6 +115,7 @@ void write_sequence(const fs::path& dir, int frames, int width, int height) {
 }  // namespace
 
 int main(int argc, char** argv) try {
+    tune_process_heap();  // as the lensfx program does: the in-process pipeline measured as users run it
     std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each line as soon as it is measured
     FlareSettings settings;
     settings.lens = "mld-double-gauss";

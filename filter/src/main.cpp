@@ -12,10 +12,13 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
+#include <filter/process_heap.h>
+
 #include "commands.h"
 
 int main(int argc, char** argv) {
     using namespace lensfx::filter;
+    tune_process_heap();  // before the first frame-sized allocation
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
         return 0;

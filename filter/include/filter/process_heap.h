@@ -1,0 +1,20 @@
+// The program's heap set up for frame-sized buffers: glibc's malloc tuned once at start-up so that images and
+// render targets come from memory backed by transparent huge pages and kept for the next frame.
+#pragma once
+
+#include <string>
+
+namespace lensfx::filter {
+
+// What tune_process_heap did, for --report and tests.
+struct HeapTuning {
+    bool tuned = false;
+    std::string reason;  // why not, when not ("" when tuned)
+};
+
+// On glibc, with an unlimited address space and no strict overcommit: large blocks from the main heap instead
+// of fresh mappings, freed blocks kept, and the first 512 MiB of heap advised to use huge pages. Elsewhere,
+// or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call once, first thing in main.
+HeapTuning tune_process_heap();
+
+}  // namespace lensfx::filter

@@ -1,0 +1,137 @@
+// The program's heap tuning (filter/process_heap.h): each case runs in a child process of its own, because
+// malloc's settings are the whole process's.
+#include <filter/process_heap.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <malloc.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace lensfx::filter;
+
+namespace {
+
+// Runs `body` in a forked child; its return value is the child's exit status (0 = passed).
+int in_child(const std::function<int()>& body) {
+    const pid_t pid = fork();
+    if (pid == 0) _exit(body());
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 100;
+}
+
+// Bytes of the blocks malloc serves from mappings of their own.
+std::size_t mapped_block_bytes() { return mallinfo2().hblkhd; }
+
+// AnonHugePages of this process, in kB (/proc/self/smaps_rollup).
+long anon_huge_kb() {
+    std::ifstream in("/proc/self/smaps_rollup");
+    for (std::string key; in >> key;) {
+        long kb = 0;
+        if (key == "AnonHugePages:" && in >> kb) return kb;
+        in.ignore(1 << 20, '\n');
+    }
+    return -1;
+}
+
+// The kernel offers transparent huge pages to regions that ask (madvise) or to all (always).
+bool kernel_offers_huge_pages() {
+    std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string modes;
+    std::getline(in, modes);
+    return modes.find("[always]") != std::string::npos || modes.find("[madvise]") != std::string::npos;
+}
+
+// A block the compiler may not elide (it drops a malloc and free with nothing between them that it can see).
+void* opaque(void* p) {
+    asm volatile("" : : "r"(p) : "memory");
+    return p;
+}
+
+constexpr std::size_t kFrameBytes = std::size_t{40} << 20;  // a 1080p RGBA float target and then some
+
+}  // namespace
+
+#if defined(__SANITIZE_ADDRESS__)
+TEST(ProcessHeap, NeedsGlibcsMalloc) { GTEST_SKIP() << "AddressSanitizer replaces malloc; mallopt does nothing"; }
+#else
+// glibc's default maps a 40 MB block of its own (so this test can fail); tuned, it comes from the heap.
+TEST(ProcessHeap, FrameSizedBlocksComeFromTheHeap) {
+    EXPECT_EQ(in_child([] {
+        void* p = opaque(std::malloc(kFrameBytes));
+        const bool mapped = mapped_block_bytes() >= kFrameBytes;
+        std::free(p);
+        return mapped ? 0 : 1;
+    }), 0) << "untuned, a frame-sized block should be a mapping of its own";
+    EXPECT_EQ(in_child([] {
+        if (!tune_process_heap().tuned) return 2;
+        void* p = opaque(std::malloc(kFrameBytes));
+        const bool mapped = mapped_block_bytes() > 0;
+        std::free(p);
+        return mapped ? 1 : 0;
+    }), 0);
+}
+
+// Minor page faults of this process so far.
+long minor_faults() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return usage.ru_minflt;
+}
+
+// A block freed after one frame is handed to the next without being given back to the kernel: touching it
+// again takes no page faults (glibc's default unmaps it, and 40 MB fault back in at 4 KiB or 2 MiB a time).
+TEST(ProcessHeap, AFreedFrameIsTheNextFramesMemory) {
+    EXPECT_EQ(in_child([] {
+        if (!tune_process_heap().tuned) return 2;
+        auto* a = static_cast<char*>(opaque(std::malloc(kFrameBytes)));
+        std::memset(a, 1, kFrameBytes);
+        std::free(opaque(a));
+        const long before = minor_faults();
+        auto* b = static_cast<char*>(opaque(std::malloc(kFrameBytes)));
+        std::memset(b, 2, kFrameBytes);
+        const long faults = minor_faults() - before;
+        std::free(opaque(b));
+        return faults < 8 ? 0 : 1;
+    }), 0);
+}
+
+// Touched, a tuned frame-sized block is backed by huge pages where the kernel offers them.
+TEST(ProcessHeap, TouchedFramesUseHugePages) {
+    if (!kernel_offers_huge_pages()) GTEST_SKIP() << "transparent huge pages are off on this machine";
+    EXPECT_EQ(in_child([] {
+        if (!tune_process_heap().tuned) return 2;
+        const long before = anon_huge_kb();
+        auto* p = static_cast<char*>(opaque(std::malloc(kFrameBytes)));
+        std::memset(p, 1, kFrameBytes);
+        opaque(p);
+        const long gained = anon_huge_kb() - before;
+        std::free(p);
+        return gained >= static_cast<long>(kFrameBytes / 2048) ? 0 : 1;  // at least half of it, in kB
+    }), 0);
+}
+#endif
+
+TEST(ProcessHeap, ALimitedAddressSpaceLeavesTheHeapAlone) {
+    EXPECT_EQ(in_child([] {
+        const rlimit limit{std::size_t{8} << 30, std::size_t{8} << 30};
+        if (setrlimit(RLIMIT_AS, &limit) != 0) return 3;
+        const HeapTuning t = tune_process_heap();
+        return !t.tuned && t.reason.find("ulimit -v") != std::string::npos ? 0 : 1;
+    }), 0);
+}
+
+TEST(ProcessHeap, SystemHeapVariableLeavesTheHeapAlone) {
+    EXPECT_EQ(in_child([] {
+        setenv("LENSFX_SYSTEM_HEAP", "1", 1);
+        const HeapTuning t = tune_process_heap();
+        return !t.tuned && t.reason.find("LENSFX_SYSTEM_HEAP") != std::string::npos ? 0 : 1;
+    }), 0);
+}
