@@ -56,7 +56,9 @@ void reserve_huge_page_heap() {
 }  // namespace
 
 HeapTuning tune_process_heap() {
-#if defined(__GLIBC__)
+#if defined(__SANITIZE_ADDRESS__)
+    return {false, "AddressSanitizer's allocator"};  // it replaces malloc: nothing here would apply
+#elif defined(__GLIBC__)
     if (std::string why = reason_to_leave_heap(); !why.empty()) return {false, why};
     mallopt(M_MMAP_MAX, 0);                // no block gets a mapping of its own: all come from heaps
     mallopt(M_TRIM_THRESHOLD, INT_MAX);    // the heap is not shrunk: a freed frame is the next frame's memory

@@ -14,7 +14,8 @@ struct HeapTuning {
 
 // On glibc, with an unlimited address space and no strict overcommit: large blocks from the main heap instead
 // of fresh mappings, freed blocks kept, and the first 512 MiB of heap advised to use huge pages. Elsewhere,
-// or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call once, first thing in main.
+// under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call once, first thing
+// in main.
 HeapTuning tune_process_heap();
 
 }  // namespace lensfx::filter
