@@ -88,7 +88,7 @@ long minor_faults() {
 }
 
 // An 8K frame's buffers are mappings of their own, given back at free: the heap keeps only what a 1080p job
-// reuses (kept for good in the heap, an 8K sequence's peak rose from 1.89 to 2.20 GB).
+// reuses (kept for good in the heap, an 8K sequence's peak rose from 1.89 to 2.20 GB; bench_memory).
 TEST(ProcessHeap, An8KBufferIsGivenBackAtFree) {
     EXPECT_EQ(in_child([] {
         if (!tune_process_heap().tuned) return 2;

@@ -12,11 +12,11 @@ struct HeapTuning {
     std::string reason;  // why not, when not ("" when tuned)
 };
 
-// On glibc, with an unlimited address space and no strict overcommit: blocks under 32 MiB (frames and targets
-// up to 1080p RGBA float) from the main heap instead of fresh mappings, freed blocks kept, and the first
-// 512 MiB of heap advised to use huge pages. Elsewhere,
-// under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call once, first thing
-// in main.
+// On glibc, with an unlimited address space and no strict overcommit: the heap's first 192 MiB advised to use
+// huge pages, frame-sized blocks (1080p images and targets) served from it instead of fresh mappings, and up
+// to 288 MiB of freed memory kept for the next frame; bigger blocks (8K) stay mappings given back at free.
+// Elsewhere, under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call
+// once, first thing in main.
 HeapTuning tune_process_heap();
 
 }  // namespace lensfx::filter
