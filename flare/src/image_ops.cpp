@@ -114,11 +114,33 @@ private:
 
 }  // namespace
 
+namespace {
+
+// The outputs [first, end) of `taps` (relative to their first) whose taps reach source pixels [s0, s1): the
+// others blend two zeros.
+std::pair<int, int> reaching(const std::vector<BilinearTap>& taps, int s0, int s1) {
+    const auto reaches = [&](const BilinearTap& t) { return (t.i0 >= s0 && t.i0 < s1) || (t.i1 >= s0 && t.i1 < s1); };
+    int first = 0, end = static_cast<int>(taps.size());
+    while (first < end && !reaches(taps[static_cast<std::size_t>(first)])) ++first;
+    while (end > first && !reaches(taps[static_cast<std::size_t>(end - 1)])) --end;
+    return {first, end};
+}
+
+}  // namespace
+
 void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region) {
-    const Region r = intersection(region, dst.region());
+    Region r = intersection(region, dst.region());
     if (r.empty() || src.width <= 0 || src.height <= 0) return;
+    // Only what the source's lit pixels reach: an extended light's level sums and tail are dark over most of
+    // the frame they are enlarged into.
+    const Region lit = nonzero_region(src);
+    if (lit.empty()) return;
     const std::vector<BilinearTap> all_xs = bilinear_taps(region.width(), src.width);
     const std::vector<BilinearTap> ys = bilinear_taps(region.height(), src.height);
+    const auto [cx0, cx1] = reaching(all_xs, lit.x0 - src.x, lit.x1 - src.x);
+    const auto [cy0, cy1] = reaching(ys, lit.y0 - src.y, lit.y1 - src.y);
+    r = intersection(r, Region{region.x0 + cx0, region.y0 + cy0, region.x0 + cx1, region.y0 + cy1});
+    if (r.empty()) return;
     WidenedRows rows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0), all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)});
     const auto n = static_cast<std::size_t>(r.width()) * 3;
     for (int y = r.y0; y < r.y1; ++y) {

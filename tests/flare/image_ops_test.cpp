@@ -203,5 +203,34 @@ TEST(ImageOps, AddEnlargedKeepsEachReducedPixelCentredOnItsBlock) {
     EXPECT_NEAR(sum, f, 1e-6);
 }
 
+// A source dark but for a few pixels changes only the frame's pixels their taps reach: those match the
+// bilinear blend of every source pixel, and the rest are left bit for bit (a -0 stays -0, which adding a
+// blended zero would turn to +0).
+TEST(ImageOps, AddResizedVisitsOnlyWhatTheLitSourceReaches) {
+    const int sw = 17, sh = 11, w = 70, h = 45;
+    std::vector<float> src(static_cast<std::size_t>(sw * sh * 3), 0.0f);
+    src[static_cast<std::size_t>(4 * sw + 6) * 3 + 1] = 2.0f;
+    src[static_cast<std::size_t>(7 * sw + 9) * 3 + 2] = -1.5f;
+    std::vector<float> ours(static_cast<std::size_t>(w * h * 3), -0.0f), want(ours.size(), 0.0f);
+    add_resized(RgbView{ours.data(), 3, 2, w, h}, ConstRgbView{src.data(), 5, 1, sw, sh}, Region{-2, 1, w + 5, h + 4});
+    // The blend of every source pixel, written out: taps over the region, sampled where the frame lies.
+    const std::vector<BilinearTap> xs = bilinear_taps(w + 7, sw), ys = bilinear_taps(h + 3, sh);
+    int changed = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (std::size_t c = 0; c < 3; ++c) {
+                const BilinearTap tx = xs[static_cast<std::size_t>(x + 3 + 2)], ty = ys[static_cast<std::size_t>(y + 2 - 1)];
+                auto at = [&](int i, int j) { return src[static_cast<std::size_t>(j * sw + i) * 3 + c]; };
+                auto row = [&](int j) { return at(tx.i0, j) + tx.f * (at(tx.i1, j) - at(tx.i0, j)); };
+                const float v = row(ty.i0) + ty.f * (row(ty.i1) - row(ty.i0));
+                const float got = ours[static_cast<std::size_t>(y * w + x) * 3 + c];
+                EXPECT_NEAR(got, v, 1e-6f) << x << "," << y << "," << c;
+                if (!std::signbit(got) || got != 0.0f) ++changed;
+            }
+    EXPECT_GT(changed, 20);            // the lit pixels spread
+    EXPECT_LT(changed, w * h * 3 / 4);  // and most of the frame is untouched -0
+    EXPECT_TRUE(std::signbit(ours[0]));
+}
+
 }  // namespace
 }  // namespace lensfx::flare

@@ -76,6 +76,7 @@ void add_enlarged(const RgbView& dst, const ConstRgbView& src, int factor);
 // dst += src resized bilinearly to cover `region` of dst's pixel space (src's pixel centres spread evenly over
 // it, its edge pixels held beyond the outer centres, as OIIO's resize maps display windows), over the part of
 // `region` inside dst; each sum held within float range. A reduced render enlarged into a full-size image.
+// Only the pixels the source's nonzero region reaches are visited: the others are left as they were, bit for bit.
 void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region);
 
 }  // namespace lensfx::flare
