@@ -2,8 +2,11 @@
 #include <flare/convolve.h>
 
 #include <algorithm>
+#include <atomic>
 #include <complex>
 #include <cstddef>
+#include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -66,40 +69,55 @@ const Plans& plans_for(int nx, int ny) {
     return p;
 }
 
-// One transform's arrays and the kernel's spectrum (scaled by 1 / (nx ny), the inverse's normalisation).
+// One thread's arrays for a transform of ny rows of nx values.
+struct Scratch {
+    Reals values;
+    Spectrum spec;
+};
+
+// A convolution's transforms: their size and plans, and the kernel's spectrum (scaled by 1 / (nx ny), the
+// inverse's normalisation).
 struct Transform {
     int nx, ny;
     const Plans& plans;
-    Reals values;
-    Spectrum spec;
     Spectrum kernel_spec;
 
-    Transform(int x, int y)
-        : nx(x), ny(y), plans(plans_for(x, y)), values(reals(count())), spec(spectrum(half())), kernel_spec(spectrum(half())) {}
+    Transform(int x, int y) : nx(x), ny(y), plans(plans_for(x, y)), kernel_spec(spectrum(half())) {}
     std::size_t count() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
     std::size_t half() const { return static_cast<std::size_t>(nx / 2 + 1) * static_cast<std::size_t>(ny); }
-    double* row(int y) { return values.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(nx); }
+    Scratch scratch() const { return {reals(count()), spectrum(half())}; }
+    double* row(Scratch& s, int y) const { return s.values.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(nx); }
 
-    void set_kernel(const float* kernel, int kw, int kh) {
-        std::fill(values.get(), values.get() + count(), 0.0);
-        for (int y = 0; y < kh; ++y) std::copy_n(kernel + static_cast<std::size_t>(y) * static_cast<std::size_t>(kw), kw, row(y));
-        fftw_execute_dft_r2c(plans.forward, values.get(), kernel_spec.get());
+    void set_kernel(const float* kernel, int kw, int kh, Scratch& s) {
+        std::fill(s.values.get(), s.values.get() + count(), 0.0);
+        for (int y = 0; y < kh; ++y) std::copy_n(kernel + static_cast<std::size_t>(y) * static_cast<std::size_t>(kw), kw, row(s, y));
+        fftw_execute_dft_r2c(plans.forward, s.values.get(), kernel_spec.get());
         const double scale = 1.0 / static_cast<double>(count());
         for (std::size_t i = 0; i < half(); ++i) kernel_spec[i][0] *= scale, kernel_spec[i][1] *= scale;
     }
-    // values (the channel's tile, placed) replaced by their circular convolution with the kernel.
-    void convolve() {
-        fftw_execute_dft_r2c(plans.forward, values.get(), spec.get());
+    // s.values (a channel's tile, placed) replaced by their circular convolution with the kernel.
+    void convolve(Scratch& s) const {
+        fftw_execute_dft_r2c(plans.forward, s.values.get(), s.spec.get());
         for (std::size_t i = 0; i < half(); ++i) {
-            const std::complex<double> v = std::complex<double>(spec[i][0], spec[i][1]) * std::complex<double>(kernel_spec[i][0], kernel_spec[i][1]);
-            spec[i][0] = v.real(), spec[i][1] = v.imag();
+            const std::complex<double> v =
+                std::complex<double>(s.spec[i][0], s.spec[i][1]) * std::complex<double>(kernel_spec[i][0], kernel_spec[i][1]);
+            s.spec[i][0] = v.real(), s.spec[i][1] = v.imag();
         }
-        fftw_execute_dft_c2r(plans.inverse, spec.get(), values.get());
+        fftw_execute_dft_c2r(plans.inverse, s.spec.get(), s.values.get());
     }
 };
 
 // The tile's side along one axis: the whole image when its transform fits kMaxFftSide, else what does.
 int tile_side(int n, int r) { return n + 2 * r <= kMaxFftSide ? n : std::max(kMaxFftSide - 2 * r, 64); }
+
+// One channel of one tile: outputs [x0, x0 + tile w) x [y0, y0 + tile h).
+struct Job {
+    int x0, y0;
+    std::size_t channel;
+};
+
+// Transforms of fewer values than this are run on the calling thread alone: a thread costs more.
+constexpr std::size_t kThreadedValues = std::size_t{128} * 128;
 
 }  // namespace
 
@@ -107,31 +125,45 @@ void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* k
     if (width <= 0 || height <= 0) return;
     const int tw = tile_side(width, rx), th = tile_side(height, ry);
     Transform t(fft_size(tw + 2 * rx), fft_size(th + 2 * ry));
-    t.set_kernel(kernel, 2 * rx + 1, 2 * ry + 1);
+    Scratch first = t.scratch();
+    t.set_kernel(kernel, 2 * rx + 1, 2 * ry + 1, first);
     std::vector<float> out(rgb.size());
     const auto at = [width](int x, int y) { return (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3; };
     // Overlap-save: a tile's outputs [x0, x0 + w) need the inputs [x0 - rx, x0 + w + rx), placed from index 0;
     // output x is then at index x - x0 + 2 rx, clear of the transform's wrap-around.
-    for (int y0 = 0; y0 < height; y0 += th) {
-        for (int x0 = 0; x0 < width; x0 += tw) {
-            const int w = std::min(tw, width - x0), h = std::min(th, height - y0);
-            const int ix0 = std::max(0, x0 - rx), ix1 = std::min(width, x0 + w + rx);
-            const int iy0 = std::max(0, y0 - ry), iy1 = std::min(height, y0 + h + ry);
-            for (std::size_t c = 0; c < 3; ++c) {
-                std::fill(t.values.get(), t.values.get() + t.count(), 0.0);
-                for (int y = iy0; y < iy1; ++y) {
-                    double* to = t.row(y - (y0 - ry)) + (ix0 - (x0 - rx));
-                    const float* from = rgb.data() + at(ix0, y) + c;
-                    for (int x = ix0; x < ix1; ++x, from += 3) *to++ = *from;
-                }
-                t.convolve();
-                for (int y = y0; y < y0 + h; ++y) {
-                    const double* from = t.row(y - y0 + 2 * ry) + 2 * rx;
-                    float* to = out.data() + at(x0, y) + c;
-                    for (int x = 0; x < w; ++x, to += 3) *to = static_cast<float>(from[x]);
-                }
-            }
+    const auto run = [&](const Job& job, Scratch& s) {
+        const int x0 = job.x0, y0 = job.y0, w = std::min(tw, width - x0), h = std::min(th, height - y0);
+        const int ix0 = std::max(0, x0 - rx), ix1 = std::min(width, x0 + w + rx);
+        const int iy0 = std::max(0, y0 - ry), iy1 = std::min(height, y0 + h + ry);
+        std::fill(s.values.get(), s.values.get() + t.count(), 0.0);
+        for (int y = iy0; y < iy1; ++y) {
+            double* to = t.row(s, y - (y0 - ry)) + (ix0 - (x0 - rx));
+            const float* from = rgb.data() + at(ix0, y) + job.channel;
+            for (int x = ix0; x < ix1; ++x, from += 3) *to++ = *from;
         }
+        t.convolve(s);
+        for (int y = y0; y < y0 + h; ++y) {
+            const double* from = t.row(s, y - y0 + 2 * ry) + 2 * rx;
+            float* to = out.data() + at(x0, y) + job.channel;
+            for (int x = 0; x < w; ++x, to += 3) *to = static_cast<float>(from[x]);
+        }
+    };
+    std::vector<Job> jobs;
+    for (int y0 = 0; y0 < height; y0 += th)
+        for (int x0 = 0; x0 < width; x0 += tw)
+            for (std::size_t c = 0; c < 3; ++c) jobs.push_back({x0, y0, c});
+    // The jobs shared by two threads (a frame's groups are convolved while the GPU waits): each takes the next.
+    std::atomic<std::size_t> next{0};
+    const auto work = [&](Scratch& s) {
+        for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) run(jobs[j], s);
+    };
+    if (t.count() >= kThreadedValues) {
+        Scratch second = t.scratch();
+        std::future<void> helper = std::async(std::launch::async, work, std::ref(second));
+        work(first);
+        helper.get();
+    } else {
+        work(first);
     }
     rgb = std::move(out);
 }

@@ -10,7 +10,8 @@ namespace lensfx::flare {
 // (2 ry + 1) rows of (2 rx + 1) floats, its centre at (rx, ry); the image is zero outside. out(x, y) is the
 // sum of kernel(rx + a, ry + b) * in(x - a, y - b). Summed in double (each result within float rounding of
 // the exact sum, as OpenCV's filter2D gave before), tile by tile over a large image (at most
-// kMaxFftSide^2 values a transform, so the scratch stays some 25 MB).
+// kMaxFftSide^2 values a transform, so the scratch stays some 25 MB a thread). The tiles' channels are shared
+// by the calling thread and one more (the extended groups are convolved while the GPU has nothing to do).
 void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* kernel, int rx, int ry);
 
 // The side of the largest transform convolve_rgb makes; a larger image is convolved in tiles.
