@@ -69,10 +69,48 @@ const Plans& plans_for(int nx, int ny) {
     return p;
 }
 
-// One thread's arrays for a transform of ny rows of nx values.
+// One thread's arrays for a transform of ny rows of nx values (values: nx ny reals, spec: its half spectrum),
+// at least that large.
 struct Scratch {
     Reals values;
     Spectrum spec;
+    std::size_t count = 0, half = 0;
+};
+
+// Scratch kept between convolutions (a frame convolves its groups one after another, at a few sizes): a fresh
+// allocation's first touch costs more than the transforms on this machine. At most kKeptScratch are kept, the
+// largest, so what stays is bounded by three transforms of kMaxFftSide^2 values (some 50 MB).
+constexpr std::size_t kKeptScratch = 3;
+std::mutex scratch_mutex;
+std::vector<Scratch> kept_scratch;
+
+Scratch take_scratch(std::size_t count, std::size_t half) {
+    {
+        const std::lock_guard<std::mutex> lock(scratch_mutex);
+        for (auto it = kept_scratch.begin(); it != kept_scratch.end(); ++it)
+            if (it->count >= count && it->half >= half) {
+                Scratch s = std::move(*it);
+                kept_scratch.erase(it);
+                return s;
+            }
+    }
+    return {reals(count), spectrum(half), count, half};
+}
+
+void keep_scratch(Scratch s) {
+    const std::lock_guard<std::mutex> lock(scratch_mutex);
+    kept_scratch.push_back(std::move(s));
+    std::sort(kept_scratch.begin(), kept_scratch.end(), [](const Scratch& a, const Scratch& b) { return a.count > b.count; });
+    if (kept_scratch.size() > kKeptScratch) kept_scratch.resize(kKeptScratch);
+}
+
+// Scratch taken for a convolution and given back when it ends (or throws).
+struct HeldScratch {
+    Scratch s;
+    HeldScratch(std::size_t count, std::size_t half) : s(take_scratch(count, half)) {}
+    ~HeldScratch() { keep_scratch(std::move(s)); }
+    HeldScratch(const HeldScratch&) = delete;
+    HeldScratch& operator=(const HeldScratch&) = delete;
 };
 
 // A convolution's transforms: their size and plans, and the kernel's spectrum (scaled by 1 / (nx ny), the
@@ -80,18 +118,20 @@ struct Scratch {
 struct Transform {
     int nx, ny;
     const Plans& plans;
-    Spectrum kernel_spec;
 
-    Transform(int x, int y) : nx(x), ny(y), plans(plans_for(x, y)), kernel_spec(spectrum(half())) {}
+    HeldScratch kernel_held;
+    fftw_complex* kernel_spec;
+
+    Transform(int x, int y)
+        : nx(x), ny(y), plans(plans_for(x, y)), kernel_held(count(), half()), kernel_spec(kernel_held.s.spec.get()) {}
     std::size_t count() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
     std::size_t half() const { return static_cast<std::size_t>(nx / 2 + 1) * static_cast<std::size_t>(ny); }
-    Scratch scratch() const { return {reals(count()), spectrum(half())}; }
     double* row(Scratch& s, int y) const { return s.values.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(nx); }
 
     void set_kernel(const float* kernel, int kw, int kh, Scratch& s) {
         std::fill(s.values.get(), s.values.get() + count(), 0.0);
         for (int y = 0; y < kh; ++y) std::copy_n(kernel + static_cast<std::size_t>(y) * static_cast<std::size_t>(kw), kw, row(s, y));
-        fftw_execute_dft_r2c(plans.forward, s.values.get(), kernel_spec.get());
+        fftw_execute_dft_r2c(plans.forward, s.values.get(), kernel_spec);
         const double scale = 1.0 / static_cast<double>(count());
         for (std::size_t i = 0; i < half(); ++i) kernel_spec[i][0] *= scale, kernel_spec[i][1] *= scale;
     }
@@ -125,9 +165,12 @@ void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* k
     if (width <= 0 || height <= 0) return;
     const int tw = tile_side(width, rx), th = tile_side(height, ry);
     Transform t(fft_size(tw + 2 * rx), fft_size(th + 2 * ry));
-    Scratch first = t.scratch();
-    t.set_kernel(kernel, 2 * rx + 1, 2 * ry + 1, first);
-    std::vector<float> out(rgb.size());
+    HeldScratch first(t.count(), t.half());
+    t.set_kernel(kernel, 2 * rx + 1, 2 * ry + 1, first.s);
+    // One tile reads each channel whole before writing it, so its results go straight back into rgb.
+    const bool one_tile = tw == width && th == height;
+    std::vector<float> separate(one_tile ? 0 : rgb.size());
+    std::vector<float>& out = one_tile ? rgb : separate;
     const auto at = [width](int x, int y) { return (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3; };
     // Overlap-save: a tile's outputs [x0, x0 + w) need the inputs [x0 - rx, x0 + w + rx), placed from index 0;
     // output x is then at index x - x0 + 2 rx, clear of the transform's wrap-around.
@@ -158,14 +201,14 @@ void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* k
         for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) run(jobs[j], s);
     };
     if (t.count() >= kThreadedValues) {
-        Scratch second = t.scratch();
-        std::future<void> helper = std::async(std::launch::async, work, std::ref(second));
-        work(first);
+        HeldScratch second(t.count(), t.half());
+        std::future<void> helper = std::async(std::launch::async, work, std::ref(second.s));
+        work(first.s);
         helper.get();
     } else {
-        work(first);
+        work(first.s);
     }
-    rgb = std::move(out);
+    if (!one_tile) rgb = std::move(separate);
 }
 
 }  // namespace lensfx::flare
