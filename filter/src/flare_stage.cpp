@@ -195,11 +195,17 @@ struct LevelSums {
         height[k] = h;
         return sum[k];
     }
-    // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly.
+    // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly (add_enlarged's mapping), in
+    // one pass over the frame.
     void add_enlarged_into(std::vector<float>& rgb, int w, int h) const {
-        const RgbView frame{rgb.data(), 0, 0, w, h};
-        for (std::size_t k = 1; k < sum.size(); ++k)
-            if (!sum[k].empty()) flare::add_enlarged(frame, ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]}, 1 << k);
+        std::vector<ConstRgbView> levels;
+        std::vector<flare::Region> regions;
+        for (std::size_t k = 1; k < sum.size(); ++k) {
+            if (sum[k].empty()) continue;
+            levels.push_back(ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]});
+            regions.push_back(flare::Region{0, 0, width[k] << k, height[k] << k});
+        }
+        flare::add_resized_each(RgbView{rgb.data(), 0, 0, w, h}, levels, regions);
     }
 };
 

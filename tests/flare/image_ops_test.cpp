@@ -1,6 +1,10 @@
 // The composite's image operations (flare/image_ops.h): regions, nonzero_region, add and add_resized between
 // views placed at different origins, clipped to both and held within float range.
 #include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -230,6 +234,24 @@ TEST(ImageOps, AddResizedVisitsOnlyWhatTheLitSourceReaches) {
     EXPECT_GT(changed, 20);            // the lit pixels spread
     EXPECT_LT(changed, w * h * 3 / 4);  // and most of the frame is untouched -0
     EXPECT_TRUE(std::signbit(ours[0]));
+}
+
+// The level sums' one pass: the same floats as one add_resized after another, sources of different sizes over
+// regions that overlap, reach beyond the frame or miss it, one of them dark.
+TEST(ImageOps, AddResizedEachIsEachAddResizedInTurn) {
+    const int w = 41, h = 29;
+    const std::vector<float> a = image_of(11, 8, [](int x, int y, int c) { return std::sin(0.9f * x + 0.4f * y + c) * 3.0f; });
+    const std::vector<float> b = image_of(5, 4, [](int x, int y, int c) { return 1e-3f * (x + 2 * y + c) + 1e30f * (x == 2 && y == 1); });
+    const std::vector<float> dark(3 * 3 * 3, 0.0f);
+    const std::vector<ConstRgbView> srcs{ConstRgbView{a.data(), 0, 0, 11, 8}, ConstRgbView{b.data(), 0, 0, 5, 4},
+                                         ConstRgbView{dark.data(), 0, 0, 3, 3}, ConstRgbView{a.data(), 0, 0, 11, 8}};
+    const std::vector<Region> regions{Region{0, 0, 44, 32}, Region{-7, 5, 30, 40}, Region{0, 0, w, h}, Region{50, 0, 60, 10}};
+    std::vector<float> each = image_of(w, h, [](int x, int y, int c) { return 0.25f * (x - y) + c; }), turn = each;
+    add_resized_each(RgbView{each.data(), 0, 0, w, h}, srcs, regions);
+    for (std::size_t k = 0; k < srcs.size(); ++k) add_resized(RgbView{turn.data(), 0, 0, w, h}, srcs[k], regions[k]);
+    ASSERT_EQ(each.size(), turn.size());
+    for (std::size_t i = 0; i < each.size(); ++i) ASSERT_EQ(std::bit_cast<std::uint32_t>(each[i]), std::bit_cast<std::uint32_t>(turn[i])) << i;
+    EXPECT_THROW(add_resized_each(RgbView{each.data(), 0, 0, w, h}, srcs, std::span(regions).first(2)), std::invalid_argument);
 }
 
 }  // namespace
