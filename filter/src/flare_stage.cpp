@@ -28,6 +28,7 @@
 #include <flare/cache.h>
 #include <flare/direct_power.h>
 #include <flare/flare.h>
+#include <flare/convolve.h>
 #include <flare/footprint.h>
 #include <flare/starburst_cache.h>
 #include <gpu/band_filter.h>
@@ -462,6 +463,7 @@ struct FlareStage::State {
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
         if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
+        flare::keep_fft_wisdom_in(flare::cache_dir_of(settings.accel.cache_dir));  // the footprints' FFT plans
     }
 
     // The prescription, realized at --zoom and --fstop with its coatings and blades.

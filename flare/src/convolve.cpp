@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <atomic>
 #include <complex>
+#include <fstream>
+#include <string>
 #include <cstddef>
 #include <functional>
 #include <future>
@@ -14,6 +16,8 @@
 #include <utility>
 
 #include <fftw3.h>
+
+#include <flare/cache.h>
 
 namespace lensfx::flare {
 
@@ -53,10 +57,50 @@ struct Plans {
     fftw_plan inverse = nullptr;
 };
 
+// What the planner knows, kept in the cache folder (keep_fft_wisdom_in): planning a size takes some 3 ms of
+// CPU even with FFTW_ESTIMATE (a frame's extended groups convolve at a dozen sizes), and with the wisdom of
+// an earlier run a fraction of that. Read at the first plan; written back once, when the folder changes or
+// the process ends, if planning added to it (exporting costs about a millisecond). Guarded by plan_mutex.
+struct Wisdom {
+    std::string dir;        // empty: not kept
+    bool imported = false;  // the file read (or found missing) since dir was set
+    bool planned = false;   // a size planned since
+    std::string known;      // the wisdom as the file last held it
+
+    std::string key() const { return std::string("fftw wisdom for ") + fftw_version; }
+    std::string file() const { return cache_file(dir, "fftw-wisdom", key_hash(key())); }
+
+    void import() {
+        imported = true;
+        if (dir.empty()) return;
+        std::ifstream in = open_cache_file(file());
+        if (!in || !read_key(in, key())) return;
+        std::string text;
+        std::getline(in, text, '\0');  // the rest of the file: wisdom is text
+        if (!text.empty() && fftw_import_wisdom_from_string(text.c_str())) known = std::move(text);
+    }
+    // Written back when planning has added to it (best effort: a cache that cannot be written only costs time).
+    void save() {
+        if (dir.empty() || !planned) return;
+        planned = false;
+        const std::unique_ptr<char, FftwFree> text(fftw_export_wisdom_to_string());
+        if (!text || known == text.get()) return;
+        if (try_write_cache_file(file(), [&](std::ostream& out) {
+                write_key(out, key());
+                out << text.get();
+            }))
+            known = text.get();
+    }
+    ~Wisdom() { save(); }
+};
+
+std::mutex plan_mutex;
+Wisdom wisdom;
+
 const Plans& plans_for(int nx, int ny) {
-    static std::mutex mutex;
     static std::map<std::pair<int, int>, Plans> made;
-    const std::lock_guard<std::mutex> lock(mutex);
+    const std::lock_guard<std::mutex> lock(plan_mutex);
+    if (!wisdom.imported) wisdom.import();
     Plans& p = made[{nx, ny}];
     if (!p.forward) {
         const std::size_t n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
@@ -65,6 +109,7 @@ const Plans& plans_for(int nx, int ny) {
         p.inverse = fftw_plan_dft_c2r_2d(ny, nx, out.get(), in.get(), FFTW_ESTIMATE);
         p.forward = fftw_plan_dft_r2c_2d(ny, nx, in.get(), out.get(), FFTW_ESTIMATE);
         if (!p.forward || !p.inverse) throw std::runtime_error("FFTW could not plan a transform");
+        wisdom.planned = true;
     }
     return p;
 }
@@ -160,6 +205,15 @@ struct Job {
 constexpr std::size_t kThreadedValues = std::size_t{128} * 128;
 
 }  // namespace
+
+void keep_fft_wisdom_in(const std::string& dir) {
+    const std::lock_guard<std::mutex> lock(plan_mutex);
+    if (dir == wisdom.dir) return;
+    wisdom.save();
+    wisdom.dir = dir;
+    wisdom.imported = false;
+    wisdom.known.clear();
+}
 
 void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* kernel, int rx, int ry) {
     if (width <= 0 || height <= 0) return;

@@ -2,10 +2,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <flare/convolve.h>
 
@@ -128,4 +133,41 @@ TEST(FftConvolve, SizesHaveOnlySmallPrimeFactors) {
             while (m % p == 0) m /= p;
         EXPECT_EQ(m, 1) << n;
     }
+}
+
+namespace {
+
+// The text of the one fftw-wisdom file in dir ("" when there is none or more than one).
+std::string wisdom_text(const std::filesystem::path& dir) {
+    std::string text;
+    int files = 0;
+    if (std::filesystem::exists(dir))
+        for (const auto& entry : std::filesystem::directory_iterator(dir))
+            if (entry.path().filename().string().rfind("fftw-wisdom-", 0) == 0) {
+                std::ifstream in(entry.path(), std::ios::binary);
+                std::ostringstream all;
+                all << in.rdbuf();
+                text = all.str();
+                ++files;
+            }
+    return files == 1 ? text : "";
+}
+
+}  // namespace
+
+TEST(FftConvolve, KeepsThePlannersWisdomInTheCacheFolder) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("lensfx-fft-wisdom-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    flare::keep_fft_wisdom_in(dir.string());
+    expect_direct(97, 61, 5, 6, 9);  // sizes no other test plans
+    EXPECT_EQ(wisdom_text(dir), "") << "written once, when the folder changes or the process ends";
+    flare::keep_fft_wisdom_in("");
+    EXPECT_NE(wisdom_text(dir).find("fftw_wisdom"), std::string::npos) << "the planner's wisdom, under its key";
+    // A damaged file is read as no wisdom: the next new size is planned afresh, right, and the file made whole.
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) std::ofstream(entry.path(), std::ios::binary | std::ios::trunc) << "garbage";
+    flare::keep_fft_wisdom_in(dir.string());
+    expect_direct(83, 47, 7, 3, 10);
+    flare::keep_fft_wisdom_in("");
+    EXPECT_NE(wisdom_text(dir).find("fftw_wisdom"), std::string::npos);
+    std::filesystem::remove_all(dir);
 }

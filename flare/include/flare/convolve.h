@@ -2,6 +2,7 @@
 // sources' footprints (flare/footprint.h) and their starburst tails are spread with.
 #pragma once
 
+#include <string>
 #include <vector>
 
 namespace lensfx::flare {
@@ -13,6 +14,11 @@ namespace lensfx::flare {
 // kMaxFftSide^2 values a transform, so the scratch stays some 25 MB a thread). The tiles' channels are shared
 // by the calling thread and one more (the extended groups are convolved while the GPU has nothing to do).
 void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* kernel, int rx, int ry);
+
+// Keeps what FFTW's planner learns (its wisdom) in the cache folder `dir` (flare/cache.h; empty: not kept):
+// read at the next plan, written back when the folder changes (keep_fft_wisdom_in("") saves it now) or the
+// process ends, if a plan added to it. For the process: the planner is one.
+void keep_fft_wisdom_in(const std::string& dir);
 
 // The side of the largest transform convolve_rgb makes; a larger image is convolved in tiles.
 inline constexpr int kMaxFftSide = 1024;
