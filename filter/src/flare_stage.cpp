@@ -184,14 +184,22 @@ double footprint_reach_px(const detect::Shape& shape, double m) {
 // frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged); together
 // under a third of the frame's image.
 struct LevelSums {
-    std::array<std::vector<float>, 5> sum;  // by log2 of the level; empty: no group at that level
+    std::array<std::vector<float>, 5> sum;  // by log2 of the level
+    std::array<bool, 5> used{};             // false: no group at that level for this light
     std::array<int, 5> width{}, height{};
     std::vector<float> scratch;  // one group's image, before its footprint
 
+    // Ready for a light of a frame of `pixels`: no level used, the memory of the frame's earlier lights kept
+    // (their pages already touched), and room for a group's image at full size, so a larger level never moves it.
+    void start_light(std::size_t pixels) {
+        used = {};
+        scratch.reserve(pixels * 3);
+    }
     // The sum at `level` (2 .. 16; an image of width x height), zero when first asked for.
     std::vector<float>& at(int level, int w, int h) {
         const auto k = static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(level)));
-        if (sum[k].empty()) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        if (!used[k]) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        used[k] = true;
         width[k] = w;
         height[k] = h;
         return sum[k];
@@ -202,7 +210,7 @@ struct LevelSums {
         std::vector<ConstRgbView> levels;
         std::vector<flare::Region> regions;
         for (std::size_t k = 1; k < sum.size(); ++k) {
-            if (sum[k].empty()) continue;
+            if (!used[k]) continue;
             levels.push_back(ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]});
             regions.push_back(flare::Region{0, 0, width[k] << k, height[k] << k});
         }
@@ -430,6 +438,7 @@ struct FlareStage::State {
     std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
     FrameReport report;  // of the last frame
     std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
+    LevelSums level_sums;  // the extended lights' groups, shared by a frame's lights; let go at the frame's end
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(with_files_checked(std::move(s))),
@@ -746,7 +755,8 @@ struct FlareStage::State {
             return true;
         }
         const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
-        LevelSums sums;
+        LevelSums& sums = level_sums;
+        sums.start_light(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height));
         for (const FootprintGroup& group : groups) add_group_ghosts(light, scaled, group, view, rgb, sums, tally);
         t = Clock::now();
         sums.add_enlarged_into(rgb, view.width, view.height);
@@ -825,6 +835,7 @@ struct FlareStage::State {
     // not kept for the next frame: making them again costs little against rendering at that size, and the
     // frame is stored and written without them.
     void finish_model(const FrameTally& tally, const FlareGeometry& geo) {
+        level_sums = {};  // nothing of it is held between frames (held_bytes)
         constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
         if (renderer && static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) > kKeepTargetsPixels)
             renderer->release_targets();
