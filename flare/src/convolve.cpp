@@ -6,6 +6,7 @@
 #include <complex>
 #include <fstream>
 #include <string>
+#include <string_view>
 #include <cstddef>
 #include <functional>
 #include <future>
@@ -57,6 +58,23 @@ struct Plans {
     fftw_plan inverse = nullptr;
 };
 
+// Whether two texts hold the same lines in any order: FFTW exports its wisdom in hash-table order, which
+// differs from run to run for the same wisdom.
+bool same_lines(const std::string& a, const std::string& b) {
+    if (a.size() != b.size()) return false;
+    const auto lines = [](const std::string& text) {
+        std::vector<std::string_view> out;
+        for (std::size_t start = 0; start < text.size();) {
+            const std::size_t end = std::min(text.find('\n', start), text.size());
+            out.emplace_back(text.data() + start, end - start);
+            start = end + 1;
+        }
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    return lines(a) == lines(b);
+}
+
 // What the planner knows, kept in the cache folder (keep_fft_wisdom_in): planning a size takes some 3 ms of
 // CPU even with FFTW_ESTIMATE (a frame's extended groups convolve at a dozen sizes), and with the wisdom of
 // an earlier run a fraction of that. Read at the first plan; written back once, when the folder changes or
@@ -84,7 +102,7 @@ struct Wisdom {
         if (dir.empty() || !planned) return;
         planned = false;
         const std::unique_ptr<char, FftwFree> text(fftw_export_wisdom_to_string());
-        if (!text || known == text.get()) return;
+        if (!text || same_lines(known, text.get())) return;
         if (try_write_cache_file(file(), [&](std::ostream& out) {
                 write_key(out, key());
                 out << text.get();
