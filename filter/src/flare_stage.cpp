@@ -28,6 +28,7 @@
 #include <flare/cache.h>
 #include <flare/direct_power.h>
 #include <flare/flare.h>
+#include <flare/convolve.h>
 #include <flare/footprint.h>
 #include <flare/starburst_cache.h>
 #include <gpu/band_filter.h>
@@ -183,23 +184,37 @@ double footprint_reach_px(const detect::Shape& shape, double m) {
 // frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged); together
 // under a third of the frame's image.
 struct LevelSums {
-    std::array<std::vector<float>, 5> sum;  // by log2 of the level; empty: no group at that level
+    std::array<std::vector<float>, 5> sum;  // by log2 of the level
+    std::array<bool, 5> used{};             // false: no group at that level for this light
     std::array<int, 5> width{}, height{};
     std::vector<float> scratch;  // one group's image, before its footprint
 
+    // Ready for a light of a frame of `pixels`: no level used, the memory of the frame's earlier lights kept
+    // (their pages already touched), and room for a group's image at full size, so a larger level never moves it.
+    void start_light(std::size_t pixels) {
+        used = {};
+        scratch.reserve(pixels * 3);
+    }
     // The sum at `level` (2 .. 16; an image of width x height), zero when first asked for.
     std::vector<float>& at(int level, int w, int h) {
         const auto k = static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(level)));
-        if (sum[k].empty()) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        if (!used[k]) sum[k].assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        used[k] = true;
         width[k] = w;
         height[k] = h;
         return sum[k];
     }
-    // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly.
+    // Every level's sum added into the frame's rgb (w x h), enlarged bilinearly (add_enlarged's mapping), in
+    // one pass over the frame.
     void add_enlarged_into(std::vector<float>& rgb, int w, int h) const {
-        const RgbView frame{rgb.data(), 0, 0, w, h};
-        for (std::size_t k = 1; k < sum.size(); ++k)
-            if (!sum[k].empty()) flare::add_enlarged(frame, ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]}, 1 << k);
+        std::vector<ConstRgbView> levels;
+        std::vector<flare::Region> regions;
+        for (std::size_t k = 1; k < sum.size(); ++k) {
+            if (!used[k]) continue;
+            levels.push_back(ConstRgbView{sum[k].data(), 0, 0, width[k], height[k]});
+            regions.push_back(flare::Region{0, 0, width[k] << k, height[k] << k});
+        }
+        flare::add_resized_each(RgbView{rgb.data(), 0, 0, w, h}, levels, regions);
     }
 };
 
@@ -423,6 +438,7 @@ struct FlareStage::State {
     std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
     FrameReport report;  // of the last frame
     std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
+    LevelSums level_sums;  // the extended lights' groups, shared by a frame's lights; let go at the frame's end
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(with_files_checked(std::move(s))),
@@ -456,6 +472,7 @@ struct FlareStage::State {
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
         if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
+        flare::keep_fft_wisdom_in(flare::cache_dir_of(settings.accel.cache_dir));  // the footprints' FFT plans
     }
 
     // The prescription, realized at --zoom and --fstop with its coatings and blades.
@@ -738,7 +755,8 @@ struct FlareStage::State {
             return true;
         }
         const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
-        LevelSums sums;
+        LevelSums& sums = level_sums;
+        sums.start_light(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height));
         for (const FootprintGroup& group : groups) add_group_ghosts(light, scaled, group, view, rgb, sums, tally);
         t = Clock::now();
         sums.add_enlarged_into(rgb, view.width, view.height);
@@ -817,6 +835,7 @@ struct FlareStage::State {
     // not kept for the next frame: making them again costs little against rendering at that size, and the
     // frame is stored and written without them.
     void finish_model(const FrameTally& tally, const FlareGeometry& geo) {
+        level_sums = {};  // nothing of it is held between frames (held_bytes)
         constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
         if (renderer && static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) > kKeepTargetsPixels)
             renderer->release_targets();

@@ -7,9 +7,9 @@
 #include <map>
 #include <numbers>
 
+#include <flare/convolve.h>
 #include <flare/image_ops.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 namespace lensfx::flare {
 
@@ -148,12 +148,7 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
     }
     const cv::Mat kernel = footprint_kernel(shape, m, rx, ry);
     if (kernel.empty()) return;  // nothing of the footprint left: the ghost stays the point light's
-    cv::Mat flipped;
-    cv::flip(kernel, flipped, -1);  // filter2D correlates; a convolution needs the kernel turned round
-    cv::Mat image(height, width, CV_32FC3, rgb.data());
-    cv::Mat out;
-    cv::filter2D(image, out, -1, flipped, cv::Point(rx, ry), 0.0, cv::BORDER_CONSTANT);
-    out.copyTo(image);
+    convolve_rgb(rgb, width, height, kernel.ptr<float>(), rx, ry);
 }
 
 cv::Mat footprint_kernel(const detect::Shape& shape, double m, int rx, int ry) {

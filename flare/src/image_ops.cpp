@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <span>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -106,7 +109,7 @@ public:
     }
 
 private:
-    const ConstRgbView& src_;
+    ConstRgbView src_;
     std::vector<BilinearTap> xs_;
     std::vector<float> rows_[2];
     int held_[2] = {-1, -1};
@@ -114,20 +117,82 @@ private:
 
 }  // namespace
 
-void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region) {
-    const Region r = intersection(region, dst.region());
-    if (r.empty() || src.width <= 0 || src.height <= 0) return;
+namespace {
+
+// The outputs [first, end) of `taps` (relative to their first) whose taps reach source pixels [s0, s1): the
+// others blend two zeros.
+std::pair<int, int> reaching(const std::vector<BilinearTap>& taps, int s0, int s1) {
+    const auto reaches = [&](const BilinearTap& t) { return (t.i0 >= s0 && t.i0 < s1) || (t.i1 >= s0 && t.i1 < s1); };
+    int first = 0, end = static_cast<int>(taps.size());
+    while (first < end && !reaches(taps[static_cast<std::size_t>(first)])) ++first;
+    while (end > first && !reaches(taps[static_cast<std::size_t>(end - 1)])) --end;
+    return {first, end};
+}
+
+}  // namespace
+
+namespace {
+
+// One source of add_resized_each: its taps, the output rows and columns it reaches (r), and its widened rows.
+struct Resize {
+    Region r;
+    std::vector<BilinearTap> ys;
+    int region_y0;
+    WidenedRows rows;
+};
+
+// The resize of src over `region` clipped to dst; nothing when it reaches no pixel of dst (or is dark).
+std::optional<Resize> resize_of(const RgbView& dst, const ConstRgbView& src, const Region& region) {
+    Region r = intersection(region, dst.region());
+    if (r.empty() || src.width <= 0 || src.height <= 0) return std::nullopt;
+    // Only what the source's lit pixels reach: an extended light's level sums and tail are dark over most of
+    // the frame they are enlarged into.
+    const Region lit = nonzero_region(src);
+    if (lit.empty()) return std::nullopt;
     const std::vector<BilinearTap> all_xs = bilinear_taps(region.width(), src.width);
-    const std::vector<BilinearTap> ys = bilinear_taps(region.height(), src.height);
-    WidenedRows rows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0), all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)});
-    const auto n = static_cast<std::size_t>(r.width()) * 3;
-    for (int y = r.y0; y < r.y1; ++y) {
-        const BilinearTap t = ys[static_cast<std::size_t>(y - region.y0)];
-        const float* a = rows.row(t.i0, t.i1);
-        const float* b = rows.row(t.i1, t.i0);
-        float* to = dst.at(r.x0, y);
-        for (std::size_t i = 0; i < n; ++i) to[i] = added_within_float(to[i], blend(a[i], b[i], t.f));
+    std::vector<BilinearTap> ys = bilinear_taps(region.height(), src.height);
+    const auto [cx0, cx1] = reaching(all_xs, lit.x0 - src.x, lit.x1 - src.x);
+    const auto [cy0, cy1] = reaching(ys, lit.y0 - src.y, lit.y1 - src.y);
+    r = intersection(r, Region{region.x0 + cx0, region.y0 + cy0, region.x0 + cx1, region.y0 + cy1});
+    if (r.empty()) return std::nullopt;
+    return std::optional<Resize>(std::in_place, r, std::move(ys), region.y0,
+                                 WidenedRows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0),
+                                                   all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)}));
+}
+
+// Row y of dst += the resize's row y.
+void add_row(const RgbView& dst, Resize& z, int y) {
+    const BilinearTap t = z.ys[static_cast<std::size_t>(y - z.region_y0)];
+    const float* a = z.rows.row(t.i0, t.i1);
+    const float* b = z.rows.row(t.i1, t.i0);
+    float* to = dst.at(z.r.x0, y);
+    const auto n = static_cast<std::size_t>(z.r.width()) * 3;
+    for (std::size_t i = 0; i < n; ++i) to[i] = added_within_float(to[i], blend(a[i], b[i], t.f));
+}
+
+}  // namespace
+
+void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region) {
+    add_resized_each(dst, std::span(&src, 1), std::span(&region, 1));
+}
+
+void add_resized_each(const RgbView& dst, std::span<const ConstRgbView> srcs, std::span<const Region> regions) {
+    if (srcs.size() != regions.size()) throw std::invalid_argument("add_resized_each: a region for each source");
+    std::vector<Resize> resizes;
+    resizes.reserve(srcs.size());
+    Region rows{0, dst.y + dst.height, 0, dst.y};  // the rows any of them reaches
+    for (std::size_t k = 0; k < srcs.size(); ++k) {
+        std::optional<Resize> z = resize_of(dst, srcs[k], regions[k]);
+        if (!z) continue;
+        rows.y0 = std::min(rows.y0, z->r.y0);
+        rows.y1 = std::max(rows.y1, z->r.y1);
+        resizes.push_back(std::move(*z));
     }
+    // Row by row, each source in turn: a frame row stays in cache while every source adds to it (each pixel's
+    // sums in the sources' order, as one add_resized after another).
+    for (int y = rows.y0; y < rows.y1; ++y)
+        for (Resize& z : resizes)
+            if (y >= z.r.y0 && y < z.r.y1) add_row(dst, z, y);
 }
 
 void reduce_area(const RgbView& dst, const ConstRgbView& src, int factor) {

@@ -1,6 +1,10 @@
 // The composite's image operations (flare/image_ops.h): regions, nonzero_region, add and add_resized between
 // views placed at different origins, clipped to both and held within float range.
 #include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -201,6 +205,53 @@ TEST(ImageOps, AddEnlargedKeepsEachReducedPixelCentredOnItsBlock) {
     }
     EXPECT_NEAR(moment / sum, 9.5, 1e-6);
     EXPECT_NEAR(sum, f, 1e-6);
+}
+
+// A source dark but for a few pixels changes only the frame's pixels their taps reach: those match the
+// bilinear blend of every source pixel, and the rest are left bit for bit (a -0 stays -0, which adding a
+// blended zero would turn to +0).
+TEST(ImageOps, AddResizedVisitsOnlyWhatTheLitSourceReaches) {
+    const int sw = 17, sh = 11, w = 70, h = 45;
+    std::vector<float> src(static_cast<std::size_t>(sw * sh * 3), 0.0f);
+    src[static_cast<std::size_t>(4 * sw + 6) * 3 + 1] = 2.0f;
+    src[static_cast<std::size_t>(7 * sw + 9) * 3 + 2] = -1.5f;
+    std::vector<float> ours(static_cast<std::size_t>(w * h * 3), -0.0f), want(ours.size(), 0.0f);
+    add_resized(RgbView{ours.data(), 3, 2, w, h}, ConstRgbView{src.data(), 5, 1, sw, sh}, Region{-2, 1, w + 5, h + 4});
+    // The blend of every source pixel, written out: taps over the region, sampled where the frame lies.
+    const std::vector<BilinearTap> xs = bilinear_taps(w + 7, sw), ys = bilinear_taps(h + 3, sh);
+    int changed = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (std::size_t c = 0; c < 3; ++c) {
+                const BilinearTap tx = xs[static_cast<std::size_t>(x + 3 + 2)], ty = ys[static_cast<std::size_t>(y + 2 - 1)];
+                auto at = [&](int i, int j) { return src[static_cast<std::size_t>(j * sw + i) * 3 + c]; };
+                auto row = [&](int j) { return at(tx.i0, j) + tx.f * (at(tx.i1, j) - at(tx.i0, j)); };
+                const float v = row(ty.i0) + ty.f * (row(ty.i1) - row(ty.i0));
+                const float got = ours[static_cast<std::size_t>(y * w + x) * 3 + c];
+                EXPECT_NEAR(got, v, 1e-6f) << x << "," << y << "," << c;
+                if (!std::signbit(got) || got != 0.0f) ++changed;
+            }
+    EXPECT_GT(changed, 20);            // the lit pixels spread
+    EXPECT_LT(changed, w * h * 3 / 4);  // and most of the frame is untouched -0
+    EXPECT_TRUE(std::signbit(ours[0]));
+}
+
+// The level sums' one pass: the same floats as one add_resized after another, sources of different sizes over
+// regions that overlap, reach beyond the frame or miss it, one of them dark.
+TEST(ImageOps, AddResizedEachIsEachAddResizedInTurn) {
+    const int w = 41, h = 29;
+    const std::vector<float> a = image_of(11, 8, [](int x, int y, int c) { return std::sin(0.9f * x + 0.4f * y + c) * 3.0f; });
+    const std::vector<float> b = image_of(5, 4, [](int x, int y, int c) { return 1e-3f * (x + 2 * y + c) + 1e30f * (x == 2 && y == 1); });
+    const std::vector<float> dark(3 * 3 * 3, 0.0f);
+    const std::vector<ConstRgbView> srcs{ConstRgbView{a.data(), 0, 0, 11, 8}, ConstRgbView{b.data(), 0, 0, 5, 4},
+                                         ConstRgbView{dark.data(), 0, 0, 3, 3}, ConstRgbView{a.data(), 0, 0, 11, 8}};
+    const std::vector<Region> regions{Region{0, 0, 44, 32}, Region{-7, 5, 30, 40}, Region{0, 0, w, h}, Region{50, 0, 60, 10}};
+    std::vector<float> each = image_of(w, h, [](int x, int y, int c) { return 0.25f * (x - y) + c; }), turn = each;
+    add_resized_each(RgbView{each.data(), 0, 0, w, h}, srcs, regions);
+    for (std::size_t k = 0; k < srcs.size(); ++k) add_resized(RgbView{turn.data(), 0, 0, w, h}, srcs[k], regions[k]);
+    ASSERT_EQ(each.size(), turn.size());
+    for (std::size_t i = 0; i < each.size(); ++i) ASSERT_EQ(std::bit_cast<std::uint32_t>(each[i]), std::bit_cast<std::uint32_t>(turn[i])) << i;
+    EXPECT_THROW(add_resized_each(RgbView{each.data(), 0, 0, w, h}, srcs, std::span(regions).first(2)), std::invalid_argument);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 namespace lensfx::flare {
@@ -76,6 +77,10 @@ void add_enlarged(const RgbView& dst, const ConstRgbView& src, int factor);
 // dst += src resized bilinearly to cover `region` of dst's pixel space (src's pixel centres spread evenly over
 // it, its edge pixels held beyond the outer centres, as OIIO's resize maps display windows), over the part of
 // `region` inside dst; each sum held within float range. A reduced render enlarged into a full-size image.
+// Only the pixels the source's nonzero region reaches are visited: the others are left as they were, bit for bit.
 void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region);
+// add_resized of each source over its region in turn, done row by row (a frame row stays in cache while they
+// all add to it): the same sums in the same order, for the cost of one pass over dst.
+void add_resized_each(const RgbView& dst, std::span<const ConstRgbView> srcs, std::span<const Region> regions);
 
 }  // namespace lensfx::flare
