@@ -1165,8 +1165,7 @@ void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts
 // the triangles each ghost draws into the index buffer) and drawn, each ghost's values from its GhostJob.
 void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs, const PassDraw& pd) {
     for (const FaintRun& run : runs) {
-        const auto n = static_cast<int>(run.ghosts.size());
-        if (band_ != 0) continue;
+        const auto n = band_ == 0 ? static_cast<int>(run.ghosts.size()) : 0;  // counted in band 0
         s_.report.stats.ghosts_drawn += n;
         s_.report.stats.rays += static_cast<long long>(run.grid + 1) * (run.grid + 1) * n;
         s_.report.stats.ghosts_reduced += run.reduce > 1 ? n : 0;
