@@ -275,7 +275,7 @@ void main() {
     }
     uint me = first + id.y * stride + id.x;
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
-    if (!valid(me)) return;
+    if (!valid(me) || batched) return;  // a batched (faint) ghost has no rim pass: no edge bits
     int bits = 0;
     int cx = int(id.x), cy = int(id.y);
     if (cx < grid && cy < grid && cell_valid(cx, cy)) {
