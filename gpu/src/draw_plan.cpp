@@ -1,8 +1,10 @@
 // The CPU steps of FlareRenderer::draw: selection, totals, scene culling, pass plans, batches, bands, keys.
 #include <gpu/draw_plan.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <gpu/flare_renderer.h>
 
@@ -166,6 +168,34 @@ std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& 
         batches.push_back(std::move(batch));
     }
     return batches;
+}
+
+std::vector<std::vector<FaintRun>> batch_faint(const std::vector<std::size_t>& batched, const std::vector<GhostPlan>& plans,
+                                               std::size_t capacity, int band) {
+    std::vector<std::size_t> order;
+    for (std::size_t g : batched)
+        if (band == 0 || plans[g].reduce == 1) order.push_back(g);  // the reduced targets are drawn with band 0
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return std::pair{plans[a].reduce, plans[a].grid} < std::pair{plans[b].reduce, plans[b].grid};
+    });
+    std::vector<std::vector<FaintRun>> chunks;
+    std::size_t vertices = 0, indices = 0, jobs = 0;
+    for (std::size_t g : order) {
+        const auto side = static_cast<std::size_t>(plans[g].grid + 1);
+        const auto cells = static_cast<std::size_t>(plans[g].grid) * static_cast<std::size_t>(plans[g].grid);
+        if (chunks.empty() || vertices + side * side > capacity) {  // a new chunk
+            chunks.emplace_back();
+            vertices = indices = jobs = 0;
+        }
+        std::vector<FaintRun>& runs = chunks.back();
+        if (runs.empty() || runs.back().grid != plans[g].grid || runs.back().reduce != plans[g].reduce)
+            runs.push_back({plans[g].grid, plans[g].reduce, {}, jobs, vertices, indices});
+        runs.back().ghosts.push_back(g);
+        vertices += side * side;
+        indices += 6 * cells;
+        ++jobs;
+    }
+    return chunks;
 }
 
 FullBands full_target_bands(int width, int height, double max_bytes, bool whole) {

@@ -104,6 +104,7 @@ struct GhostPrograms {
     Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster", raster_stages("")};
     Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
+    Program faint{"ghost_raster_faint", raster_stages("#define FAINT\n")};  // batched faint ghosts
     Program splat{"ghost_splat",
                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
                    {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
@@ -114,18 +115,26 @@ struct GhostPrograms {
 };
 
 // The buffers the passes read and write: the vertex array, the traced vertices (grown to the largest batch
-// asked for, never shrunk) and a batched draw's GhostJobs.
+// asked for, never shrunk) and a batched draw's GhostJobs and triangle indices (grown likewise).
 struct DrawBuffers {
     GlObject vao = GlObject::vertex_array();
     GlObject vertices = GlObject::buffer();
     std::size_t vertices_bytes = 0;
     GlObject jobs = GlObject::buffer();
+    GlObject indices = GlObject::buffer();  // a batched draw's triangles (ghost_shade_comp's write_cell_indices)
+    std::size_t indices_bytes = 0;
 
     void reserve_vertices(std::size_t bytes) {
         if (bytes <= vertices_bytes) return;
         vertices = GlObject::buffer();
         glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
         vertices_bytes = bytes;
+    }
+    void reserve_indices(std::size_t bytes) {
+        if (bytes <= indices_bytes) return;
+        indices = GlObject::buffer();
+        glNamedBufferStorage(indices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
+        indices_bytes = bytes;
     }
 };
 
@@ -711,8 +720,8 @@ private:
     void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings, bool area_coverage);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage);
-    void dispatch_batched(const Program& program, GLuint groups, GLuint n);
-    void raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce);
+    void dispatch_batched(const Program& program, const FaintRun& run);
+    void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
     void find_unknown_peaks(std::vector<GhostEstimate>& coarse, const GhostSequences& seq, const optics::Vec3& direction,
                             const Aperture& aperture);
@@ -724,8 +733,8 @@ private:
     GhostDrawValues draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const;
     void ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     void draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd);
-    void draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd);
-    void upload_jobs(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd);
+    void draw_faint_chunk(const std::vector<FaintRun>& runs, const PassDraw& pd);
+    void upload_jobs(const std::vector<FaintRun>& runs, const PassDraw& pd);
     void add_ghost_power(std::size_t g);
 };
 
@@ -1189,83 +1198,94 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
     glUniform1f(triangles.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
 }
 
-// The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) by grid and level, each group in
-// chunks that fit the vertex buffer: one trace and one shade dispatch and one instanced draw a chunk, where
-// drawn alone each ghost cost two dispatches, a draw and its uniforms (on llvmpipe some 2 ms of CPU).
+// The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) in chunks that fit the vertex
+// buffer (batch_faint), each chunk's runs of one grid and level traced, then shaded, then drawn: per run one
+// trace and one shade dispatch and one indexed draw, where drawn alone each ghost cost two dispatches, a draw
+// and its uniforms (on llvmpipe some 2 ms of CPU), and two barriers a chunk, not a run.
 void FlareRenderer::Drawing::draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd) {
-    std::map<std::pair<int, int>, std::vector<std::size_t>> groups;  // by (grid, reduce)
-    for (std::size_t g : ghosts) groups[{pd.plans[g].grid, pd.plans[g].reduce}].push_back(g);
-    for (const auto& [key, members] : groups) {
-        const auto [grid, reduce] = key;
-        if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
-        const std::size_t side = static_cast<std::size_t>(grid + 1);
-        const std::size_t per_chunk = std::max<std::size_t>(1, s_.buffers.vertices_bytes / kVertexBytes / (side * side));
-        for (std::size_t first = 0; first < members.size(); first += per_chunk) {
-            const auto begin = members.begin() + static_cast<std::ptrdiff_t>(first);
-            draw_instanced({begin, begin + static_cast<std::ptrdiff_t>(std::min(per_chunk, members.size() - first))}, grid, reduce, pd);
-        }
-    }
+    for (const std::vector<FaintRun>& chunk : batch_faint(ghosts, pd.plans, s_.buffers.vertices_bytes / kVertexBytes, band_))
+        draw_faint_chunk(chunk, pd);
 }
 
-// Ghosts of one grid and level, their vertices one after another from the buffer's start: traced, shaded and
-// drawn as instances, each one's values from its GhostJob.
-void FlareRenderer::Drawing::draw_instanced(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
-    const auto n = static_cast<GLuint>(ghosts.size());
-    if (band_ == 0) {
-        s_.report.stats.ghosts_drawn += static_cast<int>(n);
-        s_.report.stats.rays += static_cast<long long>(grid + 1) * (grid + 1) * n;
-        s_.report.stats.ghosts_reduced += reduce > 1 ? static_cast<int>(n) : 0;
+// A chunk's runs, their vertices one after another from the buffer's start: traced, shaded (which also writes
+// the triangles each ghost draws into the index buffer) and drawn, each ghost's values from its GhostJob.
+void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs, const PassDraw& pd) {
+    for (const FaintRun& run : runs) {
+        const auto n = band_ == 0 ? static_cast<int>(run.ghosts.size()) : 0;  // counted in band 0
+        s_.report.stats.ghosts_drawn += n;
+        s_.report.stats.rays += static_cast<long long>(run.grid + 1) * (run.grid + 1) * n;
+        s_.report.stats.ghosts_reduced += run.reduce > 1 ? n : 0;
     }
-    upload_jobs(ghosts, grid, reduce, pd);
+    upload_jobs(runs, pd);
+    const FaintRun& last = runs.back();
+    s_.buffers.reserve_indices((last.first_index + 6 * static_cast<std::size_t>(last.grid) * last.grid * last.ghosts.size()) *
+                               sizeof(GLuint));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    const GLuint groups = vertex_groups(grid);
-    trace_uniforms(grid, pd.rotation, pd.direction);
-    dispatch_batched(s_.programs.trace, groups, n);
-    shade_uniforms(grid, reduce, false);
-    glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
-    dispatch_batched(s_.programs.shade, groups, n);
-    raster_instanced(draw_values(ghosts.front(), pd, reduce), n, grid, reduce);  // the level's values are every ghost's
-    check_gl(fmt::format("drawing {} faint ghosts at {} nm", n, pd.pass.wavelength_nm));
-}
-
-// The bound compute program dispatched over n ghosts' grids in batched mode (`groups` work groups each, along
-// the grid's vertices: grid_vertex), then the vertices' barrier.
-void FlareRenderer::Drawing::dispatch_batched(const Program& program, GLuint groups, GLuint n) {
-    glUniform1i(program.uniform("batched"), 1);
-    glDispatchCompute(groups, 1, n);
-    glUniform1i(program.uniform("batched"), 0);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
+    for (const FaintRun& run : runs) {
+        trace_uniforms(run.grid, pd.rotation, pd.direction);
+        dispatch_batched(s_.programs.trace, run);
+    }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    for (const FaintRun& run : runs) {
+        shade_uniforms(run.grid, run.reduce, false);
+        glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
+        glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(run.first_index));
+        dispatch_batched(s_.programs.shade, run);
+    }
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);
+    glVertexArrayElementBuffer(s_.buffers.vao.get(), s_.buffers.indices.get());
+    for (const FaintRun& run : runs) raster_faint(run, pd);
+    glVertexArrayElementBuffer(s_.buffers.vao.get(), 0);
+    check_gl(fmt::format("drawing {} runs of faint ghosts at {} nm", runs.size(), pd.pass.wavelength_nm));
 }
 
-// n traced and shaded grids of one level drawn as instances into its target; `v`: the level's values.
-void FlareRenderer::Drawing::raster_instanced(const GhostDrawValues& v, GLuint n, int grid, int reduce) {
-    bind_level(reduce);
-    const Program& raster = s_.programs.raster;
+// The bound compute program dispatched over a run's grids in batched mode (vertex_groups work groups each,
+// along the grid's vertices: grid_vertex; the work group's z its ghost from the run's first job on).
+void FlareRenderer::Drawing::dispatch_batched(const Program& program, const FaintRun& run) {
+    glUniform1i(program.uniform("batched"), 1);
+    glUniform1i(program.uniform("first_job"), static_cast<GLint>(run.first_job));
+    glDispatchCompute(vertex_groups(run.grid), 1, static_cast<GLuint>(run.ghosts.size()));
+    glUniform1i(program.uniform("batched"), 0);
+}
+
+// A run's traced and shaded grids drawn into its level's target by the indices the shade pass wrote, each grid
+// vertex shaded once (ghost_raster_vert's FAINT); the level's values are every ghost's.
+void FlareRenderer::Drawing::raster_faint(const FaintRun& run, const PassDraw& pd) {
+    bind_level(run.reduce);
+    const GhostDrawValues v = draw_values(run.ghosts.front(), pd, run.reduce);
+    const Program& raster = s_.programs.faint;
     glUseProgram(raster.get());
     glUniform1i(raster.uniform("batched"), 1);
-    glUniform1i(raster.uniform("grid"), grid);
+    glUniform1i(raster.uniform("first_job"), static_cast<GLint>(run.first_job));
+    glUniform1i(raster.uniform("first_vertex"), static_cast<GLint>(run.first_vertex));
+    glUniform1i(raster.uniform("grid"), run.grid);
     glUniform2f(raster.uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
-    glUniform1f(raster.uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
-    glUniform1f(raster.uniform("splat_area"), static_cast<float>(kSplatArea));
     glUniform1i(raster.uniform("iris_sdf"), 0);
     glUniform1f(raster.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
-    glUniform1i(raster.uniform("rim_mode"), 0);
-    glDrawArraysInstanced(GL_TRIANGLES, 0, 6 * grid * grid, static_cast<GLsizei>(n));
+    glUniform1i(raster.uniform("ringing"), options_.ringing ? 1 : 0);
+    glUniform1i(raster.uniform("iris_ringing"), 1);
+    const std::size_t count = 6 * static_cast<std::size_t>(run.grid) * static_cast<std::size_t>(run.grid) * run.ghosts.size();
+    glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(count), GL_UNSIGNED_INT,
+                   reinterpret_cast<const void*>(run.first_index * sizeof(GLuint)));
     glUniform1i(raster.uniform("batched"), 0);
 }
 
-// The jobs of draw_instanced's ghosts into the jobs buffer, bound for the shaders.
-void FlareRenderer::Drawing::upload_jobs(const std::vector<std::size_t>& ghosts, int grid, int reduce, const PassDraw& pd) {
-    const auto side = static_cast<std::size_t>(grid + 1);
+// The jobs of a chunk's ghosts into the jobs buffer, bound for the shaders.
+void FlareRenderer::Drawing::upload_jobs(const std::vector<FaintRun>& runs, const PassDraw& pd) {
     std::vector<GhostJob> jobs;
-    for (std::size_t k = 0; k < ghosts.size(); ++k) {
-        const std::size_t g = ghosts[k];
-        const GhostDrawValues v = draw_values(g, pd, reduce);
-        const PupilRect& r = pd.estimates[g].rect;
-        jobs.push_back({{pd.seq.offset[g], pd.seq.count[g], static_cast<std::int32_t>(k * side * side), pd.seq.stop_crossings[g]},
-                        {static_cast<float>(r.x0), static_cast<float>(r.y0), static_cast<float>(r.x1), static_cast<float>(r.y1)},
-                        {static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]), static_cast<float>(v.channels[2]), 0.0f},
-                        {static_cast<float>(v.triangle_flux), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]), 0.0f}});
+    for (const FaintRun& run : runs) {
+        const auto side = static_cast<std::size_t>(run.grid + 1);
+        for (std::size_t k = 0; k < run.ghosts.size(); ++k) {
+            const std::size_t g = run.ghosts[k];
+            const GhostDrawValues v = draw_values(g, pd, run.reduce);
+            const PupilRect& r = pd.estimates[g].rect;
+            const auto first_vertex = static_cast<std::int32_t>(run.first_vertex + k * side * side);
+            jobs.push_back({{pd.seq.offset[g], pd.seq.count[g], first_vertex, pd.seq.stop_crossings[g]},
+                            {static_cast<float>(r.x0), static_cast<float>(r.y0), static_cast<float>(r.x1), static_cast<float>(r.y1)},
+                            {static_cast<float>(v.channels[0]), static_cast<float>(v.channels[1]), static_cast<float>(v.channels[2]), 0.0f},
+                            {static_cast<float>(v.triangle_flux), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]), 0.0f}});
+        }
     }
     glNamedBufferData(s_.buffers.jobs.get(), static_cast<GLsizeiptr>(jobs.size() * sizeof(GhostJob)), jobs.data(), GL_STREAM_DRAW);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, s_.buffers.jobs.get());

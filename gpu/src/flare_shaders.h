@@ -4,9 +4,10 @@
 
 namespace lensfx::gpu::shaders {
 
-// A ghost of a batched draw (FlareRenderer's faint ghosts of a pass: one trace and one shade dispatch, the
-// work group's z naming the ghost, and one instanced draw): what its own uniforms say when drawn alone.
-// Inserted after each batched shader's #version line (GhostJob in flare_renderer.cpp has the same layout).
+// A ghost of a batched draw (FlareRenderer's faint ghosts of a pass: per grid and level one trace and one
+// shade dispatch, the work group's z naming the ghost from first_job on, and one indexed draw): what its own
+// uniforms say when drawn alone. Inserted after each batched shader's #version line (GhostJob in
+// flare_renderer.cpp has the same layout).
 inline constexpr const char* ghost_job_glsl = R"GLSL(
 struct GhostJob {
     ivec4 steps;    // first step, step count, first vertex, stop crossings
@@ -15,7 +16,8 @@ struct GhostJob {
     vec4 flux;      // triangle flux, offset x, offset y (mm), 0
 };
 layout(std430, binding = 3) readonly buffer Jobs { GhostJob jobs[]; };
-uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the instance), not the uniforms
+uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the vertex), not the uniforms
+uniform int first_job; // batched: the dispatch's or draw's first ghost in jobs[]
 )GLSL";
 
 // The grid vertex a compute invocation takes (inserted after ghost_job_glsl in the trace and shade passes;
@@ -29,6 +31,9 @@ uvec2 grid_vertex(int grid) {
     uint index = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
     return uvec2(index % side, index / side);
 }
+
+// A batched dispatch's ghost: the work group's z from first_job on.
+int batch_job() { return first_job + int(gl_WorkGroupID.z); }
 )GLSL";
 
 // One invocation per grid vertex. Steps: geom = (vertex z, curvature, conic, semi-diameter),
@@ -63,10 +68,10 @@ float factor(int table, float cos_i) {
 void main() {
     uvec2 id = grid_vertex(grid);
     if (id.x > uint(grid) || id.y > uint(grid)) return;
-    int first_step = batched ? jobs[gl_WorkGroupID.z].steps.x : step_offset;
-    int steps_n = batched ? jobs[gl_WorkGroupID.z].steps.y : step_count;
-    uint first_vertex = batched ? uint(jobs[gl_WorkGroupID.z].steps.z) : vertex_offset;
-    vec4 box = batched ? jobs[gl_WorkGroupID.z].rect : rect;
+    int first_step = batched ? jobs[batch_job()].steps.x : step_offset;
+    int steps_n = batched ? jobs[batch_job()].steps.y : step_count;
+    uint first_vertex = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
+    vec4 box = batched ? jobs[batch_job()].rect : rect;
     vec2 f = vec2(id) / float(grid);
     vec2 q = mix(box.xy, box.zw, f);
     vec3 o = vec3(rect_rotation.x * q.x - rect_rotation.y * q.y, rect_rotation.y * q.x + rect_rotation.x * q.y, 0.0);
@@ -162,6 +167,8 @@ uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, ext
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform bool ringing;
+uniform uint first_index;  // batched: where the dispatch's first ghost's triangles go in indices[]
+layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // batched: the draw's triangles
 uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
 int crossings = 0;
 
@@ -220,11 +227,32 @@ float triangle_area(uint a, uint b, uint c) {
     return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
 }
 
+// A batched draw's triangles of the cell at id (ghost_raster_vert's FAINT draw, which shades each grid vertex
+// once): each of the cell's two, split as ghost_grid_glsl's, where a ghost drawn alone keeps it (corners valid,
+// not all beyond the apertures, at least splat_limit), else a point (a, a, a), which draws nothing.
+void write_cell_indices(uvec2 id) {
+    uint stride = uint(grid + 1);
+    uint a = first + id.y * stride + id.x;
+    uint cells = uint(grid * grid);
+    uint at = first_index + 6u * (uint(gl_WorkGroupID.z) * cells + id.y * uint(grid) + id.x);
+    uvec3 tri[2] = uvec3[2](uvec3(a, a + 1u, a + stride + 1u), uvec3(a, a + stride + 1u, a + stride));
+    for (int t = 0; t < 2; ++t) {
+        uvec3 i = tri[t];
+        bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
+        bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && triangle_area(i.x, i.y, i.z) >= splat_limit;
+        uvec3 drawn = kept ? i : uvec3(a);
+        indices[at + 3u * uint(t)] = drawn.x;
+        indices[at + 3u * uint(t) + 1u] = drawn.y;
+        indices[at + 3u * uint(t) + 2u] = drawn.z;
+    }
+}
+
 void main() {
     uvec2 id = grid_vertex(grid);
     if (id.x > uint(grid) || id.y > uint(grid)) return;
-    first = batched ? uint(jobs[gl_WorkGroupID.z].steps.z) : vertex_offset;
-    crossings = batched ? jobs[gl_WorkGroupID.z].steps.w : stop_crossings;
+    first = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
+    crossings = batched ? jobs[batch_job()].steps.w : stop_crossings;
+    if (batched && id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
     uint stride = uint(grid + 1);
     float area = 0.0;
     float triangles = 0.0;
@@ -247,7 +275,7 @@ void main() {
     }
     uint me = first + id.y * stride + id.x;
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
-    if (!valid(me)) return;
+    if (!valid(me) || batched) return;  // a batched (faint) ghost has no rim pass: no edge bits
     int bits = 0;
     int cx = int(id.x), cy = int(id.y);
     if (cx < grid && cy < grid && cell_valid(cx, cy)) {
@@ -286,12 +314,16 @@ uniform vec4 channels;        // what the ghost adds to R, G, B
 uniform int stop_crossings;
 uniform vec2 viewport;        // the target's pixels (a band of the full-size image: its rows)
 
-// The drawn ghost's own values: its uniforms, or in a batched draw its instance's job.
-int ghost_first_vertex() { return batched ? jobs[gl_InstanceID].steps.z : first_vertex; }
-int ghost_stop_crossings() { return batched ? jobs[gl_InstanceID].steps.w : stop_crossings; }
-float ghost_triangle_flux() { return batched ? jobs[gl_InstanceID].flux.x : triangle_flux; }
-vec2 ghost_offset_mm() { return batched ? jobs[gl_InstanceID].flux.yz : offset_mm; }
-vec4 ghost_channels() { return batched ? jobs[gl_InstanceID].channels : channels; }
+// A batched draw's ghost of this vertex: its vertices are the (grid + 1)^2 from the draw's first_vertex on,
+// one ghost's after another.
+int draw_job() { return first_job + (gl_VertexID - first_vertex) / ((grid + 1) * (grid + 1)); }
+
+// The drawn ghost's own values: its uniforms, or in a batched draw its job.
+int ghost_first_vertex() { return batched ? jobs[draw_job()].steps.z : first_vertex; }
+int ghost_stop_crossings() { return batched ? jobs[draw_job()].steps.w : stop_crossings; }
+float ghost_triangle_flux() { return batched ? jobs[draw_job()].flux.x : triangle_flux; }
+vec2 ghost_offset_mm() { return batched ? jobs[draw_job()].flux.yz : offset_mm; }
+vec4 ghost_channels() { return batched ? jobs[draw_job()].channels : channels; }
 
 ivec3 triangle_corners(int tri) {
     int cell = tri / 2;
@@ -441,8 +473,10 @@ out vec2 v_uv0;
 out vec2 v_uv1;
 out vec2 v_uv2;
 out float v_irradiance;
+#ifndef FAINT
 out vec3 v_bary;           // barycentric: 1 at this corner
 flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
+#endif
 flat out vec4 v_channels;
 flat out int v_stop_crossings;
 uniform int rim_mode;      // ghost_raster_frag's: 2 draws only the triangles near the rim (ghost_shade_comp's bits)
@@ -504,6 +538,20 @@ void emit_grown_corner(ivec3 i, int corner, bool drop) {
 }
 #endif
 
+#ifdef FAINT
+// A grid vertex of a batched draw of faint ghosts (point sampling, no rim pass, no splats), drawn by the
+// indices ghost_shade_comp wrote (write_cell_indices: the triangles a ghost drawn alone keeps), so shaded once
+// however many triangles share it rather than once per triangle corner; without the rim's values (v_bary,
+// v_outer), which cost every triangle and every pixel.
+void main() {
+    vec4 q = vertices[3 * gl_VertexID];
+    vec4 w = vertices[3 * gl_VertexID + 2];
+    v_channels = ghost_channels();
+    v_stop_crossings = ghost_stop_crossings();
+    gl_Position = w.z > 0.5 ? clip_position(q.xy) : vec4(2.0, 2.0, 2.0, 1.0);  // a lost ray: only in points
+    emit_values(q, vertices[3 * gl_VertexID + 1], w);
+}
+#else
 void main() {
     int tri = gl_VertexID / 3;
     int corner = gl_VertexID - 3 * tri;
@@ -537,6 +585,7 @@ void main() {
     emit_values(q, s, w);
 #endif
 }
+#endif
 )GLSL";
 
 // One 3 x 3-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
@@ -633,8 +682,10 @@ in vec2 v_uv0;
 in vec2 v_uv1;
 in vec2 v_uv2;
 in float v_irradiance;
+#ifndef FAINT
 in vec3 v_bary;
 flat in int v_outer;
+#endif
 flat in vec4 v_channels;       // the ghost's (ghost_channels)
 flat in int v_stop_crossings;
 uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
@@ -645,19 +696,26 @@ uniform int rim_mode;          // 0 plain, 1 reduced interior, 2 full-resolution
 uniform float rim_reduce;      // target pixels per reduced pixel (mode 2)
 out vec4 colour;
 
-float sdf(vec2 uv) {
-    return texture(iris_sdf, uv / (2.0 * iris_extent) + 0.5).r;
+// An iris texture at uv (stop radii). It has one level, filtered alike near and far (IrisTextures), so a
+// faint ghost's draw, which takes no derivatives, reads level 0: the same, for less.
+float iris_texel(sampler2D t, vec2 uv) {
+#ifdef FAINT
+    return textureLod(t, uv / (2.0 * iris_extent) + 0.5, 0.0).r;
+#else
+    return texture(t, uv / (2.0 * iris_extent) + 0.5).r;
+#endif
 }
 
-float ringing_at(vec2 uv) {
-    return texture(iris_ringing, uv / (2.0 * iris_extent) + 0.5).r;
-}
+float sdf(vec2 uv) { return iris_texel(iris_sdf, uv); }
+
+float ringing_at(vec2 uv) { return iris_texel(iris_ringing, uv); }
 
 // Distance in pixels to where f (linear across the pixel) reaches 0, positive where f < 0.
 float pixels_inside(float f) {
     return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
 }
 
+#ifndef FAINT
 // The rim pass's share of the pixel (rim_mode 1 or 2), from its distance to the rim at its centre: to r_rel = 1,
 // to the iris (s: its signed distances at the stop crossings) and to the edges along dropped cells.
 float rim_weight(vec3 s, int stop_crossings) {
@@ -672,6 +730,7 @@ float rim_weight(vec3 s, int stop_crossings) {
     float interior = smoothstep(1.0, 3.0, rim_mode == 1 ? d : d / rim_reduce);
     return rim_mode == 1 ? interior : 1.0 - interior;
 }
+#endif
 
 // The iris's transmission at the stop crossings' coordinates: with ringing its fringes; else 1, or 0 where any
 // crossing is outside.
@@ -716,6 +775,20 @@ void main() {
     float iris = iris_at(uv0, uv1, uv2, ringing ? vec3(-1.0) : iris_distances(uv0, uv1, uv2, stop_crossings), stop_crossings);
     if (iris <= 0.0 && !ringing) discard;
     colour = v_channels * (light * iris * weight * m.x);
+}
+#elif defined(FAINT)
+// A faint ghost (ghost_raster_vert's FAINT): no rim pass, so no derivatives: the iris read at level 0, and
+// only at the ghost's own stop crossings (a loop over them, which llvmpipe leaves when every pixel of its
+// block has, in place of three conditional reads).
+void main() {
+    if (v_r_rel > 1.0) discard;
+    float iris = 1.0;
+    for (int c = 0; c < v_stop_crossings; ++c) {
+        vec2 uv = c == 0 ? v_uv0 : c == 1 ? v_uv1 : v_uv2;
+        iris *= ringing ? ringing_at(uv) : sdf(uv) > 0.0 ? 0.0 : 1.0;
+    }
+    if (iris <= 0.0 && !ringing) discard;
+    colour = v_channels * (v_irradiance * v_transmission * iris);
 }
 #else
 void main() {

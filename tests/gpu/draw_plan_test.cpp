@@ -244,6 +244,39 @@ TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
     EXPECT_TRUE(batch_ghosts({}, plans, 250, false).empty());
 }
 
+// Faint ghosts in chunks that fit the vertex buffer, each chunk's runs of one grid and level ordered by level,
+// then grid (each level's target bound once a chunk), their jobs, vertices and triangle indices (6 a cell)
+// one run after another; later bands draw only the full-size ones.
+TEST(BatchFaint, RunsOfOneGridAndLevelByLevelInChunksThatFit) {
+    std::vector<GhostPlan> plans(6);
+    plans[0] = {true, 8, 16};  // 81 vertices, 64 cells
+    plans[1] = {true, 9, 4};   // 100 vertices, 81 cells
+    plans[2] = {true, 8, 16};
+    plans[3] = {true, 8, 4};
+    plans[4] = {true, 9, 4};
+    plans[5] = {true, 19, 1};  // 400: over the buffer alone
+    const auto chunks = batch_faint({0, 1, 2, 3, 4, 5}, plans, 350, 0);
+    ASSERT_EQ(chunks.size(), 3u);
+    // Level 1/1, then 1/4 (grid 8, then 9), then 1/16, split where the next ghost would overflow.
+    ASSERT_EQ(chunks[0].size(), 1u);
+    EXPECT_EQ(chunks[0][0].ghosts, std::vector<std::size_t>{5});
+    ASSERT_EQ(chunks[1].size(), 2u);
+    EXPECT_EQ(chunks[1][0].ghosts, std::vector<std::size_t>{3});
+    EXPECT_EQ(chunks[1][0].reduce, 4);
+    EXPECT_EQ(chunks[1][1].ghosts, (std::vector<std::size_t>{1, 4}));
+    EXPECT_EQ(chunks[1][1].grid, 9);
+    EXPECT_EQ(chunks[1][1].first_job, 1u);
+    EXPECT_EQ(chunks[1][1].first_vertex, 81u);
+    EXPECT_EQ(chunks[1][1].first_index, 6u * 64u);
+    ASSERT_EQ(chunks[2].size(), 1u);  // 81 + 200 + 81 > 350
+    EXPECT_EQ(chunks[2][0].ghosts, (std::vector<std::size_t>{0, 2}));
+    EXPECT_EQ(chunks[2][0].first_vertex, 0u);
+    const auto later = batch_faint({0, 1, 2, 3, 4, 5}, plans, 350, 1);
+    ASSERT_EQ(later.size(), 1u);
+    EXPECT_EQ(later[0][0].ghosts, std::vector<std::size_t>{5});
+    EXPECT_TRUE(batch_faint({}, plans, 350, 0).empty());
+}
+
 TEST(FullTargetBands, CoverEveryRowOnceWithinTheLimit) {
     const FullBands one = full_target_bands(7680, 4320, 400e6, false);
     EXPECT_EQ(one.count, 2);
@@ -344,9 +377,11 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
 }
 
-// The batched draw of faint ghosts (one trace, one shade and one instanced draw per grid and level) makes the
-// image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands.
-TEST(BatchedFaintGhosts, SameImageAsOneDrawEach) {
+// The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
+// image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
+// the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).
+class BatchedFaintGhosts : public ::testing::TestWithParam<bool> {};
+TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
     FlareView view;
     view.width = 320;
@@ -357,6 +392,7 @@ TEST(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     options.visibility = everything_faint(view.width, view.height);
     options.full_target_bytes = 16.0 * view.width * view.height / 3.0;  // three bands
     options.styles = {{0, 6, {2.0, 0.5, 1.0}, {1.5, -1.0}}};
+    options.ringing = GetParam();
     const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
     std::vector<float> batched(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
     renderer.render_add(system, view, lights, options, batched);
@@ -373,6 +409,7 @@ TEST(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     for (std::size_t i = 0; i < alone.size(); ++i) largest = std::max(largest, static_cast<double>(std::abs(batched[i] - alone[i])));
     EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
 }
+INSTANTIATE_TEST_SUITE_P(SharpAndRinging, BatchedFaintGhosts, ::testing::Bool());
 
 // render_add at a level (for ghosts the caller blurs): an image of the view reduced by that level, holding what
 // the full-size render holds averaged over each level pixel's block, with no ghost drawn finer (a ghost drawn

@@ -99,6 +99,20 @@ struct BatchJob {
 std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& todo, const std::vector<GhostPlan>& plans,
                                                 std::size_t capacity, bool per_ghost_power);
 
+// Faint ghosts of one grid and level in a chunk of PassPlan::batched: traced, shaded and drawn together,
+// their jobs, grid vertices and triangle indices (6 a cell) one run after another in the chunk's buffers.
+struct FaintRun {
+    int grid = 0, reduce = 1;
+    std::vector<std::size_t> ghosts;
+    std::size_t first_job = 0, first_vertex = 0, first_index = 0;
+};
+// The batched ghosts (drawn in band `band`: later bands only the full-size ones) in chunks whose vertices fit
+// `capacity` (a ghost larger alone), each chunk's runs ordered by level, then grid: a chunk's ghosts are
+// traced before any is drawn and each level's target bound once, where a barrier or a change of target makes
+// a software rasteriser finish what it has queued.
+std::vector<std::vector<FaintRun>> batch_faint(const std::vector<std::size_t>& batched, const std::vector<GhostPlan>& plans,
+                                               std::size_t capacity, int band);
+
 // The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
 // as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
 // with kMargin rows more on either side, which the 3 x 3 splats of points just outside it reach into.
