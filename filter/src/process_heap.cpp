@@ -27,7 +27,7 @@ namespace lensfx::filter {
 namespace {
 
 #if defined(__GLIBC__)
-constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for huge pages up front: a 1080p job's
+constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for huge pages up front: a 1080p job's peak heap
 constexpr std::size_t kHugePage = std::size_t{2} << 20;     // x86-64's and arm64's (4 KiB granule) THP size
 constexpr int kTopPad = 64 << 20;                            // each heap growth at least this much
 constexpr int kHeapBlockLimit = 32 << 20;  // glibc's largest mmap threshold: a 1080p RGBA float target fits under it

@@ -129,10 +129,6 @@ std::pair<int, int> reaching(const std::vector<BilinearTap>& taps, int s0, int s
     return {first, end};
 }
 
-}  // namespace
-
-namespace {
-
 // One source of add_resized_each: its taps, the output rows and columns it reaches (r), and its widened rows.
 struct Resize {
     Region r;
