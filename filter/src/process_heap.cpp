@@ -26,7 +26,7 @@ namespace lensfx::filter {
 
 namespace {
 
-#if defined(__GLIBC__)
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)  // under ASan tune_process_heap uses none of these
 constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for huge pages up front: a 1080p job's peak heap
 constexpr std::size_t kHugePage = std::size_t{2} << 20;     // x86-64's and arm64's (4 KiB granule) THP size
 constexpr int kTopPad = 64 << 20;                            // each heap growth at least this much
