@@ -101,6 +101,11 @@ std::array<double, 4> pupil_box(const Setup& s, int channel, const optics::Vec3&
     return {x0 - cell, y0 - cell, x1 + cell, y1 + cell};
 }
 
+// Where a stored ray line (cx, ax, cy, ay) lies at inverse depth w: pixel = c + a w.
+std::array<double, 2> line_at(const std::array<float, 4>& l, double w) {
+    return {static_cast<double>(l[0]) + static_cast<double>(l[1]) * w, static_cast<double>(l[2]) + static_cast<double>(l[3]) * w};
+}
+
 void fill_grid_point(const Setup& s, RayTable& t, int gx, int gy) {
     const optics::Vec3 p = sensor_point(s, gx * t.cell_w, gy * t.cell_h);
     for (int c = 0; c < t.channels; ++c) {
@@ -124,8 +129,7 @@ double focus_spread(const RayTable& t) {
         for (int gy = 0; gy < t.grid_y; ++gy)
             for (int gx = 0; gx < t.grid_x; ++gx) {
                 const auto at_focus = [&](int k) {
-                    const auto& l = t.line[t.at(c, gx, gy, k)];
-                    return std::array<double, 2>{double{l[0]} + double{l[1]} * t.focus_w, double{l[2]} + double{l[3]} * t.focus_w};
+                    return line_at(t.line[t.at(c, gx, gy, k)], t.focus_w);
                 };
                 double mx = 0.0, my = 0.0, n = 0.0;
                 for (int k = 0; k < t.samples; ++k)
@@ -210,8 +214,8 @@ double convergence_offset_px(const RayTable& t) {
                 for (int k = 0; k < t.samples; ++k) {
                     const std::size_t i = t.at(c, gx, gy, k);
                     if (t.weight[i] <= 0.0f) continue;
-                    const auto& l = t.line[i];
-                    mx += double{l[0]} + double{l[1]} * t.focus_w, my += double{l[2]} + double{l[3]} * t.focus_w, n += 1.0;
+                    const auto [x, y] = line_at(t.line[i], t.focus_w);
+                    mx += x, my += y, n += 1.0;
                 }
                 if (n > 0.0) offset = std::max(offset, std::hypot(mx / n - gx * t.cell_w, my / n - gy * t.cell_h));
             }
@@ -225,9 +229,7 @@ double scene_scale(const RayTable& t, int channel, double w) {
     for (int s = 0; s < t.samples; ++s) {
         const std::size_t a = t.at(channel, gx, gy, s), b = t.at(channel, gx + 1, gy, s);
         if (t.weight[a] <= 0.0f || t.weight[b] <= 0.0f) continue;
-        const auto& lb = t.line[b];
-        const auto& la = t.line[a];
-        sum += ((double{lb[0]} + double{lb[1]} * w) - (double{la[0]} + double{la[1]} * w)) / t.cell_w;
+        sum += (line_at(t.line[b], w)[0] - line_at(t.line[a], w)[0]) / t.cell_w;
         ++n;
     }
     return n > 0 ? sum / n : 0.0;

@@ -254,7 +254,7 @@ void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* k
         for (int y = iy0; y < iy1; ++y) {
             double* to = t.row(s, y - (y0 - ry)) + (ix0 - (x0 - rx));
             const float* from = rgb.data() + at(ix0, y) + job.channel;
-            for (int x = ix0; x < ix1; ++x, from += 3) *to++ = *from;
+            for (int x = ix0; x < ix1; ++x, from += 3) *to++ = static_cast<double>(*from);
         }
         t.convolve(s);
         for (int y = y0; y < y0 + h; ++y) {

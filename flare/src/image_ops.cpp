@@ -151,9 +151,9 @@ std::optional<Resize> resize_of(const RgbView& dst, const ConstRgbView& src, con
     const auto [cy0, cy1] = reaching(ys, lit.y0 - src.y, lit.y1 - src.y);
     r = intersection(r, Region{region.x0 + cx0, region.y0 + cy0, region.x0 + cx1, region.y0 + cy1});
     if (r.empty()) return std::nullopt;
-    return std::optional<Resize>(std::in_place, r, std::move(ys), region.y0,
-                                 WidenedRows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0),
-                                                   all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)}));
+    return Resize{r, std::move(ys), region.y0,
+                  WidenedRows(src, {all_xs.begin() + static_cast<std::ptrdiff_t>(r.x0 - region.x0),
+                                    all_xs.begin() + static_cast<std::ptrdiff_t>(r.x1 - region.x0)})};
 }
 
 // Row y of dst += the resize's row y.
