@@ -297,7 +297,7 @@ private:
     // The imaging and power of `ghosts` from a cache file; false (nothing kept) for a foreign, stale,
     // truncated or damaged one.
     bool load(const std::string& path, const std::string& key) {
-        std::ifstream in = flare::open_cache_file(path);
+        flare::CacheFile in = flare::open_cache_file(path);
         std::uint64_t n = 0;
         if (!flare::read_key(in, key) || !in.read(reinterpret_cast<char*>(&n), sizeof n) || n != ghosts.size()) return false;
         std::vector<optics::GhostImaging> im(ghosts.size());

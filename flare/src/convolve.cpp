@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <atomic>
 #include <complex>
-#include <fstream>
 #include <string>
 #include <string_view>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <future>
 #include <map>
@@ -75,6 +75,11 @@ bool same_lines(const std::string& a, const std::string& b) {
     return lines(a) == lines(b);
 }
 
+// The largest wisdom file read: two runs (pan1080, CandleGlass) left 56 kB, and a cache used for a day of varied
+// runs held 160 kB. A larger file is a miss; the next save replaces it with that run's wisdom alone, so the
+// file cannot grow without bound either.
+constexpr std::uintmax_t kMaxWisdomBytes = std::uintmax_t{1} << 20;
+
 // What the planner knows, kept in the cache folder (keep_fft_wisdom_in): planning a size takes some 3 ms of
 // CPU even with FFTW_ESTIMATE (a frame's extended groups convolve at a dozen sizes), and with the wisdom of
 // an earlier run a fraction of that. Read at the first plan; written back once, when the folder changes or
@@ -91,10 +96,10 @@ struct Wisdom {
     void import() {
         imported = true;
         if (dir.empty()) return;
-        std::ifstream in = open_cache_file(file());
+        CacheFile in = open_cache_file(file(), kMaxWisdomBytes);  // larger: a miss, replaced at the next save
         if (!in || !read_key(in, key())) return;
         std::string text;
-        std::getline(in, text, '\0');  // the rest of the file: wisdom is text
+        std::getline(in, text, '\0');  // the rest of the file (wisdom is text), at most its size when opened
         if (!text.empty() && fftw_import_wisdom_from_string(text.c_str())) known = std::move(text);
     }
     // Written back when planning has added to it (best effort: a cache that cannot be written only costs time).
