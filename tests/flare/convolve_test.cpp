@@ -14,8 +14,16 @@
 #include <malloc.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#if defined(__SANITIZE_ADDRESS__)
-#include <sanitizer/allocator_interface.h>
+#if defined(__SANITIZE_ADDRESS__)  // GCC's mark; clang's is __has_feature(address_sanitizer)
+#define LENSFX_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LENSFX_TEST_ASAN 1
+#endif
+#endif
+#if defined(LENSFX_TEST_ASAN)
+// ASan's runtime (sanitizer/allocator_interface.h, not installed with every compiler).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
 #endif
 
 #include <flare/convolve.h>
@@ -185,7 +193,7 @@ namespace {
 
 // Bytes the process's allocator has handed out and not had back.
 std::size_t heap_in_use() {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(LENSFX_TEST_ASAN)
     return __sanitizer_get_current_allocated_bytes();
 #else
     const struct mallinfo2 m = ::mallinfo2();
