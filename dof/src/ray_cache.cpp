@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 
 #include <fmt/core.h>
@@ -51,7 +50,7 @@ bool plausible(const Header& h) {
 }
 
 // Reads exactly n bytes into data and adds them to the checksum.
-bool read_bytes(std::ifstream& in, void* data, std::size_t n, Checksum& sum) {
+bool read_bytes(std::istream& in, void* data, std::size_t n, Checksum& sum) {
     if (!in.read(static_cast<char*>(data), static_cast<std::streamsize>(n))) return false;
     sum.add(data, n);
     return true;
@@ -93,14 +92,13 @@ std::string ray_table_path(const std::string& dir, const std::string& key) {
 }
 
 std::optional<RayTable> read_ray_table(const std::string& path, const std::string& key) {
-    std::ifstream in = flare::open_cache_file(path);  // a FIFO or device under the name is a miss, not a wait
+    flare::CacheFile in = flare::open_cache_file(path);  // a FIFO or device under the name is a miss, not a wait
     if (!in) return std::nullopt;
-    std::error_code ec;
-    const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
+    const std::uintmax_t file_size = in.size();  // of the file opened, not of whatever holds the name now
     char magic[sizeof kMagic] = {};
     Checksum sum;
     std::uint64_t key_size = 0;
-    if (ec || !in.read(magic, sizeof magic) || std::string(magic, sizeof magic) != std::string(kMagic, sizeof kMagic) ||
+    if (!in.read(magic, sizeof magic) || std::string(magic, sizeof magic) != std::string(kMagic, sizeof kMagic) ||
         !read_bytes(in, &key_size, sizeof key_size, sum) || key_size != key.size())
         return std::nullopt;
     std::string stored(key.size(), '\0');

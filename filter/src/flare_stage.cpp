@@ -297,7 +297,7 @@ private:
     // The imaging and power of `ghosts` from a cache file; false (nothing kept) for a foreign, stale,
     // truncated or damaged one.
     bool load(const std::string& path, const std::string& key) {
-        std::ifstream in = flare::open_cache_file(path);
+        flare::CacheFile in = flare::open_cache_file(path);
         std::uint64_t n = 0;
         if (!flare::read_key(in, key) || !in.read(reinterpret_cast<char*>(&n), sizeof n) || n != ghosts.size()) return false;
         std::vector<optics::GhostImaging> im(ghosts.size());
@@ -439,6 +439,7 @@ struct FlareStage::State {
     FrameReport report;  // of the last frame
     std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
     LevelSums level_sums;  // the extended lights' groups, shared by a frame's lights; let go at the frame's end
+    flare::ConvolveScratch convolve_scratch;  // the footprint FFTs' arrays, kept for the next group and frame
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(with_files_checked(std::move(s))),
@@ -721,7 +722,7 @@ struct FlareStage::State {
         const double core = core_texels(geo);
         if (is_extended(light)) {
             add_extended_starburst(starburst_texture(), lens.system.aperture, settings.starburst_scale, {light.x, light.y, lens.f_number, core}, energy,
-                                   *light.shape, image);
+                                   *light.shape, image, convolve_scratch);
         } else {
             // Spread over the light's own extent: a sun 8 px across has spikes 8 px wide.
             const optics::SourceEllipse source{light.extent.major, light.extent.minor, light.extent.angle_deg};
@@ -792,7 +793,7 @@ struct FlareStage::State {
         // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
         if (renderer->last_stats().ghosts_drawn == 0) return;
         t = Clock::now();
-        convolve_footprint(sums.scratch, w, h, flare::reduced_footprint(*light.shape, level), group.magnification);
+        convolve_footprint(sums.scratch, w, h, flare::reduced_footprint(*light.shape, level), group.magnification, convolve_scratch);
         // At full size straight into the frame; reduced, into the level's sum.
         std::vector<float>& into = level == 1 ? rgb : sums.at(level, w, h);
         const RgbView view_of{into.data(), 0, 0, w, h};
@@ -819,7 +820,7 @@ struct FlareStage::State {
         tally.ghosts_ms += ms_since(t);
         if (group.magnification != 0.0) {
             t = Clock::now();
-            convolve_footprint(flare.rgb, view.width, view.height, *light.shape, group.magnification);
+            convolve_footprint(flare.rgb, view.width, view.height, *light.shape, group.magnification, convolve_scratch);
             tally.extended_ms += ms_since(t);
         }
         const RgbView display{rgb.data(), 0, 0, view.width, view.height};
@@ -859,9 +860,10 @@ std::vector<std::pair<std::string, double>> FlareStage::frame_figures() const { 
 const LightSummary& FlareStage::summary() const { return state_->summary; }
 
 std::size_t FlareStage::held_bytes(const ImageSpec& spec) const {
-    if (!state_->parts.ghosts || state_->lens.measured) return 0;
+    const std::size_t convolve = state_->convolve_scratch.held_bytes();
+    if (!state_->parts.ghosts || state_->lens.measured) return convolve;
     const double bytes = gpu::render_target_bytes(spec.full_width, spec.full_height);
-    return static_cast<std::size_t>(std::min(bytes, 0x1p60));  // a hostile window is refused by the stage itself
+    return static_cast<std::size_t>(std::min(bytes, 0x1p60)) + convolve;  // a hostile window is refused by the stage itself
 }
 
 // lights -> fade -> model -> composite.

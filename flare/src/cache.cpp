@@ -1,9 +1,15 @@
 // The disk cache's folder rule, key hash and atomic writer (cache.h).
 #include <flare/cache.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -141,10 +147,85 @@ void write_key(std::ostream& out, std::string_view key) {
     out.write(key.data(), static_cast<std::streamsize>(key.size()));
 }
 
-std::ifstream open_cache_file(const std::filesystem::path& path) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) return {};
-    return std::ifstream(path, std::ios::binary);
+// A read-only stream buffer over an open descriptor (closed with it) that gives at most `left` bytes.
+class CacheFile::Buffer : public std::streambuf {
+public:
+    Buffer(int fd, std::uintmax_t left) : fd_(fd), left_(left) {}
+    ~Buffer() override { ::close(fd_); }
+    Buffer(const Buffer&) = delete;
+    Buffer& operator=(const Buffer&) = delete;
+
+protected:
+    int_type underflow() override {
+        if (gptr() == egptr()) {
+            const std::size_t got = read_some(chunk_.data(), chunk_.size());
+            if (got == 0) return traits_type::eof();
+            setg(chunk_.data(), chunk_.data(), chunk_.data() + got);
+        }
+        return traits_type::to_int_type(*gptr());
+    }
+    // What the buffer holds, then large reads straight into the caller's memory (tables of megabytes).
+    std::streamsize xsgetn(char* to, std::streamsize n) override {
+        std::streamsize done = 0;
+        while (done < n) {
+            if (gptr() == egptr()) {
+                const auto want = static_cast<std::size_t>(n - done);
+                if (want >= chunk_.size()) {
+                    const std::size_t got = read_some(to + done, want);
+                    if (got == 0) break;
+                    done += static_cast<std::streamsize>(got);
+                    continue;
+                }
+                if (traits_type::eq_int_type(underflow(), traits_type::eof())) break;
+            }
+            const std::streamsize k = std::min(n - done, static_cast<std::streamsize>(egptr() - gptr()));
+            std::memcpy(to + done, gptr(), static_cast<std::size_t>(k));
+            gbump(static_cast<int>(k));
+            done += k;
+        }
+        return done;
+    }
+
+private:
+    // Up to n bytes from the file, never past `left_`; 0 at its end or on an error.
+    std::size_t read_some(char* to, std::size_t n) {
+        const auto want = static_cast<std::size_t>(std::min<std::uintmax_t>(n, left_));
+        if (want == 0) return 0;
+        ssize_t got = 0;
+        do got = ::read(fd_, to, want);
+        while (got < 0 && errno == EINTR);
+        if (got <= 0) {
+            left_ = 0;
+            return 0;
+        }
+        left_ -= static_cast<std::uintmax_t>(got);
+        return static_cast<std::size_t>(got);
+    }
+
+    int fd_;
+    std::uintmax_t left_;
+    std::array<char, std::size_t{64} << 10> chunk_{};
+};
+
+CacheFile::CacheFile() : std::istream(nullptr) { setstate(std::ios::failbit); }
+CacheFile::CacheFile(int fd, std::uintmax_t size)
+    : std::istream(nullptr), buffer_(std::make_unique<Buffer>(fd, size)), size_(size) {
+    rdbuf(buffer_.get());
+}
+CacheFile::~CacheFile() = default;
+
+CacheFile open_cache_file(const std::filesystem::path& path, std::uintmax_t max_bytes) {
+    // Open, then check what was opened: a name checked first could be swapped before the open.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) return CacheFile();
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size < 0 || static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
+        ::close(fd);
+        return CacheFile();
+    }
+    // A regular file's reads do not block; the flag served the open alone.
+    if (const int flags = ::fcntl(fd, F_GETFL); flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+    return CacheFile(fd, static_cast<std::uintmax_t>(st.st_size));
 }
 
 bool read_key(std::istream& in, std::string_view key) {

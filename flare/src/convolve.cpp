@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <atomic>
 #include <complex>
-#include <fstream>
 #include <string>
 #include <string_view>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <future>
 #include <map>
@@ -75,6 +75,11 @@ bool same_lines(const std::string& a, const std::string& b) {
     return lines(a) == lines(b);
 }
 
+// The largest wisdom file read: two runs (pan1080, CandleGlass) left 56 kB, and a cache used for a day of varied
+// runs held 160 kB. A larger file is a miss; the next save replaces it with that run's wisdom alone, so the
+// file cannot grow without bound either.
+constexpr std::uintmax_t kMaxWisdomBytes = std::uintmax_t{1} << 20;
+
 // What the planner knows, kept in the cache folder (keep_fft_wisdom_in): planning a size takes some 3 ms of
 // CPU even with FFTW_ESTIMATE (a frame's extended groups convolve at a dozen sizes), and with the wisdom of
 // an earlier run a fraction of that. Read at the first plan; written back once, when the folder changes or
@@ -91,10 +96,10 @@ struct Wisdom {
     void import() {
         imported = true;
         if (dir.empty()) return;
-        std::ifstream in = open_cache_file(file());
+        CacheFile in = open_cache_file(file(), kMaxWisdomBytes);  // larger: a miss, replaced at the next save
         if (!in || !read_key(in, key())) return;
         std::string text;
-        std::getline(in, text, '\0');  // the rest of the file: wisdom is text
+        std::getline(in, text, '\0');  // the rest of the file (wisdom is text), at most its size when opened
         if (!text.empty() && fftw_import_wisdom_from_string(text.c_str())) known = std::move(text);
     }
     // Written back when planning has added to it (best effort: a cache that cannot be written only costs time).
@@ -112,6 +117,8 @@ struct Wisdom {
     ~Wisdom() { save(); }
 };
 
+// The process's, as FFTW's planner and wisdom are (convolve.h): the lock every plan is made under, and the
+// wisdom kept.
 std::mutex plan_mutex;
 Wisdom wisdom;
 
@@ -140,38 +147,46 @@ struct Scratch {
     std::size_t count = 0, half = 0;
 };
 
-// Scratch kept between convolutions (a frame convolves its groups one after another, at a few sizes): a fresh
-// allocation's first touch costs more than the transforms on this machine. At most kKeptScratch are kept, the
-// largest, so what stays is bounded by three transforms of kMaxFftSide^2 values (some 50 MB).
-constexpr std::size_t kKeptScratch = 3;
-std::mutex scratch_mutex;
-std::vector<Scratch> kept_scratch;
+}  // namespace
 
-Scratch take_scratch(std::size_t count, std::size_t half) {
+// The arrays a ConvolveScratch keeps, the largest first, under a lock (the calls sharing it may run at once).
+struct ConvolveScratch::Pool {
+    std::mutex mutex;
+    std::vector<Scratch> kept;
+};
+
+namespace {
+
+// At most kKeptScratch arrays are kept, the largest, so what stays is bounded by three transforms of
+// kMaxFftSide^2 values (some 50 MB).
+constexpr std::size_t kKeptScratch = 3;
+
+Scratch take_scratch(ConvolveScratch::Pool& pool, std::size_t count, std::size_t half) {
     {
-        const std::lock_guard<std::mutex> lock(scratch_mutex);
-        for (auto it = kept_scratch.begin(); it != kept_scratch.end(); ++it)
+        const std::lock_guard<std::mutex> lock(pool.mutex);
+        for (auto it = pool.kept.begin(); it != pool.kept.end(); ++it)
             if (it->count >= count && it->half >= half) {
                 Scratch s = std::move(*it);
-                kept_scratch.erase(it);
+                pool.kept.erase(it);
                 return s;
             }
     }
     return {reals(count), spectrum(half), count, half};
 }
 
-void keep_scratch(Scratch s) {
-    const std::lock_guard<std::mutex> lock(scratch_mutex);
-    kept_scratch.push_back(std::move(s));
-    std::sort(kept_scratch.begin(), kept_scratch.end(), [](const Scratch& a, const Scratch& b) { return a.count > b.count; });
-    if (kept_scratch.size() > kKeptScratch) kept_scratch.resize(kKeptScratch);
+void keep_scratch(ConvolveScratch::Pool& pool, Scratch s) {
+    const std::lock_guard<std::mutex> lock(pool.mutex);
+    pool.kept.push_back(std::move(s));
+    std::sort(pool.kept.begin(), pool.kept.end(), [](const Scratch& a, const Scratch& b) { return a.count > b.count; });
+    if (pool.kept.size() > kKeptScratch) pool.kept.resize(kKeptScratch);
 }
 
-// Scratch taken for a convolution and given back when it ends (or throws).
+// Scratch taken from a pool for a convolution and given back when it ends (or throws).
 struct HeldScratch {
+    ConvolveScratch::Pool& pool;
     Scratch s;
-    HeldScratch(std::size_t count, std::size_t half) : s(take_scratch(count, half)) {}
-    ~HeldScratch() { keep_scratch(std::move(s)); }
+    HeldScratch(ConvolveScratch::Pool& p, std::size_t count, std::size_t half) : pool(p), s(take_scratch(p, count, half)) {}
+    ~HeldScratch() { keep_scratch(pool, std::move(s)); }
     HeldScratch(const HeldScratch&) = delete;
     HeldScratch& operator=(const HeldScratch&) = delete;
 };
@@ -185,8 +200,8 @@ struct Transform {
     HeldScratch kernel_held;
     fftw_complex* kernel_spec;
 
-    Transform(int x, int y)
-        : nx(x), ny(y), plans(plans_for(x, y)), kernel_held(count(), half()), kernel_spec(kernel_held.s.spec.get()) {}
+    Transform(int x, int y, ConvolveScratch::Pool& pool)
+        : nx(x), ny(y), plans(plans_for(x, y)), kernel_held(pool, count(), half()), kernel_spec(kernel_held.s.spec.get()) {}
     std::size_t count() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
     std::size_t half() const { return static_cast<std::size_t>(nx / 2 + 1) * static_cast<std::size_t>(ny); }
     double* row(Scratch& s, int y) const { return s.values.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(nx); }
@@ -233,11 +248,22 @@ void keep_fft_wisdom_in(const std::string& dir) {
     wisdom.known.clear();
 }
 
-void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* kernel, int rx, int ry) {
+ConvolveScratch::ConvolveScratch() : pool_(std::make_unique<Pool>()) {}
+ConvolveScratch::~ConvolveScratch() = default;
+
+std::size_t ConvolveScratch::held_bytes() const {
+    const std::lock_guard<std::mutex> lock(pool_->mutex);
+    std::size_t bytes = 0;
+    for (const Scratch& s : pool_->kept) bytes += s.count * sizeof(double) + s.half * sizeof(fftw_complex);
+    return bytes;
+}
+
+void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* kernel, int rx, int ry, ConvolveScratch& scratch) {
     if (width <= 0 || height <= 0) return;
+    ConvolveScratch::Pool& pool = *scratch.pool_;
     const int tw = tile_side(width, rx), th = tile_side(height, ry);
-    Transform t(fft_size(tw + 2 * rx), fft_size(th + 2 * ry));
-    HeldScratch first(t.count(), t.half());
+    Transform t(fft_size(tw + 2 * rx), fft_size(th + 2 * ry), pool);
+    HeldScratch first(pool, t.count(), t.half());
     t.set_kernel(kernel, 2 * rx + 1, 2 * ry + 1, first.s);
     // One tile reads each channel whole before writing it, so its results go straight back into rgb.
     const bool one_tile = tw == width && th == height;
@@ -273,7 +299,7 @@ void convolve_rgb(std::vector<float>& rgb, int width, int height, const float* k
         for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) run(jobs[j], s);
     };
     if (t.count() >= kThreadedValues) {
-        HeldScratch second(t.count(), t.half());
+        HeldScratch second(pool, t.count(), t.half());
         std::future<void> helper = std::async(std::launch::async, work, std::ref(second.s));
         work(first.s);
         helper.get();

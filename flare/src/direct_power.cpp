@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
@@ -96,7 +95,7 @@ void DirectPowerTable::save(const std::filesystem::path& path, const std::string
 }
 
 bool DirectPowerTable::load(const std::filesystem::path& path, const std::string& key) {
-    std::ifstream in = open_cache_file(path);
+    CacheFile in = open_cache_file(path);
     std::uint64_t n = 0;
     if (!read_key(in, key)) return false;
     if (!in.read(reinterpret_cast<char*>(&n), sizeof(n)) || n != power_.size()) return false;

@@ -90,7 +90,8 @@ int kernel_reduction(int rx, int ry) { return std::max(rx, ry) / (kMaxKernelRadi
 cv::Mat footprint_kernel(const detect::Shape& shape, double m, int rx, int ry);
 
 // convolve_footprint over the whole image, its kernel's half-widths rx, ry (pixels) known to be in range.
-void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry);
+void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry,
+                    ConvolveScratch& scratch);
 
 }  // namespace
 
@@ -101,7 +102,8 @@ detect::Shape reduced_footprint(detect::Shape shape, int factor) {
     return shape;
 }
 
-void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m) {
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m,
+                        ConvolveScratch& scratch) {
     const FootprintSampler weight_at{shape};
     const int rx = weight_at.reach_x(m), ry = weight_at.reach_y(m);
     if (rx >= FootprintSampler::kMaxReach || ry >= FootprintSampler::kMaxReach) {
@@ -120,20 +122,21 @@ void convolve_footprint(std::vector<float>& rgb, int width, int height, const de
     const int x1 = std::min(width, lit.x1 + rx + 2 * factor), y1 = std::min(height, lit.y1 + ry + 2 * factor);
     const int w = x1 - x0, h = y1 - y0;
     if (2.0 * w * h >= static_cast<double>(width) * height) {
-        convolve_whole(rgb, width, height, shape, m, rx, ry);
+        convolve_whole(rgb, width, height, shape, m, rx, ry, scratch);
         return;
     }
     const auto row_values = static_cast<std::ptrdiff_t>(w) * 3;
     std::vector<float> part(static_cast<std::size_t>(row_values) * static_cast<std::size_t>(h));
     auto at = [&](int y) { return rgb.begin() + (static_cast<std::ptrdiff_t>(y) * width + x0) * 3; };
     for (int y = 0; y < h; ++y) std::copy_n(at(y0 + y), row_values, part.begin() + y * row_values);
-    convolve_whole(part, w, h, shape, m, rx, ry);
+    convolve_whole(part, w, h, shape, m, rx, ry, scratch);
     for (int y = 0; y < h; ++y) std::copy_n(part.begin() + y * row_values, row_values, at(y0 + y));
 }
 
 namespace {
 
-void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry) {
+void convolve_whole(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m, int rx, int ry,
+                    ConvolveScratch& scratch) {
     if (const int factor = kernel_reduction(rx, ry); factor >= 2) {
         // A wide kernel leaves nothing finer than a fraction of its radius: convolve at 1/factor of the
         // size (area averages), with the footprint in those pixels, and enlarge bilinearly (image_ops.h's
@@ -141,14 +144,14 @@ void convolve_whole(std::vector<float>& rgb, int width, int height, const detect
         const int sw = reduced_side(width, factor), sh = reduced_side(height, factor);
         std::vector<float> small(static_cast<std::size_t>(sw) * static_cast<std::size_t>(sh) * 3);
         reduce_area(RgbView{small.data(), 0, 0, sw, sh}, ConstRgbView{rgb.data(), 0, 0, width, height}, factor);
-        convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), m);
+        convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), m, scratch);
         std::fill(rgb.begin(), rgb.end(), 0.0f);
         add_enlarged(RgbView{rgb.data(), 0, 0, width, height}, ConstRgbView{small.data(), 0, 0, sw, sh}, factor);
         return;
     }
     const cv::Mat kernel = footprint_kernel(shape, m, rx, ry);
     if (kernel.empty()) return;  // nothing of the footprint left: the ghost stays the point light's
-    convolve_rgb(rgb, width, height, kernel.ptr<float>(), rx, ry);
+    convolve_rgb(rgb, width, height, kernel.ptr<float>(), rx, ry, scratch);
 }
 
 cv::Mat footprint_kernel(const detect::Shape& shape, double m, int rx, int ry) {
@@ -210,7 +213,7 @@ double own_radius_px(const detect::Shape& shape) {
 
 // The texture's part of an extended light's diffraction (see add_extended_starburst).
 void add_extended_texture(const optics::Starburst& sb, const optics::StarburstPlacement& at, const std::array<double, 3>& power,
-                          const detect::Shape& shape, const optics::SensorImage& image) {
+                          const detect::Shape& shape, const optics::SensorImage& image, ConvolveScratch& scratch) {
     const double f_number = at.f_number, cx = at.cx, cy = at.cy;
     const double pixel_w_mm = image.pixel_w_mm, pixel_h_mm = image.pixel_h_mm;
     const int width = image.width, height = image.height;
@@ -234,7 +237,7 @@ void add_extended_texture(const optics::Starburst& sb, const optics::StarburstPl
     const double core = std::max(at.core_radius_texels, radius_px * std::min(pixel_w_mm, pixel_h_mm) / texel_mm);
     if (core >= 0.5 * sb.size * std::numbers::sqrt2) return;  // the whole texture lies within it
     optics::splat_starburst(sb, {cx - x0, cy - y0, f_number, core}, power, {own.data(), w, h, pixel_w_mm, pixel_h_mm});
-    convolve_footprint(own, w, h, shape, 1.0);
+    convolve_footprint(own, w, h, shape, 1.0, scratch);
     // Over the light's own pixels the recording already holds its light, spread by the lens or not: the
     // pattern is new only beyond them (as a point light's beyond its pixel), so nothing blooms the source.
     for (int y = 0; y < h; ++y) {
@@ -274,7 +277,7 @@ void add_tail_rows(const float* from_rows, int y0, int rows, const FootprintSamp
 // enlarged bilinearly and added beyond the light's own pixels.
 void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
                        const optics::StarburstPlacement& at, const std::array<double, 3>& power, const detect::Shape& shape,
-                       const optics::SensorImage& image) {
+                       const optics::SensorImage& image, ConvolveScratch& scratch) {
     const double f_number = at.f_number, cx = at.cx, cy = at.cy;
     const int width = image.width, height = image.height;
     const FootprintSampler footprint{shape};
@@ -291,7 +294,7 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
         for (int x = clamp_to(std::floor(ux - inner), sw); x < clamp_to(std::ceil(ux + inner) + 1.0, sw); ++x)
             if (std::hypot(x + 0.5 - ux, y + 0.5 - uy) < inner)
                 std::fill_n(small.begin() + (static_cast<std::ptrdiff_t>(y) * sw + x) * 3, 3, 0.0f);
-    convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), 1.0);
+    convolve_footprint(small, sw, sh, reduced_footprint(shape, factor), 1.0, scratch);
     // Enlarged to the frame, pixel centres kept: reduced pixel i covers full pixels [i f, (i + 1) f); a band of
     // rows at a time (each pixel's value as the whole frame's enlargement gives it), so no frame-sized buffer is
     // made and zeroed (that cost ~50 ms a 1080p frame, mostly page faults).
@@ -309,15 +312,15 @@ void add_extended_tail(const optics::Starburst& sb, const optics::Aperture& aper
 
 void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
                             const optics::StarburstPlacement& at, const std::array<double, 3>& power,
-                            const detect::Shape& shape, const optics::SensorImage& image) {
+                            const detect::Shape& shape, const optics::SensorImage& image, ConvolveScratch& scratch) {
     if (sb.size == 0 || !(at.f_number > 0.0) || !(length_scale > 0.0) || !std::isfinite(at.cx) || !std::isfinite(at.cy)) return;
     // As a point light's: the texture at the lens's f-number gives up the tail's share, and the tail,
     // lengthened by length_scale, runs to the frame edge.
     const optics::StarburstTail tail = optics::starburst_tail_share(sb, aperture, at.f_number, length_scale);
     std::array<double, 3> texture_power{};
     for (std::size_t c = 0; c < 3; ++c) texture_power[c] = power[c] * (1.0 - tail.share[c]);
-    add_extended_texture(sb, at, texture_power, shape, image);
-    add_extended_tail(sb, aperture, length_scale, at, power, shape, image);
+    add_extended_texture(sb, at, texture_power, shape, image, scratch);
+    add_extended_tail(sb, aperture, length_scale, at, power, shape, image, scratch);
 }
 
 std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& ghosts,

@@ -3,7 +3,6 @@
 #include <flare/starburst_cache.h>
 
 #include <cstdint>
-#include <fstream>
 #include <optional>
 
 #include <fmt/core.h>
@@ -32,7 +31,7 @@ std::string starburst_key(const optics::Aperture& a, const optics::StarburstOpti
 }
 
 std::optional<optics::Starburst> read_starburst(const std::string& path, const std::string& key) {
-    std::ifstream in = open_cache_file(path);
+    CacheFile in = open_cache_file(path);
     if (!in) return std::nullopt;
     char magic[sizeof(kStarburstMagic)] = {};
     optics::Starburst sb;

@@ -6,7 +6,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -346,7 +345,7 @@ constexpr int kFieldsPerGhost = 15;
 int BoundsTable::load() {
     const std::string file = path();
     if (file.empty()) return 0;
-    std::ifstream in = flare::open_cache_file(file);
+    flare::CacheFile in = flare::open_cache_file(file);
     if (!in) return 0;
     char magic[8];
     std::uint64_t key = 0;

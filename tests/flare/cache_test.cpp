@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <flare/cache.h>
@@ -72,6 +73,61 @@ TEST(Cache, WriterReplacesAtomicallyAndLeavesNoTemporary) {
     EXPECT_EQ(std::distance(fs::directory_iterator(dir / "deeper"), fs::directory_iterator{}), 1) << "no temporary left";
     EXPECT_THROW(flare::write_cache_file("/proc/lensfx-no/x.bin", [](std::ostream&) {}), std::runtime_error);
     EXPECT_FALSE(flare::try_write_cache_file("/proc/lensfx-no/x.bin", [](std::ostream&) {}));
+}
+
+namespace {
+
+// The whole of what a cache file opened as `path` gives, or nullopt for a miss.
+std::optional<std::string> cache_text(const fs::path& path, std::uintmax_t max_bytes = flare::kMaxCacheFileBytes) {
+    flare::CacheFile in = flare::open_cache_file(path, max_bytes);
+    if (!in) return std::nullopt;
+    std::string text(static_cast<std::size_t>(in.size()) + 1, '\0');  // one byte more than the file holds
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(in.gcount()));
+    return text;
+}
+
+}  // namespace
+
+// open_cache_file opens, then checks the open descriptor: only a regular file of at most max_bytes, named
+// directly, is read; a symbolic link (to a file, a FIFO or a device), a FIFO or a folder is a miss at once.
+TEST(Cache, OnlyARegularFileWithinTheCapIsOpened) {
+    const fs::path dir = temp_dir("open");
+    std::ofstream(dir / "file.bin", std::ios::binary) << "cached";
+    EXPECT_EQ(cache_text(dir / "file.bin"), "cached");
+    EXPECT_EQ(flare::open_cache_file(dir / "file.bin").size(), 6u);
+    EXPECT_EQ(cache_text(dir / "file.bin", 6), "cached");
+    EXPECT_EQ(cache_text(dir / "file.bin", 5), std::nullopt) << "over the cap";
+    ASSERT_EQ(::mkfifo((dir / "fifo.bin").c_str(), 0600), 0);
+    fs::create_symlink(dir / "file.bin", dir / "to-file.bin");
+    fs::create_symlink(dir / "fifo.bin", dir / "to-fifo.bin");
+    fs::create_symlink("/dev/zero", dir / "to-zero.bin");
+    fs::create_directory(dir / "folder.bin");
+    for (const char* name : {"fifo.bin", "to-file.bin", "to-fifo.bin", "to-zero.bin", "folder.bin", "missing.bin"}) {
+        const flare::CacheFile in = flare::open_cache_file(dir / name);  // returns: a FIFO with no writer does not block
+        EXPECT_FALSE(in.is_open()) << name;
+        EXPECT_TRUE(in.fail()) << name;
+    }
+    fs::remove_all(dir);
+}
+
+// What is read is the file that was opened and checked, to the size it had then, whatever the name is
+// turned into afterwards (here a FIFO, which read through the name would block).
+TEST(Cache, AnOpenedFileIsReadFromItsDescriptor) {
+    const fs::path dir = temp_dir("swap");
+    const fs::path path = dir / "file.bin";
+    std::ofstream(path, std::ios::binary) << std::string(200000, 'a');  // more than the reader's buffer
+    flare::CacheFile in = flare::open_cache_file(path);
+    ASSERT_TRUE(in.is_open());
+    fs::remove(path);
+    ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+    std::string first(10, '\0'), rest(200000, '\0');
+    ASSERT_TRUE(in.read(first.data(), static_cast<std::streamsize>(first.size())));
+    in.read(rest.data(), static_cast<std::streamsize>(rest.size()));
+    EXPECT_EQ(in.gcount(), 200000 - 10) << "the file's bytes, and no more";
+    EXPECT_TRUE(in.eof());
+    EXPECT_EQ(first + rest.substr(0, 200000 - 10), std::string(200000, 'a'));
+    fs::remove_all(dir);
 }
 
 TEST(Cache, KeyIsReadBackOnlyWhenWhole) {

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -10,7 +11,20 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <malloc.h>
+#include <sys/stat.h>
 #include <unistd.h>
+#if defined(__SANITIZE_ADDRESS__)  // GCC's mark; clang's is __has_feature(address_sanitizer)
+#define LENSFX_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LENSFX_TEST_ASAN 1
+#endif
+#endif
+#if defined(LENSFX_TEST_ASAN)
+// ASan's runtime (sanitizer/allocator_interface.h, not installed with every compiler).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
+#endif
 
 #include <flare/convolve.h>
 
@@ -52,9 +66,10 @@ Case random_case(int w, int h, int rx, int ry, unsigned seed) {
 
 // Every value within float rounding of the direct sum (relative to the image's largest result).
 void expect_direct(int w, int h, int rx, int ry, unsigned seed) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     Case c = random_case(w, h, rx, ry, seed);
     const std::vector<double> want = direct(c.rgb, w, h, c.kernel, rx, ry);
-    flare::convolve_rgb(c.rgb, w, h, c.kernel.data(), rx, ry);
+    flare::convolve_rgb(c.rgb, w, h, c.kernel.data(), rx, ry, scratch);
     double largest = 0.0;
     for (double v : want) largest = std::max(largest, std::abs(v));
     ASSERT_GT(largest, 0.0);
@@ -71,13 +86,14 @@ TEST(FftConvolve, IsTheDirectSumOnAWholeImage) {
 }
 
 TEST(FftConvolve, PutsTheKernelTheRightWayRound) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     // One light at (10, 6): the result is the kernel itself, its centre on the light, not turned.
     const int w = 24, h = 14, rx = 3, ry = 2;
     std::vector<float> kernel(static_cast<std::size_t>((2 * rx + 1) * (2 * ry + 1)));
     for (std::size_t i = 0; i < kernel.size(); ++i) kernel[i] = static_cast<float>(i + 1);
     std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
     rgb[static_cast<std::size_t>(6 * w + 10) * 3 + 1] = 1.0f;
-    flare::convolve_rgb(rgb, w, h, kernel.data(), rx, ry);
+    flare::convolve_rgb(rgb, w, h, kernel.data(), rx, ry, scratch);
     for (int b = -ry; b <= ry; ++b)
         for (int a = -rx; a <= rx; ++a)
             EXPECT_NEAR(rgb[static_cast<std::size_t>((6 + b) * w + 10 + a) * 3 + 1], kernel[static_cast<std::size_t>((ry + b) * (2 * rx + 1) + rx + a)], 1e-4)
@@ -86,12 +102,13 @@ TEST(FftConvolve, PutsTheKernelTheRightWayRound) {
 }
 
 TEST(FftConvolve, TilesALargeImageSeamlessly) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     // Wider and taller than one transform holds: several tiles each way, lights on their seams.
     const int w = flare::kMaxFftSide + 300, h = 2 * flare::kMaxFftSide - 200, rx = 5, ry = 9;
     Case c = random_case(w, h, rx, ry, 4);
     std::vector<float> kernel = c.kernel;
     // The direct sum checked on rows and columns along the seams only (the whole is slow in a debug build).
-    flare::convolve_rgb(c.rgb, w, h, kernel.data(), rx, ry);
+    flare::convolve_rgb(c.rgb, w, h, kernel.data(), rx, ry, scratch);
     Case again = random_case(w, h, rx, ry, 4);
     auto direct_at = [&](int x, int y, std::size_t ch) {
         double s = 0.0;
@@ -169,5 +186,106 @@ TEST(FftConvolve, KeepsThePlannersWisdomInTheCacheFolder) {
     expect_direct(83, 47, 7, 3, 10);
     flare::keep_fft_wisdom_in("");
     EXPECT_NE(wisdom_text(dir).find("fftw_wisdom"), std::string::npos);
+    std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+// Bytes the process's allocator has handed out and not had back.
+std::size_t heap_in_use() {
+#if defined(LENSFX_TEST_ASAN)
+    return __sanitizer_get_current_allocated_bytes();
+#else
+    const struct mallinfo2 m = ::mallinfo2();
+    return m.uordblks + m.hblkhd;
+#endif
+}
+
+}  // namespace
+
+// The transforms' arrays belong to the ConvolveScratch they came from, kept for its next convolution and
+// freed with it: nothing of them is left with the process (they were once kept for its life, some 50 MB).
+TEST(FftConvolve, ScratchIsKeptByItsOwnerAndFreedWithIt) {
+    const int w = 700, h = 500, rx = 6, ry = 4;  // over kThreadedValues: three arrays (kernel, two threads)
+    Case c = random_case(w, h, rx, ry, 12);
+    {
+        flare::ConvolveScratch warm;  // the size's plans made first: they are the process's
+        std::vector<float> rgb = c.rgb;
+        flare::convolve_rgb(rgb, w, h, c.kernel.data(), rx, ry, warm);
+    }
+    std::vector<float> first = c.rgb, again = c.rgb;
+    const std::size_t before = heap_in_use();
+    {
+        flare::ConvolveScratch scratch;
+        EXPECT_EQ(scratch.held_bytes(), 0u);
+        flare::convolve_rgb(first, w, h, c.kernel.data(), rx, ry, scratch);
+        const std::size_t values = static_cast<std::size_t>(flare::fft_size(w + 2 * rx)) * static_cast<std::size_t>(flare::fft_size(h + 2 * ry));
+        EXPECT_GE(scratch.held_bytes(), 3 * values * sizeof(double)) << "kept for the next convolution";
+        const std::size_t kept = heap_in_use();
+        flare::convolve_rgb(again, w, h, c.kernel.data(), rx, ry, scratch);
+        EXPECT_LT(heap_in_use(), kept + (std::size_t{1} << 20)) << "the second convolution reuses the arrays";
+        EXPECT_EQ(again, first);
+    }
+    EXPECT_LT(heap_in_use(), before + (std::size_t{1} << 20)) << "freed with their owner, not kept by the process";
+}
+
+namespace {
+
+// The one fftw-wisdom file's path in dir (empty when there is none or more than one).
+std::filesystem::path wisdom_file(const std::filesystem::path& dir) {
+    std::vector<std::filesystem::path> found;
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+        if (entry.path().filename().string().rfind("fftw-wisdom-", 0) == 0) found.push_back(entry.path());
+    return found.size() == 1 ? found[0] : std::filesystem::path();
+}
+
+// Bytes this process has read through read(2) and its kin so far (/proc/self/io's rchar).
+std::uint64_t bytes_read() {
+    std::ifstream io("/proc/self/io");
+    std::string name;
+    std::uint64_t value = 0;
+    while (io >> name >> value)
+        if (name == "rchar:") return value;
+    return 0;
+}
+
+}  // namespace
+
+// A wisdom file planted in the cache folder that is huge (64 MiB) or a FIFO is no wisdom: it is not read (a
+// FIFO would block the reader, a huge file fill memory), the convolution is right, and the next save makes a
+// real wisdom file in its place.
+TEST(FftConvolve, AHugeOrSpecialWisdomFileIsAMissAndReplaced) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("lensfx-fft-hostile-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    flare::keep_fft_wisdom_in(dir.string());
+    expect_direct(131, 29, 3, 2, 13);  // sizes no other test plans: each step below plans a new one
+    flare::keep_fft_wisdom_in("");
+    const std::filesystem::path file = wisdom_file(dir);
+    ASSERT_FALSE(file.empty());
+    // Its key kept, then 64 MiB of text with no end of string: all of it would be read as wisdom.
+    std::string key(8, '\0');
+    std::ifstream(file, std::ios::binary).read(key.data(), 8);
+    key.resize(8 + *reinterpret_cast<const std::uint64_t*>(key.data()));
+    std::ifstream(file, std::ios::binary).read(key.data(), static_cast<std::streamsize>(key.size()));
+    {
+        std::ofstream huge(file, std::ios::binary | std::ios::trunc);
+        huge << key;
+        const std::string block(std::size_t{1} << 20, ' ');
+        for (int i = 0; i < 64; ++i) huge << block;
+    }
+    ASSERT_EQ(std::filesystem::file_size(file), key.size() + (std::size_t{64} << 20));
+    flare::keep_fft_wisdom_in(dir.string());
+    const std::uint64_t read_before = bytes_read();
+    expect_direct(151, 41, 2, 3, 14);
+    EXPECT_LT(bytes_read() - read_before, std::uint64_t{1} << 20) << "the huge file was read";
+    flare::keep_fft_wisdom_in("");
+    EXPECT_LT(std::filesystem::file_size(file), std::uintmax_t{1} << 20) << "replaced by the planner's wisdom";
+    // A FIFO with no writer: a miss at once (a blocking read would hang here), replaced by a regular file.
+    std::filesystem::remove(file);
+    ASSERT_EQ(::mkfifo(file.c_str(), 0600), 0);
+    flare::keep_fft_wisdom_in(dir.string());
+    expect_direct(171, 17, 4, 1, 15);
+    flare::keep_fft_wisdom_in("");
+    EXPECT_TRUE(std::filesystem::is_regular_file(file));
     std::filesystem::remove_all(dir);
 }

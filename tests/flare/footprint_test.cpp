@@ -49,6 +49,7 @@ detect::Shape right_bar() {
 }  // namespace
 
 TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     const detect::Shape bar = right_bar();
     const int w = 121, h = 41;
     for (const double m : {1.0, 2.0, -1.5, 0.5, -0.25}) {
@@ -57,7 +58,7 @@ TEST(Footprint, ConvolutionScalesAndTurnsTheFootprintWithTheGhost) {
         rgb[light * 3] = 1.0f;
         rgb[light * 3 + 1] = 2.0f;
         rgb[light * 3 + 2] = 3.0f;
-        flare::convolve_footprint(rgb, w, h, bar, m);
+        flare::convolve_footprint(rgb, w, h, bar, m, scratch);
         for (int c = 0; c < 3; ++c) {
             const auto [cx, sum] = centroid_x(rgb, w, c);
             EXPECT_NEAR(sum, c + 1.0, 1e-4 * (c + 1)) << "m " << m;
@@ -97,6 +98,7 @@ TEST(Footprint, GroupsFollowEachGhostsBlurAndMagnification) {
 // A few lit pixels in a large image are convolved over the part the kernel reaches from them only: the same
 // values as the whole of a small image holding them, 0 everywhere else, also where the part meets the border.
 TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     const detect::Shape bar = right_bar();
     const int w = 600, h = 400, sw = 71, sh = 25;  // the small image: the light at its centre, and the kernel's reach
     for (const auto& [lx, ly] : {std::pair{300, 200}, std::pair{2, 397}}) {
@@ -108,8 +110,8 @@ TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
             large[static_cast<std::size_t>((ly + dy) * w + lx + dx) * 3 + 1] = 2.0f;
             small[static_cast<std::size_t>((ly + dy - oy) * sw + lx + dx - ox) * 3 + 1] = 2.0f;
         }
-        flare::convolve_footprint(large, w, h, bar, 2.0);
-        flare::convolve_footprint(small, sw, sh, bar, 2.0);
+        flare::convolve_footprint(large, w, h, bar, 2.0, scratch);
+        flare::convolve_footprint(small, sw, sh, bar, 2.0, scratch);
         double worst = 0.0, outside = 0.0, sum = 0.0;
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x) {
@@ -128,6 +130,7 @@ TEST(Footprint, OnlyThePartTheLightReachesIsConvolved) {
 }
 
 TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     // A 40 px square footprint at magnification -5 (a 200 px kernel): done at a quarter of the size.
     detect::Shape square;
     square.width = square.height = 10;
@@ -138,7 +141,7 @@ TEST(Footprint, WideKernelsRunOnAReducedImageAndKeepTheSumAndCentre) {
     const int w = 640, h = 300;
     std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
     rgb[static_cast<std::size_t>(150 * w + 420) * 3 + 1] = 5.0f;
-    flare::convolve_footprint(rgb, w, h, square, -5.0);
+    flare::convolve_footprint(rgb, w, h, square, -5.0, scratch);
     const auto [cx, sum] = centroid_x(rgb, w, 1);
     EXPECT_NEAR(sum, 5.0, 0.05);
     EXPECT_NEAR(cx - 420.0, -5.0 * 20.0, 3.0);
@@ -167,6 +170,7 @@ detect::Shape bar_footprint() {
 }  // namespace
 
 TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     // The bar brighter on its left, at magnifications that enlarge, shrink, turn round and reduce the image.
     const detect::Shape bar = bar_footprint();
     const int w = 400, h = 300;
@@ -177,7 +181,7 @@ TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
         // A point of power 1 (value 1 in one pixel) peaks at the share: the bound is tight.
         std::vector<float> point(static_cast<std::size_t>(w * h * 3), 0.0f);
         point[static_cast<std::size_t>(150 * w + 200) * 3] = 1.0f;
-        flare::convolve_footprint(point, w, h, bar, m);
+        flare::convolve_footprint(point, w, h, bar, m, scratch);
         float peak = 0.0f;
         for (std::size_t i = 0; i < point.size(); i += 3) peak = std::max(peak, point[i]);
         EXPECT_LE(peak, 1.0001 * share) << m;
@@ -186,7 +190,7 @@ TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
         // ghost of 37 pixels, each of sum 1.
         std::vector<float> ghost(static_cast<std::size_t>(w * h * 3), 0.0f);
         for (int k = 0; k < 37; ++k) ghost[static_cast<std::size_t>((140 + k % 6) * w + 190 + k / 6) * 3] = k == 0 ? 0.64f : 0.01f;
-        flare::convolve_footprint(ghost, w, h, bar, m);
+        flare::convolve_footprint(ghost, w, h, bar, m, scratch);
         float ghost_peak = 0.0f;
         for (std::size_t i = 0; i < ghost.size(); i += 3) ghost_peak = std::max(ghost_peak, ghost[i]);
         EXPECT_LE(ghost_peak, 1.0001 * share) << m;
@@ -199,6 +203,7 @@ TEST(Footprint, PeakShareBoundsAnyConvolvedGhostAndIsReachedByAPoint) {
 }
 
 TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     // The pattern (texels half a pixel, ~64 px across) round a 22 x 14 px bar, in the frame and cut by its
     // right edge, against the rule done over the whole frame: each point's pattern within the bar's radius
     // (the disc of its area) left out, the rest spread over the bar, and nothing added on the bar's own
@@ -220,10 +225,10 @@ TEST(Footprint, ExtendedStarburstLeavesOutWhatTheSourcesOwnPixelsHold) {
         const double cy = 80.2;
         std::vector<float> whole(static_cast<std::size_t>(w * h * 3), 0.0f);
         optics::splat_starburst(sb, {cx, cy, f_number, 2.0 * radius_px}, power, {whole.data(), w, h, pixel, pixel});
-        flare::convolve_footprint(whole, w, h, bar, 1.0);
+        flare::convolve_footprint(whole, w, h, bar, 1.0, scratch);
         std::vector<float> added(whole.size(), 0.0f);
         // A vanishing length scale leaves the texture alone (its tail share and the tail both vanish).
-        flare::add_extended_starburst(sb, optics::Aperture{6, 0.0, 0.0}, 1e-12, {cx, cy, f_number, core}, power, bar, {added.data(), w, h, pixel, pixel});
+        flare::add_extended_starburst(sb, optics::Aperture{6, 0.0, 0.0}, 1e-12, {cx, cy, f_number, core}, power, bar, {added.data(), w, h, pixel, pixel}, scratch);
         float peak = 0.0f;
         for (float v : whole) peak = std::max(peak, v);
         ASSERT_GT(peak, 0.0f);
@@ -286,6 +291,7 @@ SpikeCut cut_spike(const std::vector<float>& rgb, int w, double cx, int row0, in
 // Issue 16: --starburst-scale lengthens an extended light's spikes as a point light's (the light far out
 // grows with the scale) and leaves them as wide (it once enlarged the whole texture: fat petals).
 TEST(Footprint, ExtendedStarburstScaleLengthensTheSpikesWithoutWideningThem) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     optics::StarburstOptions options;
     options.size = 128;
     options.pupil_samples = 24;
@@ -298,7 +304,7 @@ TEST(Footprint, ExtendedStarburstScaleLengthensTheSpikesWithoutWideningThem) {
     std::vector<SpikeCut> cuts;
     for (const double scale : {1.0, 4.0}) {
         std::vector<float> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
-        flare::add_extended_starburst(sb, hexagon, scale, {cx, cy, f_number, 1.0}, power, disc, {rgb.data(), w, h, pixel, pixel});
+        flare::add_extended_starburst(sb, hexagon, scale, {cx, cy, f_number, 1.0}, power, disc, {rgb.data(), w, h, pixel, pixel}, scratch);
         cuts.push_back(cut_spike(rgb, w, cx, 20, 120, 30));  // 180 to 280 px above the light
         const auto [low, high] = std::minmax_element(rgb.begin(), rgb.end());
         EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v); }));
@@ -314,6 +320,7 @@ TEST(Footprint, ExtendedStarburstScaleLengthensTheSpikesWithoutWideningThem) {
 // Issue 14, class 1: lights far outside the frame draw nothing and touch no memory out of bounds (an int
 // overflow once wrote out of the buffer), and a footprint of enormous cells ends (it once looped forever).
 TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
+    flare::ConvolveScratch scratch;  // the FFTs' arrays (flare/convolve.h)
     optics::StarburstOptions options;
     options.size = 64;
     options.pupil_samples = 16;
@@ -336,7 +343,7 @@ TEST(Footprint, LightsFarOutsideAndHugeCellsAreBounded) {
         for (const double m : {0.01, 0.5, 2.0}) {
             std::vector<float> rgb(static_cast<std::size_t>(w * h * 3), 0.0f);
             rgb[static_cast<std::size_t>(24 * w + 32) * 3] = 1.0f;
-            flare::convolve_footprint(rgb, w, h, huge, m);  // ends; spreads the point or leaves it
+            flare::convolve_footprint(rgb, w, h, huge, m, scratch);  // ends; spreads the point or leaves it
             EXPECT_TRUE(std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v) && v >= 0.0f; })) << cell << " m " << m;
         }
     }

@@ -50,7 +50,8 @@ public:
     std::vector<std::pair<std::string, double>> frame_figures() const override;
     // The GL targets of a prescription's ghosts at the display window (gpu::render_target_bytes): kept for
     // the next frame, and above 4K, where they are released, most of their memory stays with the driver
-    // (llvmpipe gave back 0.07 of 0.72 GB at 8K).
+    // (llvmpipe gave back 0.07 of 0.72 GB at 8K); and the footprint FFTs' arrays the frames so far kept
+    // (flare::ConvolveScratch, at most some 50 MB).
     std::size_t held_bytes(const ImageSpec& spec) const override;
     // Lights per frame so far, and the brightest luminance seen (for the end-of-run line).
     [[nodiscard]] const LightSummary& summary() const;

@@ -8,9 +8,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iosfwd>
+#include <istream>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -48,9 +48,40 @@ void write_cache_file(const std::string& path, const std::function<void(std::ost
 // The same, returning false instead of throwing (callers for which the cache is best effort).
 bool try_write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write);
 
-// A cache file opened for reading, or a closed stream (read as a miss) when the path is not a regular file:
-// a FIFO or device left in the cache folder would otherwise block or feed the reader for ever.
-std::ifstream open_cache_file(const std::filesystem::path& path);
+// The largest cache file a reader takes by default: above any file the tool writes (a starburst texture
+// is at most 8192^2 RGB floats, 805 MB); each reader bounds what it allocates by its own header too.
+inline constexpr std::uintmax_t kMaxCacheFileBytes = std::uintmax_t{4} << 30;
+
+// A cache file opened for reading, or a miss when the name is not a regular file of at most max_bytes: a
+// FIFO or device left in the cache folder would otherwise block or feed the reader for ever, and a huge
+// file fill its memory. Opened first (not following a symbolic link; non-blocking, so a FIFO does not wait
+// for a writer) and then checked through the open descriptor, so the name cannot be swapped for something
+// else between the check and the open.
+class CacheFile;
+CacheFile open_cache_file(const std::filesystem::path& path, std::uintmax_t max_bytes = kMaxCacheFileBytes);
+
+// A cache file open for reading (open_cache_file): an input stream over the descriptor that was opened and
+// checked, so what is read is the file that passed the checks even if the name is replaced meanwhile, and no
+// more than the size it had then. A miss is a stream that fails at once. Neither copied nor moved.
+class CacheFile : public std::istream {
+public:
+    CacheFile();  // a miss
+    ~CacheFile() override;
+    CacheFile(const CacheFile&) = delete;
+    CacheFile& operator=(const CacheFile&) = delete;
+
+    bool is_open() const { return buffer_ != nullptr; }
+    // The file's size when it was opened, in bytes (0 for a miss).
+    std::uintmax_t size() const { return size_; }
+
+private:
+    class Buffer;  // reads the descriptor, at most size_ bytes
+    CacheFile(int fd, std::uintmax_t size);
+    friend CacheFile open_cache_file(const std::filesystem::path& path, std::uintmax_t max_bytes);
+
+    std::unique_ptr<Buffer> buffer_;
+    std::uintmax_t size_ = 0;
+};
 
 // The key as a file stores it (its length as uint64, then its bytes), and whether a stream holds exactly it.
 void write_key(std::ostream& out, std::string_view key);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <detect/source.h>
+#include <flare/convolve.h>
 #include <optics/ghosts.h>
 #include <optics/starburst.h>
 
@@ -34,9 +35,11 @@ std::vector<FootprintGroup> footprint_groups(const std::vector<optics::Ghost>& g
 // (negative: turned round), normalised to keep the image's sum. One DFT-based filter of the image, so the
 // cost follows the frame and kernel size, not the source's pixel count; only of the part the kernel reaches
 // from the lit pixels where that is under half the image (the rest stays 0); kernels wider than
-// kMaxKernelRadius pixels are applied to the image reduced so that they are half that.
+// kMaxKernelRadius pixels are applied to the image reduced so that they are half that. The FFTs' arrays
+// come from `scratch` (flare/convolve.h).
 inline constexpr int kMaxKernelRadius = 64;
-void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m);
+void convolve_footprint(std::vector<float>& rgb, int width, int height, const detect::Shape& shape, double m,
+                        ConvolveScratch& scratch);
 
 // The footprint in the pixels of an image reduced by `factor` (flare/image_ops.h's reduced_side mapping).
 detect::Shape reduced_footprint(detect::Shape shape, int factor);
@@ -55,9 +58,10 @@ double footprint_peak_share(const detect::Shape& shape, double m);
 // Only the region the pattern and the footprint reach is drawn and convolved. As for a point light, the
 // texture gives up its tail's share and the tail (optics::draw_starburst_tail, lengthened by
 // length_scale, --starburst-scale) runs to the frame edge, spread over the footprint too: the spikes of a
-// source are as wide as the source, and a longer scale lengthens them without widening them.
+// source are as wide as the source, and a longer scale lengthens them without widening them. The FFTs'
+// arrays come from `scratch`.
 void add_extended_starburst(const optics::Starburst& sb, const optics::Aperture& aperture, double length_scale,
                             const optics::StarburstPlacement& at, const std::array<double, 3>& power,
-                            const detect::Shape& shape, const optics::SensorImage& image);
+                            const detect::Shape& shape, const optics::SensorImage& image, ConvolveScratch& scratch);
 
 }  // namespace lensfx::flare
