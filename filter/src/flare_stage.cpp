@@ -425,8 +425,8 @@ struct FlareStage::State {
     LensModel lens;
     LightFinder finder;
     LightSummary summary;
-    std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first frame with a light
-    std::unique_ptr<gpu::FlareRenderer> renderer;
+    std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first ghost render
+    std::unique_ptr<gpu::FlareRenderer> renderer;  // made at the first ghost render (ghost_renderer)
     std::unique_ptr<gpu::MeasuredRenderer> measured_renderer;
     FlareParts parts;
     gpu::GpuFlareOptions render_options;  // grid, ringing, accelerations, --flare-look styles
@@ -573,10 +573,9 @@ struct FlareStage::State {
     }
 
     // The flare image of this frame, cleared: the frame's own R, G, B when `into_frame`, else a buffer over the
-    // display window; with the working space resolved, the renderer made and the plate's visibility for culling.
+    // display window; with the working space resolved and the plate's visibility for culling.
     std::vector<float>& start_flare(Frame& frame, const FlareGeometry& geo, const std::vector<detect::Light>& found, bool into_frame) {
         resolve_primaries();
-        if (!renderer && parts.ghosts) renderer = std::make_unique<gpu::FlareRenderer>(gpu_session->get());
         // Scene culling needs the plate the flare is added to: not with --flare-only or --layer (composited later).
         const bool layer = !settings.layer.empty();
         const bool scene_cull = parts.ghosts && !settings.no_scene_cull && !settings.flare_only && !layer;
@@ -590,6 +589,13 @@ struct FlareStage::State {
         }
         flare_rgb.assign(static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) * 3, 0.0f);
         return flare_rgb;
+    }
+
+    // The ghost renderer, made at the first render: the light's direct power, starburst and footprint groups
+    // are computed first, while the context made ahead (GpuSession::prepare) may still be starting up.
+    gpu::FlareRenderer& ghost_renderer() {
+        if (!renderer) renderer = std::make_unique<gpu::FlareRenderer>(gpu_session->get());
+        return *renderer;
     }
 
     // Step 3, the model: every light's starburst and ghosts added into `rgb` (the display window) at the light's
@@ -620,7 +626,7 @@ struct FlareStage::State {
         }
         if (!point_lights.empty()) {
             const auto t = Clock::now();
-            renderer->render_add(lens.system, view, point_lights, render_options, rgb);
+            ghost_renderer().render_add(lens.system, view, point_lights, render_options, rgb);
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
         }
@@ -777,7 +783,7 @@ struct FlareStage::State {
         group_options.draw_only = group.ghosts;
         const bool spread = group.magnification != 0.0;
         if (!spread) {
-            renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, rgb);
+            ghost_renderer().render_add(lens.system, view, std::span(&scaled, 1), group_options, rgb);
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
             return;
@@ -787,7 +793,7 @@ struct FlareStage::State {
         const int level = gpu::spread_level(group_options.spread);
         const int w = flare::reduced_side(view.width, level), h = flare::reduced_side(view.height, level);
         sums.scratch.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
-        renderer->render_add(lens.system, view, std::span(&scaled, 1), group_options, sums.scratch, level);
+        ghost_renderer().render_add(lens.system, view, std::span(&scaled, 1), group_options, sums.scratch, level);
         count_ghosts(tally);
         tally.ghosts_ms += ms_since(t);
         // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
@@ -808,7 +814,7 @@ struct FlareStage::State {
         auto t = Clock::now();
         view.only_ghosts = group.ghosts;
         flare::FlareImage flare = gpu::render_band_filtered(
-            lens.system, view, [&](const flare::FlareView& one) { return renderer->render(lens.system, one, render_options); });
+            lens.system, view, [&](const flare::FlareView& one) { return ghost_renderer().render(lens.system, one, render_options); });
         view.only_ghosts.clear();
         if (flare.width != view.width || flare.height != view.height)
             throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,

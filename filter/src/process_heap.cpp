@@ -1,15 +1,18 @@
 // glibc's malloc tuned for a program whose big allocations are frames and render targets of a few tens of MB.
 //
-// By default glibc serves every block over 32 MiB (and, until its threshold adapts, over 128 KiB) from a
-// mapping of its own, given back at free(). Each new frame-sized buffer then takes a page fault per 4 KiB on
-// first touch, in our code and in Mesa's llvmpipe, which zero-fills every texture it makes: about a quarter of
-// the main thread's time on a 1080p frame, and far more on virtual machines, where a fault costs more.
-// Served from one heap advised to use 2 MiB pages, a 33 MB target takes 16 faults instead of 8,100, and a
-// block freed after one frame is reused by the next without faulting again (canon-70-200 on a 1080p frame:
-// 47,700 page faults before, 11,100 after). What the heap keeps is bounded: blocks of 32 MiB and more that
-// its top cannot hold (8K frames and bands) stay mappings of their own, given back at free, and the heap
-// gives back what is free at its top above 288 MiB. bench_memory's 8K sequence peaks at 1.96 GB against
-// 1.89 untuned; with 512 MiB kept for good it was 2.20 GB, with 256 MiB reserved 2.11 GB.
+// By default glibc serves every block over 32 MiB (and, until its threshold adapts, over 128 KiB) from a mapping
+// of its own, given back at free(). Each new frame-sized buffer then takes a page fault per 4 KiB on first
+// touch, in our code and in Mesa's llvmpipe, which zero-fills every texture it makes: about a quarter of the
+// main thread's time on a 1080p frame, and far more on virtual machines, where a fault costs more. Served from
+// one heap advised to use 2 MiB pages, a 33 MB target takes 16 faults instead of 8,100, and a block freed after
+// one frame is reused by the next without faulting again (canon-70-200 on a 1080p frame: 47,700 page faults
+// before, 11,100 after). Every thread allocates from that one heap: glibc would give each new thread (the
+// reader, OpenEXR's and llvmpipe's workers) an arena of its own, mapped in 4 KiB pages that no one advised, and
+// CandleGlass.exr took 4,800 of its 9,900 faults there (about 11 us each on a virtual machine: 50 ms of CPU,
+// most of it on the read's critical path). What the heap keeps is bounded: blocks of 32 MiB and more that its
+// top cannot hold (8K frames and bands) stay mappings of their own, given back at free, and the heap gives back
+// what is free at its top above 288 MiB. bench_memory's 8K sequence peaks at 1.96 GB against 1.89 untuned; with
+// 512 MiB kept for good it was 2.20 GB, with 256 MiB reserved 2.11 GB.
 #include <filter/process_heap.h>
 
 #include <cstdint>
@@ -69,6 +72,7 @@ HeapTuning tune_process_heap() {
 #elif defined(__GLIBC__)
     if (std::string why = reason_to_leave_heap(); !why.empty()) return {false, why};
     mallopt(M_TRIM_THRESHOLD, kTrimThreshold);  // a freed frame is the next frame's memory, unless it is huge
+    mallopt(M_ARENA_MAX, 1);               // worker threads' blocks from this heap too (small ones stay in tcache)
     mallopt(M_TOP_PAD, kTopPad);
     mallopt(M_MMAP_MAX, 0);                // the reservation itself from the heap
     reserve_huge_page_heap();

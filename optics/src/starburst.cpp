@@ -5,6 +5,8 @@
 #include <memory>
 #include <numbers>
 #include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include <fftw3.h>
 #include <fmt/core.h>
@@ -154,17 +156,14 @@ PowerSpectrum iris_power_spectrum(const Aperture& aperture, const StarburstOptio
 
 using XyzPlanes = std::array<std::vector<double>, 3>;
 
-// The pattern in CIE XYZ over the options' wavelengths, o.size texels square. One FFT bin at 550 nm is one
-// texel: wavelength x N x (2 r / m) on the sensor (eq. 2 with z0/D = N).
-XyzPlanes integrate_wavelengths(const PowerSpectrum& spectrum, const StarburstOptions& o) {
+// Rows [y0, y1) of the pattern in CIE XYZ (see integrate_wavelengths), added into xyz.
+void integrate_rows(const PowerSpectrum& spectrum, const StarburstOptions& o, int y0, int y1, XyzPlanes& xyz) {
     const int n = o.size;
-    const std::size_t nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
-    XyzPlanes xyz{std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0)};
     for (double l = o.first_nm; l <= o.last_nm + 1e-9; l += o.step_nm) {
         const std::array<double, 3> cmf = cie1931_xyz(l);
         const double s = kReferenceNm / l;          // texel -> FFT bin at this wavelength
         const double energy = s * s;                // a pattern stretched by 1/s spreads its energy over 1/s^2 the area
-        for (int y = 0; y < n; ++y) {
+        for (int y = y0; y < y1; ++y) {
             for (int x = 0; x < n; ++x) {
                 const double p = spectrum.sample((x - n / 2) * s, (y - n / 2) * s) * energy;
                 const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(n) + static_cast<std::size_t>(x);
@@ -172,6 +171,22 @@ XyzPlanes integrate_wavelengths(const PowerSpectrum& spectrum, const StarburstOp
             }
         }
     }
+}
+
+// The pattern in CIE XYZ over the options' wavelengths, o.size texels square. One FFT bin at 550 nm is one
+// texel: wavelength x N x (2 r / m) on the sensor (eq. 2 with z0/D = N). The rows are shared between the
+// cores (most of a cold run's starburst time): each texel still sums its wavelengths in the same order, so
+// the result does not depend on how many threads there are.
+XyzPlanes integrate_wavelengths(const PowerSpectrum& spectrum, const StarburstOptions& o) {
+    const int n = o.size;
+    const std::size_t nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+    XyzPlanes xyz{std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0), std::vector<double>(nn, 0.0)};
+    const int threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 8u));
+    std::vector<std::jthread> helpers;
+    for (int t = 1; t < threads; ++t)
+        helpers.emplace_back([&, t] { integrate_rows(spectrum, o, n * t / threads, n * (t + 1) / threads, xyz); });
+    integrate_rows(spectrum, o, 0, n / threads, xyz);
+    for (std::jthread& h : helpers) h.join();  // before xyz is returned (moved) from under them
     return xyz;
 }
 

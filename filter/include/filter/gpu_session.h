@@ -1,5 +1,5 @@
 // The one headless GL context of a filter run, shared by the flare renderer and the GPU colour transform:
-// taken by the first stage that needs it (the flare stage at its first light, or the colour output stage at
+// taken by the first stage that needs it (the flare stage at its first ghost render, or the colour output stage at
 // the first frame when --gpu was given) on the pipeline's effect thread, where it stays current. The flare
 // stage has it made ahead on a worker thread, so EGL's start-up overlaps reading the first frame.
 #pragma once

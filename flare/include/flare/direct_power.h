@@ -24,7 +24,8 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
 // interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)). The lens is rotationally
 // symmetric, so only a bladed iris clipped by another aperture makes the power depend on the azimuth.
 // Samples are traced when a lookup first needs them, so a run pays only for the field its lights cross;
-// save/load keep them on disk between runs.
+// save/load keep them on disk between runs. The (up to four) samples one lookup needs are traced side by
+// side on threads of their own.
 class DirectPowerTable {
 public:
     DirectPowerTable() = default;
@@ -48,6 +49,7 @@ private:
     mutable std::vector<std::array<double, 3>> power_;
     mutable std::vector<char> known_;
     const std::array<double, 3>& sample(int i) const;
+    void trace_missing(const std::array<int, 4>& indices) const;
 };
 
 // What the passes depend on, for cache keys: wavelengths and weights at full precision.
