@@ -176,6 +176,7 @@ void register_lens_commands(CLI::App& app) {
     cmd_convert->add_option("-o,--output", *out, "Output .toml file, or - for stdout")->required();
     cmd_convert->callback([in, out] {
         refuse_overwrite(*out, "-o", *in);
+        refuse_special_output(*out, "-o");
         const optics::Lens l = optics::load_lens(*in);
         if (*out == "-") write_stdout(optics::write_lens_toml(l));
         else write_file(*out, optics::write_lens_toml(l));

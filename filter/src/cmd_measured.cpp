@@ -98,6 +98,7 @@ struct FitArgs {
 
 void run_fit(FitArgs& a) {
     refuse_overwrite(a.output, "-o", a.sweep);
+    refuse_special_output(a.output, "-o");
     const std::vector<double> angles = parse_angles(a.angles, "--angles");
     const FrameList list = frames_to_read(a.sweep, a.frames, true);
     if (list.size() != angles.size())
@@ -209,6 +210,7 @@ void write_map(const std::string& path, const std::vector<double>& angles, const
 void run_predict(const PredictArgs& a) {
     const std::vector<double> angles = parse_angles(a.angles, "--angles");
     if (!a.map.empty()) refuse_overwrite(a.map, "--map", a.lens);
+    refuse_special_output(a.map, "--map");
     const auto [w, h] = size_of(a.size);
     const auto [sw, sh] = sensor_of(a.sensor, w, h);
     AnyLensRenderer renderer(a.lens, a.gpu);

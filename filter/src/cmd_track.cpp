@@ -83,6 +83,7 @@ void run_track(TrackSettings& s) {
     s.tracker.fade_in_frames = s.fade_frames;
     s.tracker.fade_out_frames = s.fade_frames;
     refuse_overwrite(s.tracks_out, "--tracks-out", s.input);
+    refuse_special_output(s.tracks_out, "--tracks-out");
     ShotTracker shot(s);
     const MemoryBudget memory = memory_budget_option(s.memory_limit);
     if (s.input == "-") {

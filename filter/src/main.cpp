@@ -10,21 +10,50 @@
 #include <new>
 
 #include <CLI/CLI.hpp>
+#include <fcntl.h>
 #include <fmt/core.h>
+#include <unistd.h>
 
 #include <filter/process_heap.h>
 
 #include "commands.h"
 
+namespace {
+
+// Opens on /dev/null each of stdin, stdout and stderr the program was started without (`2>&-`): else the
+// first file it opens (a cache file, the output) takes that number, and a message meant for stderr would
+// land inside it. stdout is opened read-only, so that writing to it fails as writing a closed stdout did.
+void keep_standard_streams_open() {
+    for (const int fd : {STDIN_FILENO, STDOUT_FILENO, STDERR_FILENO}) {
+        if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+        const int opened = ::open("/dev/null", fd == STDERR_FILENO ? O_WRONLY : O_RDONLY);
+        if (opened >= 0 && opened != fd) {  // a lower number was free too: it is reopened in its turn
+            ::dup2(opened, fd);
+            ::close(opened);
+        }
+    }
+}
+
+// The failure line on stderr; a stderr that cannot take it (full, broken) does not abort the program.
+void say(const std::string& line) noexcept {
+    try {
+        fmt::print(stderr, "lensfx: {}\n", line);
+    } catch (...) {
+    }
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
     using namespace lensfx::filter;
+    keep_standard_streams_open();
     tune_process_heap();  // before the first frame-sized allocation
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
         return 0;
     }
     if (const std::string empty = empty_value_option(argc, argv); !empty.empty()) {
-        fmt::print(stderr, "lensfx: {}= has no value (write {}=VALUE or {} VALUE)\n", empty, empty, empty);
+        say(fmt::format("{}= has no value (write {}=VALUE or {} VALUE)", empty, empty, empty));
         return 2;
     }
     const std::unique_ptr<CLI::App> app = build_app();
@@ -39,19 +68,19 @@ int main(int argc, char** argv) {
         return app->exit(e);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app->exit(e);
-        fmt::print(stderr, "lensfx: {}\n", usage_error_message(*app, e));
+        say(usage_error_message(*app, e));
         return 2;
     } catch (const std::bad_alloc&) {
         // An allocation no budget check foresaw: still one line, with what to do about it.
-        fmt::print(stderr, "lensfx: out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses earlier\n");
+        say("out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses earlier");
         return 1;
     } catch (const std::exception& e) {
-        fmt::print(stderr, "lensfx: {}\n", e.what());
+        say(e.what());
         return 1;
     }
     // What a command printed is only written now: a full or closed stdout is a failure, not a success.
     if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-        fmt::print(stderr, "lensfx: stdout: write failed: {}\n", std::strerror(errno));
+        say(fmt::format("stdout: write failed: {}", std::strerror(errno)));
         return 1;
     }
     return 0;

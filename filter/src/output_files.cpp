@@ -97,6 +97,11 @@ long temporary_pid(const std::string& name) {
 
 bool process_is_gone(long pid) { return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH; }
 
+// What a file that is not a regular one is, for a message.
+const char* kind_of(mode_t mode) {
+    return S_ISDIR(mode) ? "a directory" : S_ISFIFO(mode) ? "a named pipe" : S_ISCHR(mode) || S_ISBLK(mode) ? "a device" : "a special file";
+}
+
 using FileId = std::pair<dev_t, ino_t>;
 
 std::optional<FileId> file_id(const std::string& path) {
@@ -141,8 +146,26 @@ void write_all(int fd, std::string_view bytes, const std::string& what) {
 
 }  // namespace
 
-TempFile::TempFile(const std::string& target) : target_(target) {
-    const fs::path t(target);
+namespace {
+
+// Where a write to `path` lands: the file a symbolic link names (the link is kept and its file replaced),
+// else `path` itself.
+std::string written_path(const std::string& path) {
+    std::error_code ec;
+    if (!fs::is_symlink(path, ec)) return path;
+    const fs::path resolved = fs::weakly_canonical(path, ec);
+    return ec ? path : resolved.string();
+}
+
+}  // namespace
+
+TempFile::TempFile(const std::string& target) : target_(written_path(target)) {
+    // A device, named pipe or directory is never replaced by a file (as root, /dev/null could be).
+    if (struct stat st {}; ::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+        const std::string link = target_ == target ? std::string() : fmt::format(" (a link to {})", target_);
+        throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind_of(st.st_mode)));
+    }
+    const fs::path t(target_);
     const std::string name = fmt::format(".{}{}{}{}", t.stem().string(), kTempTag, ::getpid(), t.extension().string());
     path_ = (t.parent_path() / name).string();
     slot_ = register_temporary(path_);
@@ -157,6 +180,10 @@ TempFile::~TempFile() {
 }
 
 void TempFile::commit() {
+    // Checked again: what the name holds may have changed while the file was written.
+    struct stat st {};
+    if (::lstat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+        throw std::runtime_error(fmt::format("{}: {} now, not a regular file; left as it is", target_, kind_of(st.st_mode)));
     std::error_code ec;
     fs::rename(path_, target_, ec);
     if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
@@ -194,6 +221,11 @@ std::size_t remove_stale_temporaries(const std::string& dir) {
     return removed;
 }
 
+void refuse_special_output(const std::string& path, std::string_view option) {
+    if (path.empty() || path == "-") return;
+    require_regular_file(path, option);
+}
+
 void refuse_overwrite(const std::string& path, std::string_view option, const std::string& input, const std::string& other_output) {
     if (path.empty() || path == "-") return;
     if (names_file_of(input, path)) throw std::runtime_error(fmt::format("{} {}: refusing to overwrite an input file", option, path));
@@ -203,12 +235,8 @@ void refuse_overwrite(const std::string& path, std::string_view option, const st
 void require_regular_file(const std::string& path, std::string_view what) {
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return;  // a missing file: the reader says so
-    const char* kind = S_ISDIR(st.st_mode)                           ? "a directory"
-                       : S_ISFIFO(st.st_mode)                        ? "a named pipe"
-                       : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
-                                                                     : "a special file";
     const std::string where = what.empty() ? std::string() : fmt::format("{} {}: ", what, path);
-    throw std::runtime_error(fmt::format("{}{}, not a regular file", where, kind));
+    throw std::runtime_error(fmt::format("{}{}, not a regular file", where, kind_of(st.st_mode)));
 }
 
 }  // namespace lensfx::filter

@@ -12,6 +12,7 @@
 #include <new>
 #include <set>
 #include <stdexcept>
+#include <system_error>
 #include <thread>
 
 #include <fmt/core.h>
@@ -230,6 +231,7 @@ void refuse_overwriting_inputs(const Plan& plan) {
         plan.out_pattern.is_sequence ? scan_frames(plan.out_pattern) : std::vector<std::int64_t>{first};
     for (std::int64_t n : existing) {
         if (!plan.numbers.contains(n)) continue;
+        refuse_special_output(plan.output_path(n), "-o");
         const auto id = file_id(plan.output_path(n));
         if (id && plan.input_ids.count(*id)) {
             throw std::runtime_error(fmt::format("{}: frame {}: refusing to overwrite an input file", plan.output_path(n), n));
@@ -498,6 +500,7 @@ void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_r
 Plan prepared_plan(const PipelineOptions& o) {
     Plan plan = make_plan(o);
     refuse_overwrite(o.report_path, "--report", o.input, o.output);
+    refuse_special_output(o.report_path, "--report");
     if (!plan.stream_out) remove_stale_temporaries(fs::path(plan.out_pattern.prefix).parent_path().string());
     try {
         if (plan.stream_in && plan.in_format != StreamFormat::raw) plan.in_format = detect_stream_format(stdin);
@@ -576,6 +579,17 @@ void finish_report(RunReport& report, const PipelineOptions& o, const Plan& plan
     if (!report.error.empty()) throw std::runtime_error(report.error);
 }
 
+// A thread of the run started; a system that will not start one (a thread limit, no memory for its stack)
+// says so in a line naming it.
+template <class Body>
+std::thread start_thread(const char* name, Body body) {
+    try {
+        return std::thread(std::move(body));
+    } catch (const std::system_error& e) {
+        throw std::runtime_error(fmt::format("cannot start the {} thread: {} (a limit on threads or processes, or on memory)", name, e.what()));
+    }
+}
+
 }  // namespace
 
 RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stages) {
@@ -595,15 +609,23 @@ RunReport run_pipeline(const PipelineOptions& o, const std::vector<Stage*>& stag
         write_queue.cancel();
     };
     ReadBudget budget(frame_bytes_held, stages, wants_rgb);
-    std::thread reader([&] { read_frames(FrameSource{o, plan}, budget, read_queue); });
-    std::thread writer([&] { write_frames(o, plan, show_progress, write_queue, report, fail); });
-
-    process_frames(o, stages, wants_rgb, read_queue, write_queue, [&](std::string message) {
-        // The frames before this one are complete: let the writer finish them, read nothing more.
-        failure.set(std::move(message));
-        frame_bytes_held.cancel();
-        read_queue.cancel();
-    });
+    std::thread reader = start_thread("reader", [&] { read_frames(FrameSource{o, plan}, budget, read_queue); });
+    std::thread writer;
+    try {
+        writer = start_thread("writer", [&] { write_frames(o, plan, show_progress, write_queue, report, fail); });
+        process_frames(o, stages, wants_rgb, read_queue, write_queue, [&](std::string message) {
+            // The frames before this one are complete: let the writer finish them, read nothing more.
+            failure.set(std::move(message));
+            frame_bytes_held.cancel();
+            read_queue.cancel();
+        });
+    } catch (...) {
+        // Nothing more is read or written: the threads stop waiting, and are joined before the error goes on.
+        fail("stopped");
+        reader.join();
+        if (writer.joinable()) writer.join();
+        throw;
+    }
     write_queue.close();
     reader.join();
     writer.join();

@@ -45,6 +45,9 @@ std::string reason_to_leave_heap() {
     rlimit as{};
     // A capped address space (ulimit -v) would be charged the reservation and never get it back.
     if (getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY) return "the address space is limited (ulimit -v)";
+    rlimit data{};
+    // So is a capped data segment (ulimit -d): the heap and its pad count against it even while unused.
+    if (getrlimit(RLIMIT_DATA, &data) == 0 && data.rlim_cur != RLIM_INFINITY) return "the data segment is limited (ulimit -d)";
     int overcommit = 0;
     // Strict overcommit (mode 2) commits the reserved heap as if it were used.
     if (std::ifstream("/proc/sys/vm/overcommit_memory") >> overcommit; overcommit == 2) return "strict overcommit (vm.overcommit_memory = 2)";

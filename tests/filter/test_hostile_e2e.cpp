@@ -16,6 +16,7 @@
 #include <fmt/core.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -332,6 +333,51 @@ TEST(Hostile, SpecialFilesAreRefused) {
     expect_one_line_refusal(run(t + lensfx_cmd() + fmt::format(" lens info {}/fifo.exr", d)), "fifo.exr");  // not read: no hang
     expect_one_line_refusal(run(t + lensfx_cmd() + " flare --lens brendel-tessar --angle 5,0 --size 32x24 --flare-look /dev/zero -o " + d + "/f.exr"),
                             "/dev/zero: not a regular file");
+    fs::remove_all(dir);
+}
+
+// Class 9 (outputs): a named pipe or a device (a node made here, standing in for /dev/null) under an output's
+// name is refused before anything is written, and left as it is: a file renamed onto it would replace it (as
+// root, /dev/null itself). A symbolic link is written through: the link stays, the file it names is replaced.
+TEST(Hostile, SpecialOutputsAreRefusedAndLinksWrittenThrough) {
+    const auto dir = scratch_dir("hostile-special-out");
+    write_rgb(dir / "in.exr");
+    ASSERT_EQ(::mkfifo((dir / "fifo.exr").c_str(), 0600), 0);
+    const bool made_device = ::mknod((dir / "null.exr").c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0;  // root only
+    const std::string d = dir.string(), t = "timeout 60 env ";
+    expect_one_line_refusal(run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/fifo.exr", d) + kLens), "-o " + d + "/fifo.exr: a named pipe");
+    expect_one_line_refusal(run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --report {0}/fifo.exr", d) + kLens), "--report");
+    expect_one_line_refusal(run(t + lensfx_cmd() + fmt::format(" track -i {0}/in.exr --tracks-out {0}/fifo.exr", d)), "--tracks-out");
+    expect_one_line_refusal(run(t + lensfx_cmd() + fmt::format(" lens convert brendel-tessar -o {0}/fifo.exr", d)), "a named pipe");
+    EXPECT_TRUE(fs::is_fifo(dir / "fifo.exr"));
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    if (made_device) {
+        expect_one_line_refusal(run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/null.exr", d) + kLens), "a device");
+        fs::create_symlink(dir / "null.exr", dir / "to-null.exr");
+        expect_one_line_refusal(run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/to-null.exr", d) + kLens), "a device");
+        EXPECT_TRUE(fs::is_character_file(dir / "null.exr"));
+    }
+    // A link to a file: written through.
+    write_rgb(dir / "target.exr");
+    const auto before = fs::file_size(dir / "target.exr");
+    fs::create_symlink("target.exr", dir / "link.exr");
+    const RunResult r = run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/link.exr", d) + kLens);
+    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_TRUE(fs::is_symlink(dir / "link.exr"));
+    EXPECT_NE(fs::file_size(dir / "target.exr"), before);
+    fs::remove_all(dir);
+}
+
+// Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
+// and no file the run opens takes stderr's number (a message would land inside it).
+TEST(Hostile, AClosedStderrIsNoAbort) {
+    const auto dir = scratch_dir("hostile-closed-stderr");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    EXPECT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/missing.exr -o {0}/o.exr 2>&-", d)).exit_code, 1);
+    const RunResult ok = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr", d) + kLens + " 2>&-");
+    EXPECT_EQ(ok.exit_code, 0);
+    EXPECT_TRUE(all_finite(dir / "o.exr"));
     fs::remove_all(dir);
 }
 

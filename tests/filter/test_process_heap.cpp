@@ -161,6 +161,17 @@ TEST(ProcessHeap, ALimitedAddressSpaceLeavesTheHeapAlone) {
     }), 0);
 }
 
+// A capped data segment is charged the reservation and the top pad: tuned there, a run under `ulimit -d 450000`
+// hung or aborted where the untuned heap ran in 197 MB.
+TEST(ProcessHeap, ALimitedDataSegmentLeavesTheHeapAlone) {
+    EXPECT_EQ(in_child([] {
+        const rlimit limit{std::size_t{8} << 30, std::size_t{8} << 30};
+        if (setrlimit(RLIMIT_DATA, &limit) != 0) return 3;
+        const HeapTuning t = tune_process_heap();
+        return !t.tuned && t.reason.find("ulimit -d") != std::string::npos ? 0 : 1;
+    }), 0);
+}
+
 TEST(ProcessHeap, SystemHeapVariableLeavesTheHeapAlone) {
     EXPECT_EQ(in_child([] {
         setenv("LENSFX_SYSTEM_HEAP", "1", 1);

@@ -11,7 +11,9 @@ namespace lensfx::filter {
 
 // A temporary file beside `target` (".NAME.lensfx-PID.EXT", the extension kept last: some writers check
 // it), removed unless commit() renamed it into place, and removed by the signal handler if the program
-// is interrupted meanwhile.
+// is interrupted meanwhile. A target that is a symbolic link is written through (the link stays, its file
+// is replaced); one that is a device, named pipe or directory is refused (std::runtime_error), when the
+// TempFile is made and again at commit.
 class TempFile {
 public:
     explicit TempFile(const std::string& target);
@@ -45,6 +47,10 @@ std::size_t remove_stale_temporaries(const std::string& dir);
 // to another output, `other_output` (a file or pattern; "" or "-" for none).
 void refuse_overwrite(const std::string& path, std::string_view option, const std::string& input,
                       const std::string& other_output = "");
+
+// Refuses an output path (`option` names it in the message) that is a device, named pipe or directory, or a
+// link to one: a file written there would replace it (as root, even /dev/null). "" and "-" pass.
+void refuse_special_output(const std::string& path, std::string_view option);
 
 // A path that names something other than a regular file (a device such as /dev/zero, a FIFO, a
 // directory) is refused where a file is needed: throws std::runtime_error naming `what` and the path

@@ -12,7 +12,7 @@ struct HeapTuning {
     std::string reason;  // why not, when not ("" when tuned)
 };
 
-// On glibc, with an unlimited address space and no strict overcommit: the heap's first 192 MiB advised to use
+// On glibc, with an unlimited address space and data segment and no strict overcommit: the heap's first 192 MiB advised to use
 // huge pages, frame-sized blocks (1080p images and targets) served from it instead of fresh mappings, and up
 // to 288 MiB of freed memory kept for the next frame; every thread's blocks from that one heap; bigger blocks (8K) stay mappings given back at free.
 // Elsewhere, under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is. Call
