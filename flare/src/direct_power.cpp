@@ -19,6 +19,13 @@ namespace {
 
 constexpr double kDegrees = 180.0 / std::numbers::pi;
 
+// A power (mm^2 of entrance pupil, weighted by transmission) a trace could give: none, or between one
+// faint ray's share (far above 1e-12) and far more than any lens's pupil. A file's sample outside it is
+// traced again: 1e-300 made every pixel saturate, a negative or huge one left the flare out.
+bool plausible_power(const std::array<double, 3>& p) {
+    return std::all_of(p.begin(), p.end(), [](double v) { return v == 0.0 || (v >= 1e-12 && v <= 1e8); });
+}
+
 }  // namespace
 
 std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays,
@@ -129,7 +136,7 @@ bool DirectPowerTable::load(const std::filesystem::path& path, const std::string
         in.peek() != std::char_traits<char>::eof())
         return false;
     for (std::size_t k = 0; k < known.size(); ++k)
-        if (known[k] && !known_[k] && std::isfinite(power[k][0]) && std::isfinite(power[k][1]) && std::isfinite(power[k][2])) {
+        if (known[k] && !known_[k] && plausible_power(power[k])) {
             power_[k] = power[k];
             known_[k] = 1;
         }

@@ -2,6 +2,9 @@
 // the whole key, so a changed iris or a damaged file never gives a stale texture.
 #include <flare/starburst_cache.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 
@@ -30,6 +33,17 @@ std::string starburst_key(const optics::Aperture& a, const optics::StarburstOpti
     return key;
 }
 
+// A texture as the starburst code makes it (starburst.h): texels in [0, 1], each channel summing to 1 (or all
+// 0). A file's NaN or huge texels put NaN into the frame and took the added light's core away.
+bool normalised(const std::vector<float>& rgb) {
+    std::array<double, 3> sum{};
+    for (std::size_t i = 0; i < rgb.size(); ++i) {
+        if (!(rgb[i] >= 0.0f && rgb[i] <= 1.0f)) return false;
+        sum[i % 3] += static_cast<double>(rgb[i]);
+    }
+    return std::all_of(sum.begin(), sum.end(), [](double s) { return s == 0.0 || std::abs(s - 1.0) < 1e-3; });
+}
+
 std::optional<optics::Starburst> read_starburst(const std::string& path, const std::string& key) {
     CacheFile in = open_cache_file(path);
     if (!in) return std::nullopt;
@@ -46,7 +60,7 @@ std::optional<optics::Starburst> read_starburst(const std::string& path, const s
     sb.size = size;
     sb.rgb.resize(static_cast<std::size_t>(size) * static_cast<std::size_t>(size) * 3);
     in.read(reinterpret_cast<char*>(sb.rgb.data()), static_cast<std::streamsize>(sb.rgb.size() * sizeof(float)));
-    if (!in || in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+    if (!in || in.peek() != std::char_traits<char>::eof() || !normalised(sb.rgb)) return std::nullopt;
     return sb;
 }
 

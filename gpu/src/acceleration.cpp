@@ -342,6 +342,19 @@ constexpr int kFieldsPerGhost = 15;
 
 }  // namespace
 
+namespace {
+
+// Larger than any coordinate (mm) or power (mm^2) of a real lens's ghost by orders of magnitude.
+constexpr double kMaxTableValue = 1e9;
+
+// An estimate a trace could have made: the quantities that cannot be negative are not, and fill is a share.
+bool plausible(const GhostEstimate& g) {
+    return g.power >= 0.0 && g.area_cv >= 0.0 && g.extent_mm >= 0.0 && g.fill >= 0.0 && g.fill <= 1.0 && g.failed_edge >= 0.0 &&
+           g.iris_edge >= 0.0 && g.peak >= 0.0;
+}
+
+}  // namespace
+
 int BoundsTable::load() {
     const std::string file = path();
     if (file.empty()) return 0;
@@ -366,10 +379,14 @@ int BoundsTable::load() {
         if (!in) return 0;
         std::vector<std::vector<GhostEstimate>> entry(static_cast<std::size_t>(passes_),
                                                       std::vector<GhostEstimate>(static_cast<std::size_t>(ghosts_)));
+        // A value no trace could give (a damaged or doctored file) makes the whole file a miss.
+        if (!std::all_of(values.begin(), values.end(), [](double x) { return std::isfinite(x) && std::abs(x) <= kMaxTableValue; }))
+            return 0;
         const double* v = values.data();
         for (auto& pass : entry) {
             for (GhostEstimate& g : pass) {
                 g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], {v[10], v[11], v[12], v[13]}, v[14]};
+                if (!plausible(g)) return 0;
                 v += kFieldsPerGhost;
             }
         }

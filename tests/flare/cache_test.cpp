@@ -2,6 +2,7 @@
 // the flare model keeps through it (direct-power tables, starburst textures): stored, read, and a damaged,
 // foreign or other-shaped file recomputed.
 #include <cstdlib>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -163,6 +164,16 @@ TEST(Cache, StarburstStoresReadsAndRepairs) {
     EXPECT_EQ(fs::file_size(files[0]), whole);
     EXPECT_GT(whole, computed.rgb.size() * sizeof(float)) << "the texture and its key";
 
+    // A whole file whose texels no texture has (NaN, huge, or a channel not summing to 1) is recomputed too.
+    for (const float poison : {std::nanf(""), 3.4e38f, 0.5f}) {
+        {
+            std::fstream f(files[0], std::ios::in | std::ios::out | std::ios::binary);
+            f.seekp(static_cast<std::streamoff>(whole - 4 * sizeof(float)));  // a texel near the texture's end
+            f.write(reinterpret_cast<const char*>(&poison), sizeof poison);
+        }
+        EXPECT_EQ(flare::cached_starburst(hexagon, {}, (dir / "sub").string()).rgb, computed.rgb) << poison;
+    }
+
     // Other options (dirt on the pupil, other primaries) are other textures, in other files.
     optics::StarburstOptions dirty;
     dirty.dirt.scratches = 20;
@@ -193,6 +204,22 @@ TEST(Cache, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
     EXPECT_EQ(again.traced(), 3) << "nothing traced for a lookup the file covers";
     flare::DirectPowerTable other_size(system, 20.0, 10, 8);
     EXPECT_FALSE(other_size.load(dir / "t.bin", "key"));
+    // A sample no trace could give (1e-300 saturated every pixel; negative or huge left the flare out) is
+    // traced again, not used.
+    for (const double poison : {1e-300, -1.0, 1e300}) {
+        const auto size = fs::file_size(dir / "t.bin");
+        {
+            std::fstream f(dir / "t.bin", std::ios::in | std::ios::out | std::ios::binary);
+            f.seekp(static_cast<std::streamoff>(size - 12 * 3 * sizeof(double)));  // sample 0's red
+            f.write(reinterpret_cast<const char*>(&poison), sizeof poison);
+        }
+        flare::DirectPowerTable doctored(system, 20.0, 12, 8);
+        EXPECT_TRUE(doctored.load(dir / "t.bin", "key"));
+        EXPECT_EQ(doctored.traced(), 2) << "sample 0 not taken: " << poison;
+        EXPECT_EQ(doctored.at(0.5, 0.2), near_axis) << poison;
+        EXPECT_EQ(doctored.traced(), 3) << "sample 0 traced again: " << poison;
+        table.save(dir / "t.bin", "key");
+    }
     fs::resize_file(dir / "t.bin", fs::file_size(dir / "t.bin") - 1);
     flare::DirectPowerTable damaged(system, 20.0, 12, 8);
     EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));

@@ -156,6 +156,18 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     EXPECT_EQ(mid[2].failed_edge, 1.5);
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
+    // A value no trace gives (NaN, 1e300, a negative power) makes the file a miss: it drew no ghost at all.
+    for (const double poison : {std::nan(""), 1e300, -1.0}) {
+        table.save();
+        const auto size = std::filesystem::file_size(table.path());
+        {
+            std::fstream f(table.path(), std::ios::in | std::ios::out | std::ios::binary);
+            f.seekp(static_cast<std::streamoff>(size - 15 * sizeof(double) + 4 * sizeof(double)));  // the last ghost's power
+            f.write(reinterpret_cast<const char*>(&poison), sizeof poison);
+        }
+        BoundsTable doctored(0x1234, 2, 3, dir.string());
+        EXPECT_EQ(doctored.load(), 0) << poison;
+    }
     std::ofstream(again.path(), std::ios::trunc) << "garbage";
     EXPECT_EQ(again.load(), 0);
     std::filesystem::remove_all(dir);
