@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -65,6 +66,26 @@ void add_glass(KeyHash& f, const optics::Glass& g) {
 // A temporary name beside path, unique to this process and thread.
 std::string temporary_beside(const std::string& path) {
     return fmt::format("{}.{}.{:x}.tmp", path, static_cast<long>(::getpid()), std::hash<std::thread::id>{}(std::this_thread::get_id()));
+}
+
+// Removes the temporaries of `path` (temporary_beside's names) left by processes that no longer run: a run
+// stopped by a signal while it wrote a cache file left its temporary for good.
+void remove_stale_temporaries_of(const std::string& path) {
+    const std::filesystem::path target(path);
+    const std::string prefix = target.filename().string() + ".";
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(target.parent_path().empty() ? "." : target.parent_path(), ec), end; !ec && it != end;
+         it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (name.size() <= prefix.size() + 4 || name.compare(0, prefix.size(), prefix) != 0 || !name.ends_with(".tmp")) continue;
+        char* digits_end = nullptr;
+        const long pid = std::strtol(name.c_str() + prefix.size(), &digits_end, 10);
+        if (pid <= 0 || *digits_end != '.' || pid == static_cast<long>(::getpid())) continue;
+        if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+            std::error_code ignored;
+            std::filesystem::remove(it->path(), ignored);
+        }
+    }
 }
 
 }  // namespace
@@ -130,6 +151,7 @@ void write_cache_file(const std::string& path, const std::function<void(std::ost
         std::filesystem::remove(temporary, ignored);
         throw std::runtime_error(fmt::format("{}: cannot write the cache file: {}", path, ec.message()));
     }
+    remove_stale_temporaries_of(path);
 }
 
 bool try_write_cache_file(const std::string& path, const std::function<void(std::ostream&)>& write) {

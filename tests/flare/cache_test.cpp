@@ -131,6 +131,23 @@ TEST(Cache, AnOpenedFileIsReadFromItsDescriptor) {
     fs::remove_all(dir);
 }
 
+// A temporary a killed run left beside a cache file (SIGTERM while it wrote) is removed by the next write of
+// that file; one of a process still running (this one) is not.
+TEST(Cache, TemporariesOfDeadProcessesAreRemovedByTheNextWrite) {
+    const fs::path dir = temp_dir("cache-stale");
+    fs::create_directories(dir);
+    const std::string file = (dir / "direct-0123456789abcdef.bin").string();
+    const std::string dead = file + ".2147483646.1f2e3d.tmp";  // above any pid_max: no such process
+    const std::string alive = file + "." + std::to_string(::getpid()) + ".abc.tmp";
+    const std::string other = (dir / "bounds-0123456789abcdef.bin.2147483646.1.tmp").string();
+    for (const std::string& f : {dead, alive, other}) std::ofstream(f) << "partial";
+    flare::write_cache_file(file, [](std::ostream& out) { out << "whole"; });
+    EXPECT_FALSE(fs::exists(dead));
+    EXPECT_TRUE(fs::exists(alive));
+    EXPECT_TRUE(fs::exists(other)) << "another file's temporaries wait for that file's next write";
+    fs::remove_all(dir);
+}
+
 TEST(Cache, KeyIsReadBackOnlyWhenWhole) {
     std::stringstream s;
     flare::write_key(s, "lens 1");
