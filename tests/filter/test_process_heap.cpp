@@ -152,25 +152,21 @@ TEST(ProcessHeap, TouchedFramesUseHugePages) {
     }), 0);
 }
 
-TEST(ProcessHeap, ALimitedAddressSpaceLeavesTheHeapAlone) {
-    EXPECT_EQ(in_child([] {
+// 0 when, in a child with `resource` capped at 8 GiB, tune_process_heap leaves the heap alone saying `why`.
+int capped_leaves_heap_alone(decltype(RLIMIT_AS) resource, const char* why) {
+    return in_child([resource, why] {
         const rlimit limit{std::size_t{8} << 30, std::size_t{8} << 30};
-        if (setrlimit(RLIMIT_AS, &limit) != 0) return 3;
+        if (setrlimit(resource, &limit) != 0) return 3;
         const HeapTuning t = tune_process_heap();
-        return !t.tuned && t.reason.find("ulimit -v") != std::string::npos ? 0 : 1;
-    }), 0);
+        return !t.tuned && t.reason.find(why) != std::string::npos ? 0 : 1;
+    });
 }
+
+TEST(ProcessHeap, ALimitedAddressSpaceLeavesTheHeapAlone) { EXPECT_EQ(capped_leaves_heap_alone(RLIMIT_AS, "ulimit -v"), 0); }
 
 // A capped data segment is charged the reservation and the top pad: tuned there, a run under `ulimit -d 450000`
 // hung or aborted where the untuned heap ran in 197 MB.
-TEST(ProcessHeap, ALimitedDataSegmentLeavesTheHeapAlone) {
-    EXPECT_EQ(in_child([] {
-        const rlimit limit{std::size_t{8} << 30, std::size_t{8} << 30};
-        if (setrlimit(RLIMIT_DATA, &limit) != 0) return 3;
-        const HeapTuning t = tune_process_heap();
-        return !t.tuned && t.reason.find("ulimit -d") != std::string::npos ? 0 : 1;
-    }), 0);
-}
+TEST(ProcessHeap, ALimitedDataSegmentLeavesTheHeapAlone) { EXPECT_EQ(capped_leaves_heap_alone(RLIMIT_DATA, "ulimit -d"), 0); }
 
 TEST(ProcessHeap, SystemHeapVariableLeavesTheHeapAlone) {
     EXPECT_EQ(in_child([] {
