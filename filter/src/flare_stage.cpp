@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -145,8 +146,9 @@ std::array<double, 3> as_double(const std::array<float, 3>& v) {
 // Bytes a frame holds while its flare is made: its pixels (none while release_rgb_pixels() has them in
 // `rgb`) and R, G, B as float; the flare image over the display window unless the flare goes into the
 // frame directly; the GL targets (RGBA float at full size and at 1/2..1/32, read back in bands) for
-// ghosts, and for extended lights a group's image and the sums of the reduced ones (LevelSums: under a third
-// of an image); at most the data window's growth to the display window with its R, G, B; a layer's copy.
+// ghosts, and for extended lights a group's image, a reduced group's image being spread while the next is drawn
+// (at most a quarter of an image) and the sums of the reduced ones (LevelSums: under a third of an image); at
+// most the data window's growth to the display window with its R, G, B; a layer's copy.
 double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool extended, bool layer) {
     const ImageSpec& spec = frame.spec;
     const double display = bytes_of(spec.full_width, spec.full_height, 1.0);
@@ -155,7 +157,7 @@ double flare_frame_bytes(const Frame& frame, bool into_frame, bool ghosts, bool 
     double bytes = static_cast<double>(frame.pixels.size()) + data * rgb;
     if (!into_frame) bytes += display * rgb + display * (pixel + rgb);  // the flare image; growth at most
     if (ghosts) bytes += gpu::render_target_bytes(spec.full_width, spec.full_height);
-    if (extended) bytes += display * rgb * 4.0 / 3.0;
+    if (extended) bytes += display * rgb * (1.0 + 0.25 + 1.0 / 3.0);
     if (layer) bytes += display * (rgb + pixel + rgb);
     return bytes;
 }
@@ -182,19 +184,49 @@ double footprint_reach_px(const detect::Shape& shape, double m) {
 
 // An extended light's magnified groups, each convolved with its footprint at its level (1/2 .. 1/16 of the
 // frame), summed per level and then enlarged into the frame once per level (flare::add_enlarged); together
-// under a third of the frame's image.
+// under a third of the frame's image. A reduced group is convolved and summed on a worker thread (spread)
+// while the GPU draws the light's next group: its image is one of two, drawn into in turn.
 struct LevelSums {
     std::array<std::vector<float>, 5> sum;  // by log2 of the level
     std::array<bool, 5> used{};             // false: no group at that level for this light
     std::array<int, 5> width{}, height{};
-    std::vector<float> scratch;  // one group's image, before its footprint
+    std::vector<float> scratch;  // one group's image, before its footprint (a full-size group's, or a reduced one's)
+    std::vector<float> other;    // the second reduced group's image, drawn while the group in `scratch` is spread
+    std::future<double> spreading;  // the last group given to spread(): its ms of convolving and summing
 
     // Ready for a light of a frame of `pixels`: no level used, the memory of the frame's earlier lights kept
     // (their pages already touched), and room for a group's image at full size, so a larger level never moves it.
     void start_light(std::size_t pixels) {
+        if (spreading.valid()) spreading.wait();  // left by a light whose drawing failed: its result is not wanted
+        spreading = {};
         used = {};
         scratch.reserve(pixels * 3);
     }
+    // A zeroed image of w x h for the next group: not the one a group is being spread from.
+    std::vector<float>& image_for_next(int w, int h) {
+        std::vector<float>& image = spreading.valid() ? other : scratch;
+        image.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
+        return image;
+    }
+    // `image` (w x h, a reduced group's, drawn at `level`) handed to a worker thread: convolved with the light's
+    // footprint scaled by m and added into the level's sum, after the group given before it (so the sums add
+    // their groups in order). Ms of the groups finished meanwhile go to `ms`.
+    void spread(std::vector<float>& image, int w, int h, int level, const detect::Shape& footprint, double m,
+                flare::ConvolveScratch& convolve, double& ms) {
+        ms += finish_spreading();
+        if (&image == &other) std::swap(scratch, other);  // the image being spread is always `scratch`
+        std::vector<float>& into = at(level, w, h);
+        spreading = std::async(std::launch::async, [this, &into, w, h, footprint, m, &convolve] {
+            const auto t = Clock::now();
+            convolve_footprint(scratch, w, h, footprint, m, convolve);
+            const RgbView view_of{into.data(), 0, 0, w, h};
+            add(view_of, ConstRgbView{scratch.data(), 0, 0, w, h}, view_of.region());
+            return ms_since(t);
+        });
+    }
+    // Waits for the group being spread (if any); its ms.
+    double finish_spreading() { return spreading.valid() ? spreading.get() : 0.0; }
+
     // The sum at `level` (2 .. 16; an image of width x height), zero when first asked for.
     std::vector<float>& at(int level, int w, int h) {
         const auto k = static_cast<std::size_t>(std::countr_zero(static_cast<unsigned>(level)));
@@ -764,16 +796,20 @@ struct FlareStage::State {
         const gpu::ScaledLight scaled{view.angle_x_deg, view.angle_y_deg, as_double(scale)};
         LevelSums& sums = level_sums;
         sums.start_light(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height));
+        // In their order (the plate's culling budget is spent render by render); a reduced group is spread on a
+        // worker thread while the GPU draws the next.
         for (const FootprintGroup& group : groups) add_group_ghosts(light, scaled, group, view, rgb, sums, tally);
         t = Clock::now();
+        const double spread_ms = sums.finish_spreading();
         sums.add_enlarged_into(rgb, view.width, view.height);
-        tally.extended_ms += ms_since(t);
+        tally.extended_ms += spread_ms + ms_since(t);
         return true;
     }
 
     // A footprint group's ghosts drawn at the level its footprint's blur allows (gpu::spread_level: a group
     // spread over a disc of radius r is drawn and convolved at 1/(r/4) of the frame, up to 1/16), convolved
-    // there and summed with the light's other groups of that level; a group drawn as from a point, into rgb.
+    // there and summed with the light's other groups of that level (on a worker thread, LevelSums::spread);
+    // a group drawn as from a point, into rgb.
     void add_group_ghosts(const detect::Light& light, const gpu::ScaledLight& scaled, const FootprintGroup& group,
                           const flare::FlareView& view, std::vector<float>& rgb, LevelSums& sums, FrameTally& tally) {
         auto t = Clock::now();
@@ -781,8 +817,7 @@ struct FlareStage::State {
         // light's strength, so scene culling weighs them in the frame's units.
         gpu::GpuFlareOptions group_options = render_options;
         group_options.draw_only = group.ghosts;
-        const bool spread = group.magnification != 0.0;
-        if (!spread) {
+        if (group.magnification == 0.0) {
             ghost_renderer().render_add(lens.system, view, std::span(&scaled, 1), group_options, rgb);
             count_ghosts(tally);
             tally.ghosts_ms += ms_since(t);
@@ -792,18 +827,20 @@ struct FlareStage::State {
                                 flare::footprint_peak_share(*light.shape, group.magnification)};
         const int level = gpu::spread_level(group_options.spread);
         const int w = flare::reduced_side(view.width, level), h = flare::reduced_side(view.height, level);
-        sums.scratch.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3, 0.0f);
-        ghost_renderer().render_add(lens.system, view, std::span(&scaled, 1), group_options, sums.scratch, level);
+        if (level == 1) tally.extended_ms += sums.finish_spreading();  // a full-size group's image is `scratch`
+        std::vector<float>& image = sums.image_for_next(w, h);
+        ghost_renderer().render_add(lens.system, view, std::span(&scaled, 1), group_options, image, level);
         count_ghosts(tally);
         tally.ghosts_ms += ms_since(t);
         // A group that drew nothing (every ghost culled or dark) adds nothing: no footprint, no sum.
         if (renderer->last_stats().ghosts_drawn == 0) return;
+        const detect::Shape footprint = flare::reduced_footprint(*light.shape, level);
+        if (level > 1) return sums.spread(image, w, h, level, footprint, group.magnification, convolve_scratch, tally.extended_ms);
+        // At full size, straight into the frame.
         t = Clock::now();
-        convolve_footprint(sums.scratch, w, h, flare::reduced_footprint(*light.shape, level), group.magnification, convolve_scratch);
-        // At full size straight into the frame; reduced, into the level's sum.
-        std::vector<float>& into = level == 1 ? rgb : sums.at(level, w, h);
-        const RgbView view_of{into.data(), 0, 0, w, h};
-        add(view_of, ConstRgbView{sums.scratch.data(), 0, 0, w, h}, view_of.region());
+        convolve_footprint(image, w, h, footprint, group.magnification, convolve_scratch);
+        const RgbView view_of{rgb.data(), 0, 0, w, h};
+        add(view_of, ConstRgbView{image.data(), 0, 0, w, h}, view_of.region());
         tally.extended_ms += ms_since(t);
     }
 
