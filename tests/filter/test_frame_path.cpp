@@ -363,6 +363,31 @@ TEST(FramePath, ExtendedSourceSpreadsItsGhostsWithoutLosingEnergy) {
     EXPECT_GT(stages.at("flare.extended").get<double>(), 0.0);
 }
 
+TEST(FramePath, ExtendedSourceOfManyReducedGroupsKeepsItsEnergy) {
+    const fs::path dir = temp_dir("extended_groups");
+    // A double Gauss images a disc of radius 24 px through nine reduced footprint groups: each is convolved on a
+    // worker thread while the next is drawn (two images in turn, the level sums taking several groups). The
+    // ghosts of the disc keep the small light's energy, less what the blur spreads beyond the frame.
+    const double small_r = 2.0, big_r = 24.0;
+    write_frame(dir / "small.exr", {{160.3, 100.6, small_r, 20000.0}});
+    write_frame(dir / "big.exr", {{160.3, 100.6, big_r, 20000.0 * small_r * small_r / (big_r * big_r)}});
+    const std::string opts = " --lens angenieux-double-gauss --grid 32 -q --flare-only --parts ghosts --threshold 5";
+    ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "s.exr").string() + opts), 0);
+    ASSERT_EQ(run("-i " + (dir / "big.exr").string() + " -o " + (dir / "b.exr").string() + opts), 0);
+    auto source_flux = [](const Image& in) {
+        double sum = 0.0;
+        for (std::size_t i = 1; i < in.px.size(); i += 3)
+            if (in.px[i] > 1.0f) sum += static_cast<double>(in.px[i]) - 0.05;
+        return sum;
+    };
+    const double scale = source_flux(read(dir / "big.exr")) / source_flux(read(dir / "small.exr"));
+    const Image s = read(dir / "s.exr"), b = read(dir / "b.exr");
+    for (int c = 0; c < 3; ++c) {
+        std::printf("channel %d: extended/point energy %.4f\n", c, b.sum(c) / (s.sum(c) * scale));
+        EXPECT_NEAR(b.sum(c) / (s.sum(c) * scale), 1.0, 0.03) << "channel " << c;
+    }
+}
+
 TEST(FramePath, MovingLightDoesNotFlickerAndThreadsDoNotMatter) {
     const fs::path dir = temp_dir("flicker");
     // A light of constant flux moving 0.37 px right and 0.13 px down per frame.
