@@ -102,6 +102,22 @@ int run(const std::string& args) {
 const std::string kLensOnly = " --lens brendel-tessar --fstop 4 --grid 32 -q";
 const std::string kLens = kLensOnly + " --threshold 100";
 
+// The same flux at (x, y) as a small light of radius 2 px (dir/small.exr) and as a disc of radius kBigR (a
+// window, dir/big.exr).
+constexpr double kSmallR = 2.0, kBigR = 24.0;
+void write_small_and_big_light(const fs::path& dir, double x, double y) {
+    write_frame(dir / "small.exr", {{x, y, kSmallR, 20000.0}});
+    write_frame(dir / "big.exr", {{x, y, kBigR, 20000.0 * kSmallR * kSmallR / (kBigR * kBigR)}});
+}
+
+// The light a plate's source pixels (green over 1) hold above its 0.05 background.
+double source_flux(const Image& in) {
+    double sum = 0.0;
+    for (std::size_t i = 1; i < in.px.size(); i += 3)
+        if (in.px[i] > 1.0f) sum += static_cast<double>(in.px[i]) - 0.05;
+    return sum;
+}
+
 }  // namespace
 
 TEST(FramePath, LayerHoldsTheFlareBesideUntouchedRgb) {
@@ -225,12 +241,6 @@ TEST(FramePath, ExtendedSourceSpreadsItsStarburstOverItsFootprint) {
     ASSERT_EQ(run("-i " + (dir / "big.exr").string() + " -o " + (dir / "b.exr").string() + kLensOnly + opts), 0);
     const Image s = read(dir / "s.exr"), b = read(dir / "b.exr");
     const Image small_in = read(dir / "small.exr"), big_in = read(dir / "big.exr");
-    auto source_flux = [](const Image& in) {
-        double sum = 0.0;
-        for (std::size_t i = 1; i < in.px.size(); i += 3)
-            if (in.px[i] > 1.0f) sum += static_cast<double>(in.px[i]) - 0.05;
-        return sum;
-    };
     const double scale = source_flux(big_in) / source_flux(small_in);
     // The disc's own pixels: those the detection keeps (down to half the threshold); the radius of the
     // area of its footprint's cells (its bounding box in 32 cells a side, here 2 px) holding any of them.
@@ -300,19 +310,12 @@ TEST(FramePath, ExtendedSourceSpreadsItsGhostsWithoutLosingEnergy) {
     const fs::path dir = temp_dir("extended");
     // The same flux as a small light and as a disc of radius 24 px (a window): the ghosts of the disc are
     // the small light's spread over its footprint.
-    const double small_r = 2.0, big_r = 24.0;
-    write_frame(dir / "small.exr", {{230.3, 60.6, small_r, 20000.0}});
-    write_frame(dir / "big.exr", {{230.3, 60.6, big_r, 20000.0 * small_r * small_r / (big_r * big_r)}});
+    const double big_r = kBigR;
+    write_small_and_big_light(dir, 230.3, 60.6);
     const std::string opts = " --flare-only --parts ghosts --threshold 5 --report ";
     ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "s.exr").string() + kLensOnly + opts + (dir / "s.json").string()), 0);
     ASSERT_EQ(run("-i " + (dir / "big.exr").string() + " -o " + (dir / "b.exr").string() + kLensOnly + opts + (dir / "b.json").string()), 0);
     const Image s = read(dir / "s.exr"), b = read(dir / "b.exr");
-    auto source_flux = [](const Image& in) {
-        double sum = 0.0;
-        for (std::size_t i = 1; i < in.px.size(); i += 3)
-            if (in.px[i] > 1.0f) sum += static_cast<double>(in.px[i]) - 0.05;
-        return sum;
-    };
     // The reference: the small light's ghosts (green) convolved with the disc's normalised footprint here,
     // by direct summation, energy leaving the frame lost as in the filter.
     const int R = static_cast<int>(big_r) + 2;
@@ -368,18 +371,10 @@ TEST(FramePath, ExtendedSourceOfManyReducedGroupsKeepsItsEnergy) {
     // A double Gauss images a disc of radius 24 px through nine reduced footprint groups: each is convolved on a
     // worker thread while the next is drawn (two images in turn, the level sums taking several groups). The
     // ghosts of the disc keep the small light's energy, less what the blur spreads beyond the frame.
-    const double small_r = 2.0, big_r = 24.0;
-    write_frame(dir / "small.exr", {{160.3, 100.6, small_r, 20000.0}});
-    write_frame(dir / "big.exr", {{160.3, 100.6, big_r, 20000.0 * small_r * small_r / (big_r * big_r)}});
+    write_small_and_big_light(dir, 160.3, 100.6);
     const std::string opts = " --lens angenieux-double-gauss --grid 32 -q --flare-only --parts ghosts --threshold 5";
     ASSERT_EQ(run("-i " + (dir / "small.exr").string() + " -o " + (dir / "s.exr").string() + opts), 0);
     ASSERT_EQ(run("-i " + (dir / "big.exr").string() + " -o " + (dir / "b.exr").string() + opts), 0);
-    auto source_flux = [](const Image& in) {
-        double sum = 0.0;
-        for (std::size_t i = 1; i < in.px.size(); i += 3)
-            if (in.px[i] > 1.0f) sum += static_cast<double>(in.px[i]) - 0.05;
-        return sum;
-    };
     const double scale = source_flux(read(dir / "big.exr")) / source_flux(read(dir / "small.exr"));
     const Image s = read(dir / "s.exr"), b = read(dir / "b.exr");
     for (int c = 0; c < 3; ++c) {
