@@ -56,6 +56,19 @@ constexpr double kMinFill = 0.25;
 constexpr double kFailedShare = 0.08;
 constexpr double kIrisShare = 0.6;
 constexpr int kMaxRefine = 8;
+// Outlines cut by a lens's rim (vignetting) are clipped per pixel on the relative radius interpolated over
+// each cell; where the map from pupil to sensor bends (the cells' areas vary), a coarse cell puts that cut far
+// from the true rim: a polygonal or ragged outline, and vignetted regions with straight sides. Such outlines
+// stay under kRimShare of the cells at base 16 (failed rays: kFailedShare), but cells no smaller than kRimCellPx
+// pixels on the sensor (finer only moves the cut within a pixel). Only for ghosts whose cells' areas vary
+// (cv from kSmoothCv): a nearly affine map interpolates the radius well, and most ghosts of a vignetting lens
+// have such cuts (pbrt's dgauss.50mm at the CandleGlass flame's angle: all but a few). Not in a footprint
+// group (spread_level > 1), where the light's footprint blurs the outline. Fitted to two ghosts of that lens
+// at (-5.8, 1.5) degrees, 1000 px wide: 5,7 (rim_edge 5.0, cv 0.62, 533 px) and 7,9 (3.4, cv 0.28, 1300 px)
+// showed straight-sided vignetting and a ragged rim at 16 cells, and match a 512^2-ray reference by eye from
+// about 48 (docs/acceleration.md; RimRule.VignettedGhostKeepsItsShapeAtDefault).
+constexpr double kRimShare = 0.12;
+constexpr double kRimCellPx = 4.0;
 // Intensity LOD: ghosts under kFullShare of the estimated total get a grid scaled by sqrt(share/kFullShare).
 constexpr double kFullShare = 0.01;
 // Reduced drawing: smooth ghosts (cells this uniform) at least this many pixels across at 1/2, 1/4, 1/8,
@@ -111,6 +124,17 @@ double mean_triangle_mm2(const GhostEstimate& e, int grid) {
     return box / (2.0 * std::max(e.fill, 1e-4) * static_cast<double>(grid) * grid);
 }
 
+// The grid that keeps a ghost's rim-clipped outline under kRimShare of its passing cells (at base 16), with
+// cells of at least kRimCellPx pixels of pixel_mm; 0 where the rule does not apply (pixel_mm 0: a footprint
+// group's spread outline).
+int rim_grid(const GhostEstimate& e, int base_grid, double pixel_mm) {
+    if (!(e.rim_edge > 0.0) || e.area_cv < kSmoothCv || !(pixel_mm > 0.0)) return 0;  // a nearly affine map interpolates the radius well
+    const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));
+    double grid = static_cast<double>(base_grid) / kMinGrid * e.rim_edge / kRimShare / across;
+    grid = std::min(grid, e.extent_mm / pixel_mm / kRimCellPx);
+    return static_cast<int>(std::ceil(grid));
+}
+
 int faint_reduce(double extent_px) {
     int reduce = 1;
     while (reduce < kFaintMaxReduce && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
@@ -140,9 +164,45 @@ double caustic_spike(const GhostEstimate& e) {
     return e.area_cv >= kReducedMaxCv ? kCausticSpike : 1.0;
 }
 
+namespace {
+
+// The level a ghost is drawn at (1, 2, 4, 8 or 16; a faint one up to kFaintMaxReduce): smooth ghosts from
+// kHalfExtentPx across, ghosts with caustics only when very large.
+int drawn_level(const GhostEstimate& e, double pixel_mm, bool smooth_faint) {
+    if (smooth_faint) return faint_reduce(sensor_size_mm(e) / pixel_mm);
+    const double extent_px = e.extent_mm / pixel_mm;
+    if (e.area_cv >= kReducedMaxCv) return extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
+    return extent_px >= kSixteenthExtentPx ? 16
+           : extent_px >= kEighthExtentPx  ? 8
+           : extent_px >= kQuarterExtentPx ? 4
+           : extent_px >= kHalfExtentPx    ? 2
+                                           : 1;
+}
+
+// The adaptive grid: the cell-area rule, then the outline rule (failed rays, the iris, lens rims seen at
+// outline_pixel_mm per pixel, thin ghosts).
+int adaptive_grid(const GhostEstimate& e, int base_grid, double outline_pixel_mm) {
+    int grid = base_grid;
+    if (e.area_cv < kSmoothCv) {
+        grid = std::max(std::min(kMinGrid, base_grid), base_grid / 2);
+    } else if (e.area_cv > kSharpCv) {
+        const int level = std::min(kMaxLevel, static_cast<int>(std::ceil(std::log2(e.area_cv / kSharpCv))));
+        grid = std::max(base_grid, std::min(kMaxGrid, base_grid << level));
+    }
+    const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));  // passing share of a grid row
+    const double scale = static_cast<double>(base_grid) / kMinGrid;
+    const double edges = scale * std::max(e.failed_edge / kFailedShare, e.iris_edge / kIrisShare) / across;
+    int refined = std::max(static_cast<int>(std::ceil(edges)), rim_grid(e, base_grid, outline_pixel_mm));
+    if (e.fill < kMinFill) refined = std::max(refined, static_cast<int>(std::ceil(base_grid * std::sqrt(kMinFill) / across)));
+    if (refined > grid) grid = std::min(refined, std::max(grid, std::min(kMaxGrid, kMaxRefine * base_grid)));
+    return grid;
+}
+
+}  // namespace
+
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
                                    int base_grid, double pixel_mm, bool per_ghost_power, double total_power,
-                                   const std::vector<SceneVerdict>& verdicts) {
+                                   const std::vector<SceneVerdict>& verdicts, int spread_level) {
     std::vector<GhostPlan> plans(estimates.size());
     double total = total_power;
     if (!(total > 0.0))
@@ -170,21 +230,12 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         // sharp ghost gets (nikon-80-200, pan1080, --gain 20: a 7-code spike otherwise).
         const bool smooth_faint = verdict == SceneVerdict::Faint;
         plan.draw = true;
-        int grid = base_grid;
-        if (accel.adaptive) {
-            if (e.area_cv < kSmoothCv) {
-                grid = std::max(std::min(kMinGrid, base_grid), base_grid / 2);
-            } else if (e.area_cv > kSharpCv) {
-                const int level = std::min(kMaxLevel, static_cast<int>(std::ceil(std::log2(e.area_cv / kSharpCv))));
-                grid = std::max(base_grid, std::min(kMaxGrid, base_grid << level));
-            }
-            const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));  // passing share of a grid row
-            const double scale = static_cast<double>(base_grid) / kMinGrid;
-            const double edges = scale * std::max(e.failed_edge / kFailedShare, e.iris_edge / kIrisShare) / across;
-            int refined = static_cast<int>(std::ceil(edges));
-            if (e.fill < kMinFill) refined = std::max(refined, static_cast<int>(std::ceil(base_grid * std::sqrt(kMinFill) / across)));
-            if (refined > grid) grid = std::min(refined, std::max(grid, std::min(kMaxGrid, kMaxRefine * base_grid)));
-        }
+        plan.rim = !faint;
+        plan.splat = !smooth_faint;
+        if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
+        // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
+        const int outline_level = std::max(spread_level, plan.rim && plan.reduce >= kRimReduce ? plan.reduce / kRimReduce : plan.reduce);
+        int grid = accel.adaptive ? adaptive_grid(e, base_grid, spread_level > 1 ? 0.0 : pixel_mm * outline_level) : base_grid;
         if (accel.lod && share < kFullShare) {
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);
@@ -192,20 +243,6 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (faint && !failed_outline(e)) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
         if (smooth_faint && open_outline(e)) grid = std::min(grid, kFaintOpenGrid);
         plan.grid = grid;
-        plan.rim = !faint;
-        plan.splat = !smooth_faint;
-        if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) {
-            const double extent_px = e.extent_mm / pixel_mm;
-            if (e.area_cv < kReducedMaxCv) {
-                plan.reduce = extent_px >= kSixteenthExtentPx ? 16
-                              : extent_px >= kEighthExtentPx ? 8
-                              : extent_px >= kQuarterExtentPx ? 4
-                              : extent_px >= kHalfExtentPx ? 2 : 1;
-            } else {
-                plan.reduce = extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
-            }
-            if (smooth_faint) plan.reduce = faint_reduce(sensor_size_mm(e) / pixel_mm);
-        }
         const double level_pixel_mm = pixel_mm * plan.reduce;
         plan.area_coverage =
             plan.splat && !(mean_triangle_mm2(e, grid) >= kAreaCoveragePx * level_pixel_mm * level_pixel_mm);
@@ -337,8 +374,8 @@ void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estim
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '4'};
-constexpr int kFieldsPerGhost = 15;
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '5'};
+constexpr int kFieldsPerGhost = 16;
 
 }  // namespace
 
@@ -350,7 +387,7 @@ constexpr double kMaxTableValue = 1e9;
 // An estimate a trace could have made: the quantities that cannot be negative are not, and fill is a share.
 bool plausible(const GhostEstimate& g) {
     return g.power >= 0.0 && g.area_cv >= 0.0 && g.extent_mm >= 0.0 && g.fill >= 0.0 && g.fill <= 1.0 && g.failed_edge >= 0.0 &&
-           g.iris_edge >= 0.0 && g.peak >= 0.0;
+           g.iris_edge >= 0.0 && g.rim_edge >= 0.0 && g.peak >= 0.0;
 }
 
 }  // namespace
@@ -385,7 +422,7 @@ int BoundsTable::load() {
         const double* v = values.data();
         for (auto& pass : entry) {
             for (GhostEstimate& g : pass) {
-                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], {v[10], v[11], v[12], v[13]}, v[14]};
+                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], v[10], {v[11], v[12], v[13], v[14]}, v[15]};
                 if (!plausible(g)) return 0;
                 v += kFieldsPerGhost;
             }
@@ -411,7 +448,7 @@ void BoundsTable::save() const {
             for (const auto& pass : entry) {
                 for (const GhostEstimate& g : pass) {
                     const double v[kFieldsPerGhost] = {g.rect.x0, g.rect.y0, g.rect.x1, g.rect.y1, g.power, g.area_cv,
-                                                       g.extent_mm, g.fill, g.failed_edge, g.iris_edge,
+                                                       g.extent_mm, g.fill, g.failed_edge, g.iris_edge, g.rim_edge,
                                                        g.sensor.x0, g.sensor.y0, g.sensor.x1, g.sensor.y1, g.peak};
                     out.write(reinterpret_cast<const char*>(v), sizeof v);
                 }
@@ -445,6 +482,7 @@ std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) 
         r.fill = std::min(p.fill, q.fill);
         r.failed_edge = std::max(p.failed_edge, q.failed_edge);
         r.iris_edge = std::max(p.iris_edge, q.iris_edge);
+        r.rim_edge = std::max(p.rim_edge, q.rim_edge);
         // Between the two angles the ghost moves from one box to the other; unknown at either: unknown.
         const bool known = !p.sensor.empty() && !q.sensor.empty() && p.peak > 0.0 && q.peak > 0.0;
         r.sensor = known ? PupilRect{std::min(p.sensor.x0, q.sensor.x0), std::min(p.sensor.y0, q.sensor.y0),

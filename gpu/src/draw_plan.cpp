@@ -129,7 +129,8 @@ void coarsen_to_spread(std::vector<GhostPlan>& plans, int level) {
 PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
                    const GhostSelection& selection, const DetailSettings& detail, int band) {
     PassPlan out;
-    out.plans = plan_ghosts(estimates, detail.accel, detail.base_grid, detail.pixel_mm, detail.per_ghost_power, total_power, verdicts);
+    out.plans = plan_ghosts(estimates, detail.accel, detail.base_grid, detail.pixel_mm, detail.per_ghost_power, total_power, verdicts,
+                            detail.spread_level);
     if (detail.spread_level > 1) coarsen_to_spread(out.plans, detail.spread_level);
     for (std::size_t g = 0; g < estimates.size(); ++g) {
         if (!selection.drawn[g] || selection.dark(g)) continue;

@@ -295,7 +295,7 @@ struct CoarseGrid {
 };
 
 // What each coarse ray did.
-enum VertexFate : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3 };
+enum VertexFate : char { kBlocked = 0, kIrisBlocked = 1, kPasses = 2, kFailed = 3, kRimBlocked = 4 };
 
 // The coarse vertices sorted by fate, and what the passing ones span: on the entrance plane (`box`, and the
 // grid indices [ix0, ix1] x [iy0, iy1]) and on the sensor.
@@ -312,7 +312,7 @@ struct CoarseFates {
 // one of its (at most three) stop crossings, or passes.
 VertexFate fate_of(const float* v, int stop_crossings, const optics::IrisSdf& iris_sdf, double sensor_radius_mm) {
     if (v[10] < 0.5f) return kFailed;
-    if (v[2] > 1.0f) return kBlocked;
+    if (v[2] > 1.0f) return kRimBlocked;
     if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) return kBlocked;
     for (int k = 0; k < std::min(stop_crossings, 3); ++k)
         if (!(iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0)) return kIrisBlocked;
@@ -373,23 +373,25 @@ double cell_sensor_area(const CoarseGrid& grid, const std::size_t (&corner)[4]) 
 // pass, and the outline's cells (some corners pass) with a corner whose ray failed or the iris blocked.
 void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostEstimate& out) {
     double sum = 0.0, sum2 = 0.0;
-    int cells = 0, touched = 0, iris_cut = 0, failed_cut = 0;
+    int cells = 0, touched = 0, iris_cut = 0, failed_cut = 0, rim_cut = 0;
     for (int iy = 0; iy < grid.res; ++iy) {
         for (int ix = 0; ix < grid.res; ++ix) {
             const std::size_t a = grid.index(ix, iy);
             const std::size_t corner[4] = {a, a + 1, a + grid.stride + 1, a + grid.stride};
             int pass = 0;
-            bool iris = false, failed = false;
+            bool iris = false, failed = false, rim = false;
             for (std::size_t c : corner) {
                 pass += fate[c] == kPasses;
                 iris = iris || fate[c] == kIrisBlocked;
                 failed = failed || fate[c] == kFailed;
+                rim = rim || fate[c] == kRimBlocked;
             }
             if (pass == 0) continue;
             ++touched;
             if (pass < 4) {
                 iris_cut += iris;
                 failed_cut += failed;
+                rim_cut += rim;
                 continue;
             }
             const double area = cell_sensor_area(grid, corner);
@@ -408,6 +410,7 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
     if (touched > 0) {
         out.failed_edge = failed_cut / std::sqrt(static_cast<double>(touched));
         out.iris_edge = iris_cut / std::sqrt(static_cast<double>(touched));
+        out.rim_edge = rim_cut / std::sqrt(static_cast<double>(touched));
     }
     if (cells > 1 && sum > 0.0) {
         const double mean = sum / cells;

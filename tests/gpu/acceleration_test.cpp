@@ -113,6 +113,34 @@ TEST(PlanGhosts, OutlineRuleRefinesThinAndClippedGhosts) {
     for (const GhostPlan& p : plan_ghosts(e, a, 16, 0.1, true)) EXPECT_LE(p.grid, 16);
 }
 
+// The rim rule: a ghost cut by lens rims (rim_edge) whose cells' areas vary gets a finer grid, with cells of
+// no fewer than 4 pixels; a nearly affine one, or one spread over a footprint group, keeps the cv rule's.
+TEST(PlanGhosts, RimRuleRefinesBentVignettedGhosts) {
+    const double pixel_mm = 0.0364;  // 1000 px over 36.4 mm
+    std::vector<GhostEstimate> e(4);
+    for (GhostEstimate& g : e) {
+        g.rect = {-1, -1, 1, 1};
+        g.power = 1.0;
+        g.fill = 0.65;
+        g.rim_edge = 5.0;
+        g.area_cv = 0.62;
+        g.extent_mm = 533 * pixel_mm;  // pbrt dgauss.50mm's 5,7 at the CandleGlass flame's angle
+    }
+    e[1].area_cv = 0.05;           // nearly affine: the radius interpolates well
+    e[2].extent_mm = 40 * pixel_mm;  // small: cells of 4 px at most 10 a side, under the base
+    e[3].rim_edge = 0.0;
+    const Acceleration a;
+    const auto plans = plan_ghosts(e, a, 16, pixel_mm, true);
+    EXPECT_EQ(plans[0].grid, 52);  // 5 / 0.12 / sqrt(0.65)
+    EXPECT_EQ(plans[1].grid, 16);
+    EXPECT_EQ(plans[2].grid, 16);
+    EXPECT_EQ(plans[3].grid, 16);
+    EXPECT_EQ(plan_ghosts(e, a, 16, pixel_mm, true, 0.0, {}, 2)[0].grid, 16);  // spread: the footprint blurs it
+    EXPECT_EQ(plan_ghosts(e, a, 32, pixel_mm, true)[0].grid, 104);             // in proportion to the base
+    e[0].power = 1e-3;  // dim: the level of detail scales the refined grid down
+    EXPECT_LT(plan_ghosts(e, a, 16, pixel_mm, true)[0].grid, 52);
+}
+
 // Reduced drawing: smooth ghosts at 1/2 from 96 pixels across, 1/4 from 256, 1/8 from 1024, 1/16 from
 // 2048; ghosts with caustics at 1/2 from 1024 and 1/4 from 2048; none with the per-ghost read-back.
 TEST(PlanGhosts, ReducedDrawingFollowsSizeAndSmoothness) {
@@ -141,6 +169,8 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     table.store(4, entry);
     entry[1][2].fill = 0.3;
     entry[1][2].iris_edge = 3.0;
+    entry[1][2].rim_edge = 4.5;
+    entry[1][2].peak = 7.5;
     table.store(5, entry);
     table.save();
     BoundsTable again(0x1234, 2, 3, dir.string());
@@ -154,6 +184,8 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     EXPECT_EQ(mid[2].fill, 0.3);       // the smaller fill
     EXPECT_EQ(mid[2].iris_edge, 3.0);  // the longer outline
     EXPECT_EQ(mid[2].failed_edge, 1.5);
+    EXPECT_EQ(mid[2].rim_edge, 4.5);   // the longer outline
+    EXPECT_EQ((*again.entry(5))[1][2].peak, 7.5);  // the field after rim_edge, read back in place
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
     // A value no trace gives (NaN, 1e300, a negative power) makes the file a miss: it drew no ghost at all.

@@ -65,10 +65,13 @@ struct GhostEstimate {
     // The outline, as coarse cells with some corners passing and some not, per square root of the coarse
     // cells with a passing corner (so outline / (sqrt(fill) * grid) is roughly the outline's share of a
     // grid's cells on the passing part): where a corner's ray fails (misses a surface, total internal
-    // reflection; the renderer drops such cells whole) and where a corner is blocked by the iris (clipped
-    // on interpolated stop coordinates).
+    // reflection; the renderer drops such cells whole), where a corner is blocked by the iris (clipped
+    // on interpolated stop coordinates) and where a corner is clipped by a lens's rim (clipped on the
+    // interpolated relative radius, which a coarse cell over a strongly bent map puts far from the true rim:
+    // a polygonal or ragged outline, a vignetted region with straight sides).
     double failed_edge = 0.0;
     double iris_edge = 0.0;
+    double rim_edge = 0.0;
     // Where it lands and how bright it gets, for culling against the frame (scene_cull): the bounding box of
     // its passing rays on the sensor (mm, sensor coordinates at the estimate's light azimuth; empty: not
     // known) and the largest irradiance of a coarse cell whose corners all pass (per unit irradiance of the
@@ -78,6 +81,13 @@ struct GhostEstimate {
 };
 
 // Per-ghost drawing decisions from the estimates of one pass.
+// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
+// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
+// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
+// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
+// rest of the render.
+inline constexpr int kRimReduce = 4;
+
 struct GhostPlan {
     bool draw = false;
     int grid = 0;    // cells per side
@@ -108,9 +118,11 @@ double caustic_spike(const GhostEstimate& e);
 // reduced drawing (the per-ghost read-back happens on the full-size target). total_power: what the level
 // of detail takes each ghost's share of (all lights' ghosts in this pass); 0: the estimates' sum.
 // verdicts: scene culling's per ghost (empty: every ghost Draw).
+// spread_level: the caller spreads every ghost over that level's disc (an extended light's footprint group),
+// so no outline is seen finer.
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
                                    int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0,
-                                   const std::vector<SceneVerdict>& verdicts = {});
+                                   const std::vector<SceneVerdict>& verdicts = {}, int spread_level = 1);
 
 // What a frame can show of a flare added to it, cell by cell and channel by channel (scene culling, issue 17):
 // in each cell of `cell` x `cell` pixels, the smallest addition to R, G and B (in the frame's units) that

@@ -68,13 +68,6 @@ struct DetailSettings {
     int spread_level = 1;        // no ghost drawn finer (spread_level of GpuFlareOptions::spread)
 };
 
-// Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
-// (1/4 at full size, 1/8 at 1/2, 1/16 at 1/4): the upsampling then softens a rim by a pixel or two at 1/2, a
-// few at 1/4, against 8-16 px stairs drawn wholly reduced; at full size the rim pass of a frame-filling
-// ghost at 1/16 (a 48-px band along its outline, filled by whole grid triangles) cost more than all the
-// rest of the render.
-inline constexpr int kRimReduce = 4;
-
 // One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,
 // in ghost order (later bands only those with a full-size part: the ghost or its rim), with what band 0
 // counts for RenderStats. Faint ghosts (scene culling; no rim pass, no splats) are drawn together, grouped
