@@ -214,7 +214,11 @@ flare::FlareImage reference_ghosts(const FlareArgs& args, const optics::System& 
     options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     options.per_ghost_power = args.list;
     return args.band_filter
-               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return flare::render_reference(system, one, options); })
+               ? gpu::render_band_filtered(system, view,
+                                         [&](flare::FlareView one, const std::vector<std::pair<int, int>>& ghosts) {
+                                             one.only_ghosts = ghosts;
+                                             return flare::render_reference(system, one, options);
+                                         })
                : flare::render_reference(system, view, options);
 }
 
@@ -231,7 +235,7 @@ flare::FlareImage gpu_ghosts(const FlareArgs& args, const optics::System& system
     if (!args.flare_look.empty())
         options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
     return args.band_filter
-               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return renderer.render(system, one, options); })
+               ? gpu::render_band_filtered(system, view, gpu::render_one_on(renderer, system, options))
                : renderer.render(system, view, options);
 }
 

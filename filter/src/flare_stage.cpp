@@ -812,10 +812,9 @@ struct FlareStage::State {
     void add_band_filtered_group(const detect::Light& light, const std::array<float, 3>& scale, const FootprintGroup& group,
                                  flare::FlareView& view, std::vector<float>& rgb, FrameTally& tally) {
         auto t = Clock::now();
-        view.only_ghosts = group.ghosts;
-        flare::FlareImage flare = gpu::render_band_filtered(
-            lens.system, view, [&](const flare::FlareView& one) { return ghost_renderer().render(lens.system, one, render_options); });
-        view.only_ghosts.clear();
+        // The whole lens's ghost list for every render (one bounds table per band), the group's drawn.
+        flare::FlareImage flare = gpu::render_band_filtered(lens.system, view, gpu::render_one_on(ghost_renderer(), lens.system, render_options),
+                                                            group.ghosts);
         if (flare.width != view.width || flare.height != view.height)
             throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
                                                  view.width, view.height));
