@@ -425,7 +425,7 @@ void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame,
         } else {
             write_pfm(stdout, frame, plan.out_order == PfmOrder::top_first, o.memory);
         }
-        if (std::fflush(stdout) != 0) throw std::runtime_error("write failed");
+        if (std::fflush(stdout) != 0) throw std::runtime_error(fmt::format("write failed: {}", write_failure(errno)));
         return;
     }
     if (!plan.out_pattern.is_sequence && done > 0) {
@@ -667,7 +667,7 @@ void write_report(const RunReport& report, const std::string& path) {
     if (path == "-") {
         const std::string text = j.dump(2) + "\n";
         if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
-            throw std::runtime_error("cannot write the report to stdout");
+            throw std::runtime_error(fmt::format("cannot write the report to stdout: {}", write_failure(errno)));
         return;
     }
     write_file(path, j.dump(2) + "\n");

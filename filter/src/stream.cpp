@@ -15,6 +15,8 @@
 
 #include <fmt/core.h>
 
+#include <filter/output_files.h>
+
 namespace lensfx::filter {
 
 namespace {
@@ -40,7 +42,7 @@ bool read_exact(std::FILE* in, void* data, std::size_t size, std::string_view wh
 
 void write_exact(std::FILE* out, const void* data, std::size_t size) {
     if (std::fwrite(data, 1, size, out) != size) {
-        throw std::runtime_error(fmt::format("write failed: {}", std::strerror(errno)));
+        throw std::runtime_error(fmt::format("write failed: {}", write_failure(errno)));
     }
 }
 

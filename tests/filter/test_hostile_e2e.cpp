@@ -381,6 +381,25 @@ TEST(Hostile, AClosedStderrIsNoAbort) {
     fs::remove_all(dir);
 }
 
+// Class 9 (closed output pipe): a reader that closes stdout (`| head -c 1`; here `| true`, closed before the
+// first write) fails the run with one line saying so, exit 1, not a silent death by SIGPIPE (141); the
+// frames written to files before it stay.
+TEST(Hostile, AClosedOutputPipeIsOneLine) {
+    const auto dir = scratch_dir("hostile-closed-pipe");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string closed = "the output pipe was closed by its reader";
+    const RunResult raw = run(lensfx_in(dir) + fmt::format(" -i {}/in.exr -o - --pix-fmt gbrapf32le", d) + kLens + " | true");
+    expect_one_line_refusal(raw, closed);
+    EXPECT_EQ(raw.exit_code, 1) << raw.stderr_text;
+    const RunResult report = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --report -", d) + kLens + " | true");
+    expect_one_line_refusal(report, closed);
+    EXPECT_EQ(report.exit_code, 1) << report.stderr_text;
+    EXPECT_TRUE(all_finite(dir / "o.exr"));
+    expect_one_line_refusal(run(lensfx_cmd() + " lens list | true"), closed);
+    fs::remove_all(dir);
+}
+
 // Class 9 (cache folder): a named pipe under a cache file's name is read as a miss, not opened (opening it
 // waited for a writer for ever). Two runs fill the cache (flare with a point and an extended light: bounds,
 // direct power, starburst, ghost imaging; the lens blur: its ray table), every file is swapped for a pipe,
