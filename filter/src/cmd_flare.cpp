@@ -19,6 +19,7 @@
 #include <filter/colour.h>
 #include <filter/flare_controls.h>
 #include <filter/flare_stage.h>
+#include <filter/output_files.h>
 #include <filter/image_io.h>
 #include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
@@ -276,6 +277,9 @@ void print_ghost_list(const FlareArgs& args, const optics::System& system, const
 // A physical lens: its ghosts (reference or GPU) and the light's starburst, each as --parts asks and times
 // its gain; listed with --list.
 void run_flare(const FlareArgs& args) {
+    // A directory (or device, pipe) under an output's name is refused before the render, not after it.
+    refuse_special_output(args.output, "-o");
+    refuse_special_output(args.preview, "--preview");
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
     const optics::System system = realize_lens(args).system;

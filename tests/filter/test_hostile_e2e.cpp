@@ -368,6 +368,26 @@ TEST(Hostile, SpecialOutputsAreRefusedAndLinksWrittenThrough) {
     fs::remove_all(dir);
 }
 
+// Class 9 (outputs that are directories): a directory named like an image under an output's name is refused
+// before anything is rendered or read, naming the option: `lensfx flare` (-o, --preview) and the filter
+// reading a stream (of zeros here, no image: a refusal after the first read would name the stream instead).
+TEST(Hostile, DirectoryOutputsAreRefusedBeforeRendering) {
+    const auto dir = scratch_dir("hostile-dir-out");
+    const std::string d = dir.string(), t = "timeout 20 env ";
+    for (const char* name : {"out.exr", "preview.png", "seq.0001.exr"}) fs::create_directory(dir / name);
+    const std::string flare = lensfx_in(dir) + " flare --lens brendel-tessar --angle 5,0 --size 32x24";
+    expect_one_line_refusal(run(t + flare + fmt::format(" -o {}/out.exr", d)), "-o " + d + "/out.exr: a directory");
+    expect_one_line_refusal(run(t + flare + fmt::format(" -o {0}/f.exr --preview {0}/preview.png", d)), "--preview " + d + "/preview.png: a directory");
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    const RunResult single = run("cat /dev/zero | " + t + lensfx_in(dir) + fmt::format(" -i - -o {}/out.exr", d) + kLens);
+    expect_one_line_refusal(single, "-o " + d + "/out.exr: a directory");
+    EXPECT_EQ(single.exit_code, 1);
+    expect_one_line_refusal(run("cat /dev/zero | " + t + lensfx_in(dir) + fmt::format(" -i - -o {}/seq.####.exr", d) + kLens),
+                            "-o " + d + "/seq.0001.exr: a directory");
+    EXPECT_TRUE(fs::is_directory(dir / "out.exr"));
+    fs::remove_all(dir);
+}
+
 // Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
 // and no file the run opens takes stderr's number (a message would land inside it).
 TEST(Hostile, AClosedStderrIsNoAbort) {
