@@ -16,6 +16,7 @@
 #include <filter/colour.h>
 #include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 #include <filter/pipeline.h>
 #include <filter/views.h>
@@ -230,7 +231,10 @@ void register_filter(CLI::App& app) {
         ->check(CLI::IsMember({"exr", "pfm", "raw"}));
     app.add_option("--pix-fmt", args->pix_fmt, "Raw planar float on -: gbrpf32le or gbrapf32le (planes G, B, R[, A]); the output's, and the input's with --size")
         ->check(CLI::IsMember({"gbrpf32le", "gbrapf32le"}));
-    app.add_option("--size", args->size, "Frame size of raw input on stdin, WIDTHxHEIGHT");
+    app.add_option("--size", args->size, "Frame size of raw input on stdin, WIDTHxHEIGHT")->check(parsed_by([](const std::string& text) {
+        int w = 0, h = 0;
+        parse_size(text, w, h);
+    }, "--size", "WxH"));
     app.add_flag("--skip-bad-frames", o.skip_bad_frames, "Leave out unreadable or mismatched input frames and report them");
     app.add_flag("--allow-empty", o.allow_empty, "An input stream of no frames is a success (default: an error)");
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
@@ -238,7 +242,7 @@ void register_filter(CLI::App& app) {
     app.add_option("--report", o.report_path, "Write per-frame stage times and the run's options as JSON (- : stdout)");
     app.add_option("--views", args->views, "Views of a stereo or multi-view EXR to flare, each from its own pixels (default: all)")
         ->delimiter(',');
-    app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
+    app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp)->check(memory_limit_check());
     colour::add_colour_options(app, args->colour);
     add_flare_options(app, args->flare);
     add_dof_options(app, args->dof);

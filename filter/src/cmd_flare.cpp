@@ -120,6 +120,14 @@ void write_preview(const flare::FlareImage& image, const std::string& path, std:
 }
 
 // The light's direction, the sensor and the image size of the command line.
+// --size WxH: two whole numbers 1..16384; throws naming the option.
+std::pair<int, int> flare_image_size(const std::string& text) {
+    const auto [w, h] = parse_pair(text, 'x', "--size");
+    if (w < 1 || h < 1 || w != std::floor(w) || h != std::floor(h) || w > 16384 || h > 16384)
+        throw std::invalid_argument(fmt::format("--size {}: two whole numbers 1..16384 expected", text));
+    return {static_cast<int>(w), static_cast<int>(h)};
+}
+
 flare::FlareView flare_view(const FlareArgs& args) {
     flare::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
@@ -139,12 +147,7 @@ flare::FlareView flare_view(const FlareArgs& args) {
         view.width = 960;
         view.height = std::max(1, static_cast<int>(std::lround(960.0 * view.sensor_height_mm / view.sensor_width_mm)));
     } else {
-        const auto [w, h] = parse_pair(args.size, 'x', "--size");
-        if (w < 1 || h < 1 || w != std::floor(w) || h != std::floor(h) || w > 16384 || h > 16384) {
-            throw std::invalid_argument(fmt::format("--size {}: two whole numbers 1..16384 expected", args.size));
-        }
-        view.width = static_cast<int>(w);
-        view.height = static_cast<int>(h);
+        std::tie(view.width, view.height) = flare_image_size(args.size);
     }
     view.wavelength_nm = args.wavelength;
     view.bands = args.bands;
@@ -313,8 +316,9 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
     add_lens_options(*cmd, *args, "Flare");
     cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
-    cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str();
-    cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
+    cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str()->check(sensor_check());
+    cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)")
+        ->check(parsed_by([](const std::string& text) { flare_image_size(text); }, "--size", "WxH"));
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
@@ -341,7 +345,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Worker threads (the CPU reference's; 0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
-    cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
+    cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp)->check(memory_limit_check());
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
     cmd->add_option("--iso", args->iso, "Measured lenses: the ISO to render for (paper equation 2; default the capture's)")->check(CLI::Range(1.0, 1e7));

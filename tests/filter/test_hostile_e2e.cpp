@@ -388,6 +388,42 @@ TEST(Hostile, DirectoryOutputsAreRefusedBeforeRendering) {
     fs::remove_all(dir);
 }
 
+// Class 10 (option values): a bad value of a numeric option is a usage error, exit 2, one line naming the
+// option, found before any input is read; these once exited 1 (some only after reading the first frame, one,
+// --ghost-threshold nan, not at all).
+TEST(Hostile, BadOptionValuesAreUsageErrors) {
+    const auto dir = scratch_dir("hostile-usage");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar -q", d);
+    const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1"}},
+        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310"}},
+        {"--dust", {"nan"}},                                  {"--dust-size", {"nan"}},
+        {"--dust-opacity", {"nan"}},                          {"--scratch-length", {"nan"}},
+        {"--scratch-width", {"nan"}},                         {"--scratch-angle", {"nan", "inf"}},
+        {"--scratch-spread", {"nan"}},                        {"--ghost-threshold", {"nan"}}};
+    for (const auto& [option, values] : cases)
+        for (const std::string& value : values) {
+            const RunResult r = run(filter + " " + option + " " + value);
+            expect_one_line_refusal(r, option);
+            EXPECT_EQ(r.exit_code, 2) << option << " " << value << ": " << r.stderr_text;
+        }
+    for (const char* size : {"0x0", "-5x3", "nanx2", "0"}) {
+        const RunResult raw = run(fmt::format("{} -i - -o {}/o.exr --pix-fmt gbrpf32le --size {} < /dev/null", lensfx_cmd(), d, size));
+        expect_one_line_refusal(raw, "--size");
+        EXPECT_EQ(raw.exit_code, 2) << size << ": " << raw.stderr_text;
+        const RunResult flare = run(fmt::format("{} flare --lens brendel-tessar --angle 3,3 --size {} -o {}/f.exr", lensfx_cmd(), size, d));
+        expect_one_line_refusal(flare, "--size");
+        EXPECT_EQ(flare.exit_code, 2) << size << ": " << flare.stderr_text;
+    }
+    const RunResult track = run(fmt::format("{0} track -i {1}/in.exr --tracks-out {1}/t.json --threshold 0", lensfx_cmd(), d));
+    expect_one_line_refusal(track, "--threshold");
+    EXPECT_EQ(track.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
 // Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
 // and no file the run opens takes stderr's number (a message would land inside it).
 TEST(Hostile, AClosedStderrIsNoAbort) {
