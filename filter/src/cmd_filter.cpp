@@ -145,6 +145,19 @@ void check_output_options(const FilterArgs& args, const CLI::App& app) {
                    args.colour.options.display, out.name);
 }
 
+// A flare whose gains leave nothing (--gain 0, or every part's gain 0) is legal, as every gain of 0 is (a shot
+// file can switch the flare off and keep its settings), but the frames then pass through unchanged: a warning
+// says so, as a user who did not mean it would otherwise not know.
+void warn_about_zero_gain(const FilterArgs& args) {
+    const FlareSettings& f = args.flare;
+    if (f.lens.empty() || args.dof.dof_only || args.pipeline.quiet) return;
+    const FlareParts parts = parse_parts(f.parts);
+    const bool ghosts = parts.ghosts && f.controls.ghost_gain > 0.0, starburst = parts.starburst && f.starburst_gain > 0.0;
+    if (f.gain > 0.0 && (ghosts || starburst)) return;
+    const std::string why = f.gain > 0.0 ? "every part drawn has a gain of 0 (--parts, --ghost-gain, --starburst-gain)" : "--gain 0";
+    fmt::print(stderr, "lensfx: warning: {}: no flare is added, the frames pass through unchanged\n", why);
+}
+
 // Whether the output (a file or frame pattern) names `path`: one of its frames, or the same pattern.
 bool output_names(const std::string& out, const std::string& path) {
     std::error_code ec;
@@ -181,6 +194,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     if (args.memory_limit.empty()) o.in_flight_limit = kDefaultInFlightBytes;
     args.flare.memory = o.memory;
     check_output_options(args, app);
+    warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);
     if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");
     o.options_toml = app.config_to_str(false, false);

@@ -424,6 +424,29 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     fs::remove_all(dir);
 }
 
+// Class 10 (silent no-ops): requests that are legal but add no flare exit 0 and say so: --gain 0 (a warning
+// before the run), lights beyond the field the lens images (--fov 179: the run's summary), an --add-light
+// disc too dim to become a light (the summary).
+TEST(Hostile, NoFlareAddedIsSaid) {
+    const auto dir = scratch_dir("hostile-no-flare");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar --fstop 4 --grid 8 --threshold 100", d);
+    const auto said = [&](const std::string& options, const std::string& text) {
+        const RunResult r = run(filter + options);
+        EXPECT_EQ(r.exit_code, 0) << options << ": " << r.stderr_text;
+        EXPECT_NE(r.stderr_text.find(text), std::string::npos) << options << ": expected \"" << text << "\" in: " << r.stderr_text;
+    };
+    said(" --gain 0", "lensfx: warning: --gain 0: no flare is added");
+    said(" --parts ghosts --ghost-gain 0", "lensfx: warning: every part drawn has a gain of 0");
+    said(" --fov 179", "no flare was added: every light lies outside the field the lens images");
+    said(" --add-light 40,30,50", "--add-light 40,30,50 is below the threshold 100 and adds no light");
+    const RunResult plain = run(filter);  // a flare added: none of it said
+    EXPECT_EQ(plain.stderr_text.find("no flare"), std::string::npos) << plain.stderr_text;
+    EXPECT_EQ(plain.stderr_text.find("outside the field"), std::string::npos) << plain.stderr_text;
+    fs::remove_all(dir);
+}
+
 // Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
 // and no file the run opens takes stderr's number (a message would land inside it).
 TEST(Hostile, AClosedStderrIsNoAbort) {
