@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <stdexcept>
 
@@ -32,9 +33,11 @@ std::vector<double> parse_numbers(std::string_view text) {
     while (begin <= text.size()) {
         const std::size_t end = std::min(text.find(',', begin), text.size());
         const std::string part(text.substr(begin, end - begin));
-        std::size_t used = 0;
-        const double v = std::stod(part, &used);  // throws on an empty or non-numeric part
-        if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument(part);
+        // strtod, not stod: a value too small for a normal double (1e-310) is a number, read as the
+        // subnormal (or 0) it rounds to, not an error that would call it not finite.
+        char* used = nullptr;
+        const double v = std::strtod(part.c_str(), &used);
+        if (part.empty() || used != part.c_str() + part.size() || !std::isfinite(v)) throw std::invalid_argument(part);
         out.push_back(v);
         begin = end + 1;
     }

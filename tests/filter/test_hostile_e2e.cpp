@@ -447,6 +447,23 @@ TEST(Hostile, NoFlareAddedIsSaid) {
     fs::remove_all(dir);
 }
 
+// Class 10 (messages that say what is true): a raw stream that ends inside a frame is told in the frame's
+// bytes (once the row's: "200 of 400" for 7000 of 12000), and a subnormal --add-light value is a number (it
+// was refused as not finite).
+TEST(Hostile, MessagesSayWhatIsTrue) {
+    const auto dir = scratch_dir("hostile-true");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const auto raw = [&](int bytes) {
+        return run(fmt::format("head -c {} /dev/zero | {} -i - -o - --pix-fmt gbrpf32le --size 100x10 > /dev/null", bytes, lensfx_cmd()));
+    };
+    expect_one_line_refusal(raw(7000), "frame 1: stream ended inside a 100x10 gbrpf32le frame (7000 of 12000 bytes)");
+    expect_one_line_refusal(raw(12000 + 300), "frame 2: stream ended inside a 100x10 gbrpf32le frame (300 of 12000 bytes)");
+    const RunResult tiny = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --add-light 10,10,1e-310", d) + kLens);
+    EXPECT_EQ(tiny.exit_code, 0) << tiny.stderr_text;
+    fs::remove_all(dir);
+}
+
 // Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
 // and no file the run opens takes stderr's number (a message would land inside it).
 TEST(Hostile, AClosedStderrIsNoAbort) {
