@@ -90,9 +90,7 @@ int main(int argc, char** argv) try {
     view.height = height;
     const auto render = [&](const flare::FlareView& v, bool filter, double& ms) {
         const auto t0 = Clock::now();
-        flare::FlareImage image = filter ? gpu::render_band_filtered(system, v, [&](const flare::FlareView& one) {
-            return renderer.render(system, one, options);
-        })
+        flare::FlareImage image = filter ? gpu::render_band_filtered(system, v, gpu::render_one_on(renderer, system, options))
                                        : renderer.render(system, v, options);
         ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
         return image;

@@ -16,6 +16,7 @@
 #include <filter/colour.h>
 #include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 #include <filter/pipeline.h>
 #include <filter/views.h>
@@ -144,6 +145,19 @@ void check_output_options(const FilterArgs& args, const CLI::App& app) {
                    args.colour.options.display, out.name);
 }
 
+// A flare whose gains leave nothing (--gain 0, or every part's gain 0) is legal, as every gain of 0 is (a shot
+// file can switch the flare off and keep its settings), but the frames then pass through unchanged: a warning
+// says so, as a user who did not mean it would otherwise not know.
+void warn_about_zero_gain(const FilterArgs& args) {
+    const FlareSettings& f = args.flare;
+    if (f.lens.empty() || args.dof.dof_only || args.pipeline.quiet) return;
+    const FlareParts parts = parse_parts(f.parts);
+    const bool ghosts = parts.ghosts && f.controls.ghost_gain > 0.0, starburst = parts.starburst && f.starburst_gain > 0.0;
+    if (f.gain > 0.0 && (ghosts || starburst)) return;
+    const std::string why = f.gain > 0.0 ? "every part drawn has a gain of 0 (--parts, --ghost-gain, --starburst-gain)" : "--gain 0";
+    fmt::print(stderr, "lensfx: warning: {}: no flare is added, the frames pass through unchanged\n", why);
+}
+
 // Whether the output (a file or frame pattern) names `path`: one of its frames, or the same pattern.
 bool output_names(const std::string& out, const std::string& path) {
     std::error_code ec;
@@ -180,6 +194,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     if (args.memory_limit.empty()) o.in_flight_limit = kDefaultInFlightBytes;
     args.flare.memory = o.memory;
     check_output_options(args, app);
+    warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);
     if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");
     o.options_toml = app.config_to_str(false, false);
@@ -230,7 +245,10 @@ void register_filter(CLI::App& app) {
         ->check(CLI::IsMember({"exr", "pfm", "raw"}));
     app.add_option("--pix-fmt", args->pix_fmt, "Raw planar float on -: gbrpf32le or gbrapf32le (planes G, B, R[, A]); the output's, and the input's with --size")
         ->check(CLI::IsMember({"gbrpf32le", "gbrapf32le"}));
-    app.add_option("--size", args->size, "Frame size of raw input on stdin, WIDTHxHEIGHT");
+    app.add_option("--size", args->size, "Frame size of raw input on stdin, WIDTHxHEIGHT")->check(parsed_by([](const std::string& text) {
+        int w = 0, h = 0;
+        parse_size(text, w, h);
+    }, "--size", "WxH"));
     app.add_flag("--skip-bad-frames", o.skip_bad_frames, "Leave out unreadable or mismatched input frames and report them");
     app.add_flag("--allow-empty", o.allow_empty, "An input stream of no frames is a success (default: an error)");
     app.add_flag("-q,--quiet", o.quiet, "No progress line, no warnings");
@@ -238,7 +256,7 @@ void register_filter(CLI::App& app) {
     app.add_option("--report", o.report_path, "Write per-frame stage times and the run's options as JSON (- : stdout)");
     app.add_option("--views", args->views, "Views of a stereo or multi-view EXR to flare, each from its own pixels (default: all)")
         ->delimiter(',');
-    app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
+    app.add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp)->check(memory_limit_check());
     colour::add_colour_options(app, args->colour);
     add_flare_options(app, args->flare);
     add_dof_options(app, args->dof);

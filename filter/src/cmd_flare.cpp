@@ -19,6 +19,7 @@
 #include <filter/colour.h>
 #include <filter/flare_controls.h>
 #include <filter/flare_stage.h>
+#include <filter/output_files.h>
 #include <filter/image_io.h>
 #include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
@@ -119,6 +120,14 @@ void write_preview(const flare::FlareImage& image, const std::string& path, std:
 }
 
 // The light's direction, the sensor and the image size of the command line.
+// --size WxH: two whole numbers 1..16384; throws naming the option.
+std::pair<int, int> flare_image_size(const std::string& text) {
+    const auto [w, h] = parse_pair(text, 'x', "--size");
+    if (w < 1 || h < 1 || w != std::floor(w) || h != std::floor(h) || w > 16384 || h > 16384)
+        throw std::invalid_argument(fmt::format("--size {}: two whole numbers 1..16384 expected", text));
+    return {static_cast<int>(w), static_cast<int>(h)};
+}
+
 flare::FlareView flare_view(const FlareArgs& args) {
     flare::FlareView view;
     std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
@@ -138,12 +147,7 @@ flare::FlareView flare_view(const FlareArgs& args) {
         view.width = 960;
         view.height = std::max(1, static_cast<int>(std::lround(960.0 * view.sensor_height_mm / view.sensor_width_mm)));
     } else {
-        const auto [w, h] = parse_pair(args.size, 'x', "--size");
-        if (w < 1 || h < 1 || w != std::floor(w) || h != std::floor(h) || w > 16384 || h > 16384) {
-            throw std::invalid_argument(fmt::format("--size {}: two whole numbers 1..16384 expected", args.size));
-        }
-        view.width = static_cast<int>(w);
-        view.height = static_cast<int>(h);
+        std::tie(view.width, view.height) = flare_image_size(args.size);
     }
     view.wavelength_nm = args.wavelength;
     view.bands = args.bands;
@@ -214,7 +218,11 @@ flare::FlareImage reference_ghosts(const FlareArgs& args, const optics::System& 
     options.threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     options.per_ghost_power = args.list;
     return args.band_filter
-               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return flare::render_reference(system, one, options); })
+               ? gpu::render_band_filtered(system, view,
+                                         [&](flare::FlareView one, const std::vector<std::pair<int, int>>& ghosts) {
+                                             one.only_ghosts = ghosts;
+                                             return flare::render_reference(system, one, options);
+                                         })
                : flare::render_reference(system, view, options);
 }
 
@@ -231,7 +239,7 @@ flare::FlareImage gpu_ghosts(const FlareArgs& args, const optics::System& system
     if (!args.flare_look.empty())
         options.styles = optics::ghost_styles(optics::read_flare_look(args.flare_look), optics::enumerate_ghosts(system));
     return args.band_filter
-               ? gpu::render_band_filtered(system, view, [&](const flare::FlareView& one) { return renderer.render(system, one, options); })
+               ? gpu::render_band_filtered(system, view, gpu::render_one_on(renderer, system, options))
                : renderer.render(system, view, options);
 }
 
@@ -272,6 +280,9 @@ void print_ghost_list(const FlareArgs& args, const optics::System& system, const
 // A physical lens: its ghosts (reference or GPU) and the light's starburst, each as --parts asks and times
 // its gain; listed with --list.
 void run_flare(const FlareArgs& args) {
+    // A directory (or device, pipe) under an output's name is refused before the render, not after it.
+    refuse_special_output(args.output, "-o");
+    refuse_special_output(args.preview, "--preview");
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
     const optics::System system = realize_lens(args).system;
@@ -305,8 +316,9 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
     add_lens_options(*cmd, *args, "Flare");
     cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
-    cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str();
-    cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)");
+    cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str()->check(sensor_check());
+    cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)")
+        ->check(parsed_by([](const std::string& text) { flare_image_size(text); }, "--size", "WxH"));
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
@@ -333,7 +345,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");
     cmd->add_option("--threads", args->threads, "Worker threads (the CPU reference's; 0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
-    cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp);
+    cmd->add_option("--memory-limit", args->memory_limit, kMemoryLimitHelp)->check(memory_limit_check());
     cmd->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
     cmd->add_option("--iso", args->iso, "Measured lenses: the ISO to render for (paper equation 2; default the capture's)")->check(CLI::Range(1.0, 1e7));

@@ -15,6 +15,7 @@
 #include <filter/frame.h>
 #include <filter/frame_view.h>
 #include <filter/image_io.h>
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 #include <filter/sequence.h>
 #include <filter/stream.h>
@@ -123,7 +124,7 @@ void register_track_command(CLI::App& app) {
     cmd->add_option("-i,--input", s->input, "Input: a file, a pattern (shot.####.exr) or - for a PFM stream on stdin")->required();
     cmd->add_option("--frames", s->frames, "Frames of a pattern input (1-100, 1-100x2, 3,7,10-20); default: all on disk");
     cmd->add_option("--tracks-out", s->tracks_out, "The track file to write (JSON)")->required();
-    cmd->add_option("--threshold", s->threshold, "Birth threshold: a luminance (20) or stops above the frame's median (+6ev)");
+    cmd->add_option("--threshold", s->threshold, "Birth threshold: a luminance (20) or stops above the frame's median (+6ev)")->check(threshold_check());
     cmd->add_option("--max-lights", s->detector.max_lights, "Brightest sources kept per frame")->check(CLI::NonNegativeNumber);
     cmd->add_option("--hysteresis", s->detector.hysteresis_ev, "Stops below the threshold where a tracked light lives on")
         ->check(CLI::NonNegativeNumber);
@@ -141,7 +142,7 @@ void register_track_command(CLI::App& app) {
     cmd->add_option("--cut-threshold", s->tracker.cut_threshold, "Histogram change (L1, 0-2) between frames that is a cut")
         ->check(CLI::PositiveNumber);
     cmd->add_flag("--allow-empty", s->allow_empty, "An input stream of no frames writes an empty track file (default: an error)");
-    cmd->add_option("--memory-limit", s->memory_limit, kMemoryLimitHelp);
+    cmd->add_option("--memory-limit", s->memory_limit, kMemoryLimitHelp)->check(memory_limit_check());
     cmd->add_flag("-q,--quiet", s->quiet, "No summary line");
     cmd->callback([s] { run_track(*s); });
 }

@@ -60,6 +60,20 @@ flare::FlareImage render_measured_flare(const std::string& path, const flare::Fl
                                       const std::string& gpu_platform);
 measured::MeasuredView measured_view(const flare::FlareView& view);
 
+// --memory-limit's check: a value parse_memory_limit refuses is a usage error (exit 2).
+inline CLI::Validator memory_limit_check() {
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            try {
+                parse_memory_limit(text);
+            } catch (const std::exception&) {
+                return "must be a size such as 4G, 512M or none, not \"" + text + "\"";
+            }
+            return {};
+        },
+        "SIZE");
+}
+
 // --memory-limit's value: parse_memory_limit(text), or default_memory_budget() when it was not given.
 inline MemoryBudget memory_budget_option(const std::string& text) {
     return text.empty() ? default_memory_budget() : parse_memory_limit(text);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <stdexcept>
 
@@ -32,9 +33,11 @@ std::vector<double> parse_numbers(std::string_view text) {
     while (begin <= text.size()) {
         const std::size_t end = std::min(text.find(',', begin), text.size());
         const std::string part(text.substr(begin, end - begin));
-        std::size_t used = 0;
-        const double v = std::stod(part, &used);  // throws on an empty or non-numeric part
-        if (used != part.size() || !std::isfinite(v)) throw std::invalid_argument(part);
+        // strtod, not stod: a value too small for a normal double (1e-310) is a number, read as the
+        // subnormal (or 0) it rounds to, not an error that would call it not finite.
+        char* used = nullptr;
+        const double v = std::strtod(part.c_str(), &used);
+        if (part.empty() || used != part.c_str() + part.size() || !std::isfinite(v)) throw std::invalid_argument(part);
         out.push_back(v);
         begin = end + 1;
     }
@@ -264,6 +267,28 @@ detect::ImageView DetectionInput::view(const Frame& frame) {
     return v;
 }
 
+namespace {
+
+// What describe adds for lights that added nothing: none, some or all of them outside the lens's field.
+std::string outside_field(const LightSummary& s) {
+    if (s.lights_outside_field == 0) return {};
+    long long lights = 0;
+    for (int n : s.lights_per_frame) lights += n;
+    if (s.lights_outside_field >= lights)
+        return "; no flare was added: every light lies outside the field the lens images (check --fov and --sensor)";
+    return fmt::format("; {} of the lights lie outside the field the lens images and add no flare", s.lights_outside_field);
+}
+
+// What describe adds for --add-light discs below the threshold (the detector cannot find them).
+std::string dropped_added(const LightSummary& s) {
+    std::string out;
+    for (const std::string& text : s.added_below_threshold)
+        out += fmt::format("; --add-light {} is below the threshold {} and adds no light", text, s.threshold_text);
+    return out;
+}
+
+}  // namespace
+
 std::string describe(const LightSummary& s) {
     const std::size_t frames = s.lights_per_frame.size();
     const std::string of_frames = fmt::format("{} frame{}", frames, frames == 1 ? "" : "s");
@@ -273,8 +298,8 @@ std::string describe(const LightSummary& s) {
         const std::string culled = s.ghosts_culled > 0 ? fmt::format(", ghosts drawn {}, culled against the plate {}",
                                                                      s.ghosts_drawn, s.ghosts_culled)
                                                        : std::string();
-        return fmt::format("lensfx: {}, lights per frame min {}, median {}, max {}{}", of_frames, sorted.front(),
-                           sorted[(sorted.size() - 1) / 2], sorted.back(), culled);
+        return fmt::format("lensfx: {}, lights per frame min {}, median {}, max {}{}{}{}", of_frames, sorted.front(),
+                           sorted[(sorted.size() - 1) / 2], sorted.back(), culled, outside_field(s), dropped_added(s));
     }
     if (!s.tracks.empty()) return fmt::format("lensfx: no light in any of {} from track file {}", of_frames, s.tracks);
     const std::string threshold = s.threshold_text.find("ev") != std::string::npos
@@ -282,8 +307,8 @@ std::string describe(const LightSummary& s) {
                                       : s.threshold_text;
     if (s.brightest_luminance < s.threshold_there)
         return fmt::format("lensfx: no light in any of {}: the brightest luminance is {:.4g}, below the threshold {} "
-                           "(lower --threshold, or give one with --add-light)",
-                           of_frames, s.brightest_luminance, threshold);
+                           "(lower --threshold, or give one with --add-light){}",
+                           of_frames, s.brightest_luminance, threshold, dropped_added(s));
     return fmt::format("lensfx: no light in any of {}: the brightest luminance {:.4g} reaches the threshold {}, but its "
                        "sources hold too little of the frame's light to show (or --min-light left them out)",
                        of_frames, s.brightest_luminance, threshold);

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
+#include <detect/threshold.h>
 #include <filter/option_checks.h>
 #include <flare/flare.h>
 #include <optics/coating.h>
@@ -31,7 +32,7 @@ RealizedLens realize_lens(const LensChoice& c) {
 }
 
 void add_lens_options(CLI::App& app, LensChoice& c, const std::string& group) {
-    app.add_option("--zoom", c.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group);
+    app.add_option("--zoom", c.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group)->check(zoom_check());
     app.add_option("--fstop", c.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--blades", c.blades, "Iris blade count (0 = round), overriding the lens's")->group(group)->check(CLI::Range(0, 64));
     add_coating_options(app, c.coating, c.coating_spread, group);
@@ -46,13 +47,35 @@ std::array<double, 2> parse_sensor(const std::string& text) {
     return {w, h};
 }
 
+CLI::Validator sensor_check() {
+    return parsed_by([](const std::string& text) { parse_sensor(text); }, "--sensor", "MM[xMM]");
+}
+
+CLI::Validator threshold_check() {
+    return parsed_by([](const std::string& text) { detect::Threshold::parse(text); }, "--threshold", "THRESHOLD");
+}
+
+CLI::Validator zoom_check() {
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (end != text.c_str() + text.size() || text.empty()) return {};  // a label (135mm): checked against the lens
+            if (!(v >= 0.0 && v <= 1.0)) return "the zoom parameter runs from 0 to 1 (or give a focal length like 135mm), not " + text;
+            return {};
+        },
+        "ZOOM");
+}
+
 void add_flare_options(CLI::App& app, FlareSettings& s) {
     const std::string group = "Flare";
     app.add_option("--lens", s.lens, "Lens preset (lensfx lens list) or lens file (.toml, pbrt .dat, lentil .fx)")->group(group);
     add_lens_options(app, s, group);
-    app.add_option("--threshold", s.threshold, "Light-source threshold: luminance (20) or stops above the median (+6ev)")->capture_default_str()->group(group);
+    app.add_option("--threshold", s.threshold, "Light-source threshold: luminance (20) or stops above the median (+6ev)")->capture_default_str()->group(group)
+        ->check(threshold_check());
     app.add_option("--max-lights", s.max_lights, "The brightest lights rendered per frame")->capture_default_str()->group(group)->check(CLI::Range(0, 4096));
-    app.add_option("--sensor", s.sensor, "Sensor width in mm, or WxH (the height follows the frame's aspect)")->capture_default_str()->group(group);
+    app.add_option("--sensor", s.sensor, "Sensor width in mm, or WxH (the height follows the frame's aspect)")->capture_default_str()->group(group)
+        ->check(sensor_check());
     app.add_option("--fov", s.fov_deg, "Horizontal field of view in degrees (instead of the lens's focal length)")->group(group)->check(CLI::Range(0.1, 179.0))->check(finite_number());
     app.add_option("--gain", s.gain, "Scale of the whole flare (1 = physical)")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());
     app.add_option("--source-gain", s.source_gain, "Strength multiplier for clipped sources")->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());

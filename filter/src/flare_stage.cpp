@@ -353,6 +353,7 @@ private:
 struct FrameTally {
     double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     int ghosts_drawn = 0, ghosts_culled = 0;
+    int lights_outside_field = 0;  // lights the lens does not image (no flare)
 };
 
 // The lens the stage renders: a prescription realized at --zoom and --fstop (with its coatings and blades),
@@ -576,7 +577,18 @@ struct FlareStage::State {
             summary.brightest_luminance = st.max_luminance;
             summary.threshold_there = st.threshold;
         }
+        note_added_below(st.threshold);
         return finder.tracker.update(found);
+    }
+
+    // Notes (once each) the --add-light discs whose value is below this frame's threshold: the detector cannot
+    // find them, so they add no light.
+    void note_added_below(double threshold) {
+        for (const std::string& text : settings.controls.add_lights) {
+            if (!(parse_added_light(text).value < threshold)) continue;
+            if (std::find(summary.added_below_threshold.begin(), summary.added_below_threshold.end(), text) == summary.added_below_threshold.end())
+                summary.added_below_threshold.push_back(text);
+        }
     }
 
     // The strength of a light's whole flare beyond physics: the artistic gains that apply to it, multiplied
@@ -643,7 +655,10 @@ struct FlareStage::State {
             const auto [ax, ay] = geo.angles_at(light.x, light.y);
             const std::optional<std::array<float, 3>> scale = ghost_scale(light, geo, ax, ay);
             tally.direct_ms += ms_since(t);
-            if (!scale) continue;  // outside what the lens images: nothing reaches the sensor
+            if (!scale) {  // outside what the lens images (or gains of 0): nothing reaches the sensor
+                tally.lights_outside_field += outside_field(geo, ax, ay);
+                continue;
+            }
             if (parts.starburst) {
                 t = Clock::now();
                 add_starburst(light, geo, rgb);
@@ -675,6 +690,12 @@ struct FlareStage::State {
         view.bands = settings.bands;
         view.xyz_to_rgb = *xyz_to_rgb;
         return view;
+    }
+
+    // Whether no light from (ax, ay) degrees reaches the sensor through the direct path: beyond the lens's field.
+    bool outside_field(const FlareGeometry& geo, double ax, double ay) {
+        const std::array<double, 3> power = direct_power_at(geo, ax, ay);
+        return std::all_of(power.begin(), power.end(), [](double p) { return !(p > 0.0); });
     }
 
     // direct_power at (ax, ay), from the table over the frame's field up to its corners.
@@ -849,10 +870,9 @@ struct FlareStage::State {
     void add_band_filtered_group(const detect::Light& light, const std::array<float, 3>& scale, const FootprintGroup& group,
                                  flare::FlareView& view, std::vector<float>& rgb, FrameTally& tally) {
         auto t = Clock::now();
-        view.only_ghosts = group.ghosts;
-        flare::FlareImage flare = gpu::render_band_filtered(
-            lens.system, view, [&](const flare::FlareView& one) { return ghost_renderer().render(lens.system, one, render_options); });
-        view.only_ghosts.clear();
+        // The whole lens's ghost list for every render (one bounds table per band), the group's drawn.
+        flare::FlareImage flare = gpu::render_band_filtered(lens.system, view, gpu::render_one_on(ghost_renderer(), lens.system, render_options),
+                                                            group.ghosts);
         if (flare.width != view.width || flare.height != view.height)
             throw std::runtime_error(fmt::format("the ghost image is {}x{}, the frame {}x{}", flare.width, flare.height,
                                                  view.width, view.height));
@@ -887,6 +907,7 @@ struct FlareStage::State {
         report.figures.emplace_back("ghosts culled", static_cast<double>(tally.ghosts_culled));
         summary.ghosts_drawn += tally.ghosts_drawn;
         summary.ghosts_culled += tally.ghosts_culled;
+        summary.lights_outside_field += tally.lights_outside_field;
         report.times.emplace_back("direct", tally.direct_ms);
         report.times.emplace_back("starburst", tally.starburst_ms);
         report.times.emplace_back("ghosts", tally.ghosts_ms);

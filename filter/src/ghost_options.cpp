@@ -2,6 +2,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filter/option_checks.h>
+
 namespace lensfx::filter {
 
 gpu::Acceleration AccelerationSettings::acceleration() const {
@@ -24,7 +26,7 @@ void add_acceleration_options(CLI::App& app, AccelerationSettings& s, const std:
     app.add_flag("--no-adaptive", s.no_adaptive, "The base grid for every ghost, whatever its distortion")->group(group);
     app.add_flag("--no-lod", s.no_lod, "Draw every ghost at the full grid, however dim")->group(group);
     app.add_option("--ghost-threshold", s.ghost_threshold, "Skip ghosts below this fraction of the estimated total power")
-        ->capture_default_str()->check(CLI::Range(0.0, 1.0))->group(group);
+        ->capture_default_str()->check(CLI::Range(0.0, 1.0))->check(finite_number())->group(group);
     app.add_option("--max-ghosts", s.max_ghosts, "Draw only the N brightest ghosts (0 = all)")
         ->capture_default_str()->check(CLI::NonNegativeNumber)->group(group);
     app.add_flag("--no-reduced", s.no_reduced, "Draw every ghost at full resolution")->group(group);

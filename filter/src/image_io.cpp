@@ -121,7 +121,7 @@ Frame read_image(const std::string& path, PfmOrder pfm_order, const MemoryBudget
 
 void write_exr_stream(std::FILE* out, const Frame& frame, const WriteOptions& options) {
     const std::string bytes = write_exr_memory(frame, output_compression(frame, options));
-    if (std::fwrite(bytes.data(), 1, bytes.size(), out) != bytes.size()) throw std::runtime_error(fmt::format("write failed: {}", std::strerror(errno)));
+    if (std::fwrite(bytes.data(), 1, bytes.size(), out) != bytes.size()) throw std::runtime_error(fmt::format("write failed: {}", write_failure(errno)));
 }
 
 std::optional<Frame> read_exr_stream(std::FILE* in) {

@@ -2,6 +2,7 @@
 // (usage errors exit 2, failures of a run exit 1).
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -14,6 +15,7 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
+#include <filter/output_files.h>
 #include <filter/process_heap.h>
 
 #include "commands.h"
@@ -34,6 +36,22 @@ void keep_standard_streams_open() {
     }
 }
 
+extern "C" void ignore_broken_pipe(int) {}
+
+// A reader that closes its end of an output pipe (`| head -c 1`) makes writes fail with EPIPE, reported in
+// one line, instead of killing the program silently with SIGPIPE. A handler rather than SIG_IGN: programs
+// lensfx starts (sbatch, its own chunks) get the default back when they are executed. A SIGPIPE the caller
+// ignored stays ignored.
+void report_broken_pipes() {
+    struct sigaction old {};
+    ::sigaction(SIGPIPE, nullptr, &old);
+    if (old.sa_handler == SIG_IGN) return;
+    struct sigaction sa {};
+    sa.sa_handler = ignore_broken_pipe;
+    sigemptyset(&sa.sa_mask);
+    ::sigaction(SIGPIPE, &sa, nullptr);
+}
+
 // The failure line on stderr; a stderr that cannot take it (full, broken) does not abort the program.
 void say(const std::string& line) noexcept {
     try {
@@ -47,6 +65,7 @@ void say(const std::string& line) noexcept {
 int main(int argc, char** argv) {
     using namespace lensfx::filter;
     keep_standard_streams_open();
+    report_broken_pipes();
     tune_process_heap();  // before the first frame-sized allocation
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
@@ -80,7 +99,7 @@ int main(int argc, char** argv) {
     }
     // What a command printed is only written now: a full or closed stdout is a failure, not a success.
     if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-        say(fmt::format("stdout: write failed: {}", std::strerror(errno)));
+        say(fmt::format("stdout: write failed: {}", lensfx::filter::write_failure(errno)));
         return 1;
     }
     return 0;

@@ -139,7 +139,7 @@ void write_all(int fd, std::string_view bytes, const std::string& what) {
     while (!bytes.empty()) {
         const ssize_t n = ::write(fd, bytes.data(), bytes.size());
         if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) throw std::runtime_error(fmt::format("{}: write failed: {}", what, std::strerror(n < 0 ? errno : ENOSPC)));
+        if (n <= 0) throw std::runtime_error(fmt::format("{}: write failed: {}", what, write_failure(n < 0 ? errno : ENOSPC)));
         bytes.remove_prefix(static_cast<std::size_t>(n));
     }
 }
@@ -200,12 +200,16 @@ void write_file(const std::string& path, std::string_view bytes) {
         ::close(fd);
         throw;
     }
-    if (::close(fd) != 0) throw std::runtime_error(fmt::format("{}: write failed: {}", path, std::strerror(errno)));
+    if (::close(fd) != 0) throw std::runtime_error(fmt::format("{}: write failed: {}", path, write_failure(errno)));
     tmp.commit();
 }
 
+std::string write_failure(int error) {
+    return error == EPIPE ? "the output pipe was closed by its reader" : std::strerror(error);
+}
+
 void write_stdout(std::string_view bytes) {
-    if (std::fflush(stdout) != 0) throw std::runtime_error(fmt::format("stdout: write failed: {}", std::strerror(errno)));
+    if (std::fflush(stdout) != 0) throw std::runtime_error(fmt::format("stdout: write failed: {}", write_failure(errno)));
     write_all(STDOUT_FILENO, bytes, "stdout");
 }
 

@@ -220,6 +220,13 @@ std::set<FileId> files_of(const FramePattern& pattern) {
     return ids;
 }
 
+// Refuses, before the first frame is read, an output of the pattern already on disk that is a directory, device
+// or named pipe (a stream's frame numbers are not known before it ends: every such output of the pattern).
+void refuse_special_outputs(const FramePattern& out) {
+    if (!out.is_sequence) return refuse_special_output(out.path(0), "-o");
+    for (std::int64_t n : scan_frames(out)) refuse_special_output(out.path(n), "-o");
+}
+
 // Refuses, before anything is written, an output that is one of the inputs: the output files already on
 // disk (a directory's worth) are compared with the input files, so a list of any length costs the same.
 void refuse_overwriting_inputs(const Plan& plan) {
@@ -278,6 +285,7 @@ Plan make_plan(const PipelineOptions& o) {
     }
     if (plan.stream_in) {
         if (!o.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
+        if (!plan.stream_out) refuse_special_outputs(plan.out_pattern);
         return plan;
     }
     plan.in_pattern = parse_pattern(o.input);
@@ -425,7 +433,7 @@ void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame,
         } else {
             write_pfm(stdout, frame, plan.out_order == PfmOrder::top_first, o.memory);
         }
-        if (std::fflush(stdout) != 0) throw std::runtime_error("write failed");
+        if (std::fflush(stdout) != 0) throw std::runtime_error(fmt::format("write failed: {}", write_failure(errno)));
         return;
     }
     if (!plan.out_pattern.is_sequence && done > 0) {
@@ -667,7 +675,7 @@ void write_report(const RunReport& report, const std::string& path) {
     if (path == "-") {
         const std::string text = j.dump(2) + "\n";
         if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0)
-            throw std::runtime_error("cannot write the report to stdout");
+            throw std::runtime_error(fmt::format("cannot write the report to stdout: {}", write_failure(errno)));
         return;
     }
     write_file(path, j.dump(2) + "\n");

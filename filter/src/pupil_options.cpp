@@ -9,20 +9,21 @@
 #include <vector>
 
 #include <filter/image_io.h>
+#include <filter/option_checks.h>
 #include <fmt/core.h>
 
 namespace lensfx::filter {
 
 void add_pupil_options(CLI::App& app, PupilSettings& s) {
     const std::string group = "Iris dirt (starburst)";
-    app.add_option("--dust", s.dust, "Dust specks on the pupil (section 5 of the flare paper): rainbow speckle")->group(group)->check(CLI::Range(0.0, 1e6));
-    app.add_option("--dust-size", s.dust_size, "Mean dust radius, as a fraction of the stop radius")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5));
-    app.add_option("--dust-opacity", s.dust_opacity, "Dust opacity (1 = opaque)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0));
+    app.add_option("--dust", s.dust, "Dust specks on the pupil (section 5 of the flare paper): rainbow speckle")->group(group)->check(CLI::Range(0.0, 1e6))->check(finite_number());
+    app.add_option("--dust-size", s.dust_size, "Mean dust radius, as a fraction of the stop radius")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5))->check(finite_number());
+    app.add_option("--dust-opacity", s.dust_opacity, "Dust opacity (1 = opaque)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
     app.add_option("--scratches", s.scratches, "Scratches on the pupil: streaks across their direction")->group(group)->check(CLI::Range(0, 100000));
-    app.add_option("--scratch-length", s.scratch_length, "Mean scratch length, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-3, 4.0));
-    app.add_option("--scratch-width", s.scratch_width, "Scratch width, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5));
-    app.add_option("--scratch-angle", s.scratch_angle_deg, "Mean scratch direction, degrees counter-clockwise from horizontal")->capture_default_str()->group(group);
-    app.add_option("--scratch-spread", s.scratch_spread_deg, "Spread of scratch directions in degrees (180 = any)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 180.0));
+    app.add_option("--scratch-length", s.scratch_length, "Mean scratch length, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-3, 4.0))->check(finite_number());
+    app.add_option("--scratch-width", s.scratch_width, "Scratch width, in stop radii")->capture_default_str()->group(group)->check(CLI::Range(1e-4, 0.5))->check(finite_number());
+    app.add_option("--scratch-angle", s.scratch_angle_deg, "Mean scratch direction, degrees counter-clockwise from horizontal")->capture_default_str()->group(group)->check(finite_number());
+    app.add_option("--scratch-spread", s.scratch_spread_deg, "Spread of scratch directions in degrees (180 = any)")->capture_default_str()->group(group)->check(CLI::Range(0.0, 180.0))->check(finite_number());
     app.add_option("--dirt-seed", s.seed, "Seed of the dust and scratches (the same seed, the same dirt)")->capture_default_str()->group(group);
     app.add_option("--aperture-image", s.aperture_image, "Greyscale image (white = clear) replacing the iris shape")->group(group);
 }

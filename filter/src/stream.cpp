@@ -15,6 +15,8 @@
 
 #include <fmt/core.h>
 
+#include <filter/output_files.h>
+
 namespace lensfx::filter {
 
 namespace {
@@ -40,7 +42,7 @@ bool read_exact(std::FILE* in, void* data, std::size_t size, std::string_view wh
 
 void write_exact(std::FILE* out, const void* data, std::size_t size) {
     if (std::fwrite(data, 1, size, out) != size) {
-        throw std::runtime_error(fmt::format("write failed: {}", std::strerror(errno)));
+        throw std::runtime_error(fmt::format("write failed: {}", write_failure(errno)));
     }
 }
 
@@ -436,11 +438,17 @@ std::optional<Frame> read_raw(std::FILE* in, RawPixFmt fmt, int width, int heigh
     constexpr std::size_t target_channel[4] = {1, 2, 0, 3};
     std::vector<float> row(w);
     std::optional<Frame> frame;
+    const std::size_t row_bytes = w * sizeof(float);
     for (std::size_t plane = 0; plane < n; ++plane) {
         for (int y = 0; y < height; ++y) {
-            if (!read_exact(in, row.data(), w * sizeof(float), what)) {
-                if (frame) throw std::runtime_error(fmt::format("stream ended inside {}", what));
-                return std::nullopt;
+            // A short read is told in the frame's bytes (what arrived of all of them), not the row's.
+            const std::size_t got = std::fread(row.data(), 1, row_bytes, in);
+            if (got != row_bytes) {
+                if (std::ferror(in)) throw std::runtime_error(fmt::format("read error in {}: {}", what, std::strerror(errno)));
+                const std::size_t before = (plane * static_cast<std::size_t>(height) + static_cast<std::size_t>(y)) * row_bytes;
+                if (before + got == 0) return std::nullopt;
+                throw std::runtime_error(fmt::format("stream ended inside {} ({} of {} bytes)", what, before + got,
+                                                     row_bytes * static_cast<std::size_t>(height) * n));
             }
             if (!frame) frame = float_frame(width, height, channels, "raw");
             if (std::endian::native != std::endian::little) swap_bytes(row.data(), row.size());

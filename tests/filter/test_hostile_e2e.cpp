@@ -368,6 +368,102 @@ TEST(Hostile, SpecialOutputsAreRefusedAndLinksWrittenThrough) {
     fs::remove_all(dir);
 }
 
+// Class 9 (outputs that are directories): a directory named like an image under an output's name is refused
+// before anything is rendered or read, naming the option: `lensfx flare` (-o, --preview) and the filter
+// reading a stream (of zeros here, no image: a refusal after the first read would name the stream instead).
+TEST(Hostile, DirectoryOutputsAreRefusedBeforeRendering) {
+    const auto dir = scratch_dir("hostile-dir-out");
+    const std::string d = dir.string(), t = "timeout 20 env ";
+    for (const char* name : {"out.exr", "preview.png", "seq.0001.exr"}) fs::create_directory(dir / name);
+    const std::string flare = lensfx_in(dir) + " flare --lens brendel-tessar --angle 5,0 --size 32x24";
+    expect_one_line_refusal(run(t + flare + fmt::format(" -o {}/out.exr", d)), "-o " + d + "/out.exr: a directory");
+    expect_one_line_refusal(run(t + flare + fmt::format(" -o {0}/f.exr --preview {0}/preview.png", d)), "--preview " + d + "/preview.png: a directory");
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    const RunResult single = run("cat /dev/zero | " + t + lensfx_in(dir) + fmt::format(" -i - -o {}/out.exr", d) + kLens);
+    expect_one_line_refusal(single, "-o " + d + "/out.exr: a directory");
+    EXPECT_EQ(single.exit_code, 1);
+    expect_one_line_refusal(run("cat /dev/zero | " + t + lensfx_in(dir) + fmt::format(" -i - -o {}/seq.####.exr", d) + kLens),
+                            "-o " + d + "/seq.0001.exr: a directory");
+    EXPECT_TRUE(fs::is_directory(dir / "out.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 10 (option values): a bad value of a numeric option is a usage error, exit 2, one line naming the
+// option, found before any input is read; these once exited 1 (some only after reading the first frame, one,
+// --ghost-threshold nan, not at all).
+TEST(Hostile, BadOptionValuesAreUsageErrors) {
+    const auto dir = scratch_dir("hostile-usage");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar -q", d);
+    const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1"}},
+        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310"}},
+        {"--dust", {"nan"}},                                  {"--dust-size", {"nan"}},
+        {"--dust-opacity", {"nan"}},                          {"--scratch-length", {"nan"}},
+        {"--scratch-width", {"nan"}},                         {"--scratch-angle", {"nan", "inf"}},
+        {"--scratch-spread", {"nan"}},                        {"--ghost-threshold", {"nan"}}};
+    for (const auto& [option, values] : cases)
+        for (const std::string& value : values) {
+            const RunResult r = run(filter + " " + option + " " + value);
+            expect_one_line_refusal(r, option);
+            EXPECT_EQ(r.exit_code, 2) << option << " " << value << ": " << r.stderr_text;
+        }
+    for (const char* size : {"0x0", "-5x3", "nanx2", "0"}) {
+        const RunResult raw = run(fmt::format("{} -i - -o {}/o.exr --pix-fmt gbrpf32le --size {} < /dev/null", lensfx_cmd(), d, size));
+        expect_one_line_refusal(raw, "--size");
+        EXPECT_EQ(raw.exit_code, 2) << size << ": " << raw.stderr_text;
+        const RunResult flare = run(fmt::format("{} flare --lens brendel-tessar --angle 3,3 --size {} -o {}/f.exr", lensfx_cmd(), size, d));
+        expect_one_line_refusal(flare, "--size");
+        EXPECT_EQ(flare.exit_code, 2) << size << ": " << flare.stderr_text;
+    }
+    const RunResult track = run(fmt::format("{0} track -i {1}/in.exr --tracks-out {1}/t.json --threshold 0", lensfx_cmd(), d));
+    expect_one_line_refusal(track, "--threshold");
+    EXPECT_EQ(track.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 10 (silent no-ops): requests that are legal but add no flare exit 0 and say so: --gain 0 (a warning
+// before the run), lights beyond the field the lens images (--fov 179: the run's summary), an --add-light
+// disc too dim to become a light (the summary).
+TEST(Hostile, NoFlareAddedIsSaid) {
+    const auto dir = scratch_dir("hostile-no-flare");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar --fstop 4 --grid 8 --threshold 100", d);
+    const auto said = [&](const std::string& options, const std::string& text) {
+        const RunResult r = run(filter + options);
+        EXPECT_EQ(r.exit_code, 0) << options << ": " << r.stderr_text;
+        EXPECT_NE(r.stderr_text.find(text), std::string::npos) << options << ": expected \"" << text << "\" in: " << r.stderr_text;
+    };
+    said(" --gain 0", "lensfx: warning: --gain 0: no flare is added");
+    said(" --parts ghosts --ghost-gain 0", "lensfx: warning: every part drawn has a gain of 0");
+    said(" --fov 179", "no flare was added: every light lies outside the field the lens images");
+    said(" --add-light 40,30,50", "--add-light 40,30,50 is below the threshold 100 and adds no light");
+    const RunResult plain = run(filter);  // a flare added: none of it said
+    EXPECT_EQ(plain.stderr_text.find("no flare"), std::string::npos) << plain.stderr_text;
+    EXPECT_EQ(plain.stderr_text.find("outside the field"), std::string::npos) << plain.stderr_text;
+    fs::remove_all(dir);
+}
+
+// Class 10 (messages that say what is true): a raw stream that ends inside a frame is told in the frame's
+// bytes (once the row's: "200 of 400" for 7000 of 12000), and a subnormal --add-light value is a number (it
+// was refused as not finite).
+TEST(Hostile, MessagesSayWhatIsTrue) {
+    const auto dir = scratch_dir("hostile-true");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const auto raw = [&](int bytes) {
+        return run(fmt::format("head -c {} /dev/zero | {} -i - -o - --pix-fmt gbrpf32le --size 100x10 > /dev/null", bytes, lensfx_cmd()));
+    };
+    expect_one_line_refusal(raw(7000), "frame 1: stream ended inside a 100x10 gbrpf32le frame (7000 of 12000 bytes)");
+    expect_one_line_refusal(raw(12000 + 300), "frame 2: stream ended inside a 100x10 gbrpf32le frame (300 of 12000 bytes)");
+    const RunResult tiny = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --add-light 10,10,1e-310", d) + kLens);
+    EXPECT_EQ(tiny.exit_code, 0) << tiny.stderr_text;
+    fs::remove_all(dir);
+}
+
 // Class 9 (standard streams): started with stderr closed, a failure is still a non-zero exit, not an abort,
 // and no file the run opens takes stderr's number (a message would land inside it).
 TEST(Hostile, AClosedStderrIsNoAbort) {
@@ -378,6 +474,25 @@ TEST(Hostile, AClosedStderrIsNoAbort) {
     const RunResult ok = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr", d) + kLens + " 2>&-");
     EXPECT_EQ(ok.exit_code, 0);
     EXPECT_TRUE(all_finite(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 9 (closed output pipe): a reader that closes stdout (`| head -c 1`; here `| true`, closed before the
+// first write) fails the run with one line saying so, exit 1, not a silent death by SIGPIPE (141); the
+// frames written to files before it stay.
+TEST(Hostile, AClosedOutputPipeIsOneLine) {
+    const auto dir = scratch_dir("hostile-closed-pipe");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string closed = "the output pipe was closed by its reader";
+    const RunResult raw = run(lensfx_in(dir) + fmt::format(" -i {}/in.exr -o - --pix-fmt gbrapf32le", d) + kLens + " | true");
+    expect_one_line_refusal(raw, closed);
+    EXPECT_EQ(raw.exit_code, 1) << raw.stderr_text;
+    const RunResult report = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --report -", d) + kLens + " | true");
+    expect_one_line_refusal(report, closed);
+    EXPECT_EQ(report.exit_code, 1) << report.stderr_text;
+    EXPECT_TRUE(all_finite(dir / "o.exr"));
+    expect_one_line_refusal(run(lensfx_cmd() + " lens list | true"), closed);
     fs::remove_all(dir);
 }
 

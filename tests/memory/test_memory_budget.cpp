@@ -263,7 +263,7 @@ TEST(MemoryBudgetEndToEnd, LensOfManySurfaces) {
                                                    quoted(dir / "f.exr"))),
                     "a 16384x16384 flare image needs");
     expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --memory-limit 4X", quoted(dir / "in.exr"), quoted(dir / "o.exr"))),
-                    "--memory-limit must be a size such as 4G, 512M or none, not \"4X\"");
+                    "--memory-limit: must be a size such as 4G, 512M or none, not \"4X\"");  // a usage error (exit 2)
     fs::remove_all(dir);
 }
 

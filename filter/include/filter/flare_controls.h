@@ -114,10 +114,14 @@ struct LightSummary {
     std::string tracks;                  // the track file, when lights came from one
     long long ghosts_drawn = 0;          // ghost draws (per light and wavelength) over the run
     long long ghosts_culled = 0;         // left out by scene culling (--visibility) over the run
+    long long lights_outside_field = 0;  // lights found whose light the lens does not image (no flare), over the run
+    std::vector<std::string> added_below_threshold;  // --add-light texts whose value is below a frame's threshold
 };
 
 // The one stderr line for the end of a run: "lensfx: 24 frames, lights per frame min 1, median 2, max 2",
-// or, when no frame had a light, why (the brightest luminance against the threshold, or the track file).
+// or, when no frame had a light, why (the brightest luminance against the threshold, or the track file);
+// lights that added no flare (outside the field the lens images) and --add-light discs too dim to become
+// lights are said there too.
 std::string describe(const LightSummary& summary);
 
 }  // namespace lensfx::filter

@@ -55,4 +55,11 @@ CLI::Validator parsed_by(Parse parse, const std::string& option, const char* des
         description);
 }
 
+// The checks of --sensor (parse_sensor), --threshold (detect::Threshold::parse) and --zoom (a plain number
+// in 0..1; a label such as 135mm is checked against the lens): a bad value is a usage error (exit 2).
+// Defined in flare_settings.cpp.
+CLI::Validator sensor_check();
+CLI::Validator threshold_check();
+CLI::Validator zoom_check();
+
 }  // namespace lensfx::filter

@@ -38,6 +38,10 @@ void write_file(const std::string& path, std::string_view bytes);
 // Writes `bytes` to stdout, checked (a full or closed stdout is an error, not a silent success).
 void write_stdout(std::string_view bytes);
 
+// Why a write failed, for a message: errno's text, or for EPIPE that the reader of the pipe closed it (SIGPIPE
+// is caught in main, so a closed pipe is an error like any other).
+std::string write_failure(int error);
+
 // Removes the temporaries (TempFile's names) in `dir` left by processes that no longer run. Returns how
 // many were removed.
 std::size_t remove_stale_temporaries(const std::string& dir);
