@@ -235,7 +235,9 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
         const int outline_level = std::max(spread_level, plan.rim && plan.reduce >= kRimReduce ? plan.reduce / kRimReduce : plan.reduce);
-        int grid = accel.adaptive ? adaptive_grid(e, base_grid, spread_level > 1 ? 0.0 : pixel_mm * outline_level) : base_grid;
+        // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (rim_grid)
+        const bool sharp_rim = spread_level == 1 && !(accel.lod && share < kFullShare);
+        int grid = accel.adaptive ? adaptive_grid(e, base_grid, sharp_rim ? pixel_mm * outline_level : 0.0) : base_grid;
         if (accel.lod && share < kFullShare) {
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);
