@@ -197,8 +197,7 @@ struct LevelSums {
     // Ready for a light of a frame of `pixels`: no level used, the memory of the frame's earlier lights kept
     // (their pages already touched), and room for a group's image at full size, so a larger level never moves it.
     void start_light(std::size_t pixels) {
-        if (spreading.valid()) spreading.wait();  // left by a light whose drawing failed: its result is not wanted
-        spreading = {};
+        stop_spreading();  // left by a light whose drawing failed: its result is not wanted
         used = {};
         scratch.reserve(pixels * 3);
     }
@@ -226,6 +225,11 @@ struct LevelSums {
     }
     // Waits for the group being spread (if any); its ms.
     double finish_spreading() { return spreading.valid() ? spreading.get() : 0.0; }
+    // Waits for the group being spread (if any), its result and any error not wanted.
+    void stop_spreading() {
+        if (spreading.valid()) spreading.wait();
+        spreading = {};
+    }
 
     // The sum at `level` (2 .. 16; an image of width x height), zero when first asked for.
     std::vector<float>& at(int level, int w, int h) {
@@ -471,8 +475,10 @@ struct FlareStage::State {
     std::optional<GhostImagingTable> ghost_imaging;  // for extended lights, made at the first one
     FrameReport report;  // of the last frame
     std::vector<float> flare_rgb;  // the frame's flare over the display window; kept to reuse its memory
-    LevelSums level_sums;  // the extended lights' groups, shared by a frame's lights; let go at the frame's end
     flare::ConvolveScratch convolve_scratch;  // the footprint FFTs' arrays, kept for the next group and frame
+    // The extended lights' groups, shared by a frame's lights; let go at the frame's end. After convolve_scratch:
+    // destroyed first, it waits for a group still being spread (which uses convolve_scratch).
+    LevelSums level_sums;
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(with_files_checked(std::move(s))),
@@ -899,6 +905,7 @@ struct FlareStage::State {
     // not kept for the next frame: making them again costs little against rendering at that size, and the
     // frame is stored and written without them.
     void finish_model(const FrameTally& tally, const FlareGeometry& geo) {
+        level_sums.stop_spreading();  // none is left unless a light failed; its images are about to go
         level_sums = {};  // nothing of it is held between frames (held_bytes)
         constexpr std::size_t kKeepTargetsPixels = std::size_t{4096} * 4096;
         if (renderer && static_cast<std::size_t>(geo.width) * static_cast<std::size_t>(geo.height) > kKeepTargetsPixels)
