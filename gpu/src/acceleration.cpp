@@ -124,17 +124,6 @@ double mean_triangle_mm2(const GhostEstimate& e, int grid) {
     return box / (2.0 * std::max(e.fill, 1e-4) * static_cast<double>(grid) * grid);
 }
 
-// The grid that keeps a ghost's rim-clipped outline under kRimShare of its passing cells (at base 16), with
-// cells of at least kRimCellPx pixels of pixel_mm; 0 where the rule does not apply (pixel_mm 0: a footprint
-// group's spread outline).
-int rim_grid(const GhostEstimate& e, int base_grid, double pixel_mm) {
-    if (!(e.rim_edge > 0.0) || e.area_cv < kSmoothCv || !(pixel_mm > 0.0)) return 0;  // a nearly affine map interpolates the radius well
-    const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));
-    double grid = static_cast<double>(base_grid) / kMinGrid * e.rim_edge / kRimShare / across;
-    grid = std::min(grid, e.extent_mm / pixel_mm / kRimCellPx);
-    return static_cast<int>(std::ceil(grid));
-}
-
 int faint_reduce(double extent_px) {
     int reduce = 1;
     while (reduce < kFaintMaxReduce && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
@@ -191,8 +180,12 @@ int adaptive_grid(const GhostEstimate& e, int base_grid, double outline_pixel_mm
     }
     const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));  // passing share of a grid row
     const double scale = static_cast<double>(base_grid) / kMinGrid;
-    const double edges = scale * std::max(e.failed_edge / kFailedShare, e.iris_edge / kIrisShare) / across;
-    int refined = std::max(static_cast<int>(std::ceil(edges)), rim_grid(e, base_grid, outline_pixel_mm));
+    double edges = std::max(e.failed_edge / kFailedShare, e.iris_edge / kIrisShare);
+    // Rim outlines (kRimShare) where the map bends, down to cells of kRimCellPx at outline_pixel_mm (0: not drawn
+    // sharp, no rim term)
+    if (e.rim_edge > 0.0 && e.area_cv >= kSmoothCv && outline_pixel_mm > 0.0)
+        edges = std::max(edges, std::min(e.rim_edge / kRimShare, e.extent_mm / outline_pixel_mm / kRimCellPx * across / scale));
+    int refined = static_cast<int>(std::ceil(scale * edges / across));
     if (e.fill < kMinFill) refined = std::max(refined, static_cast<int>(std::ceil(base_grid * std::sqrt(kMinFill) / across)));
     if (refined > grid) grid = std::min(refined, std::max(grid, std::min(kMaxGrid, kMaxRefine * base_grid)));
     return grid;
@@ -235,7 +228,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
         const int outline_level = std::max(spread_level, plan.rim && plan.reduce >= kRimReduce ? plan.reduce / kRimReduce : plan.reduce);
-        // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (rim_grid)
+        // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (adaptive_grid)
         const bool sharp_rim = spread_level == 1 && !(accel.lod && share < kFullShare);
         int grid = accel.adaptive ? adaptive_grid(e, base_grid, sharp_rim ? pixel_mm * outline_level : 0.0) : base_grid;
         if (accel.lod && share < kFullShare) {
