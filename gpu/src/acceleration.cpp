@@ -185,7 +185,8 @@ int adaptive_grid(const GhostEstimate& e, int base_grid, double outline_pixel_mm
     // sharp, no rim term)
     if (e.rim_edge > 0.0 && e.area_cv >= kSmoothCv && outline_pixel_mm > 0.0)
         edges = std::max(edges, std::min(e.rim_edge / kRimShare, e.extent_mm / outline_pixel_mm / kRimCellPx * across / scale));
-    int refined = static_cast<int>(std::ceil(scale * edges / across));
+    // (bounded before the cast: a cached outline may be as long as the table allows, 1e9)
+    int refined = static_cast<int>(std::ceil(std::min(scale * edges / across, 1e6)));
     if (e.fill < kMinFill) refined = std::max(refined, static_cast<int>(std::ceil(base_grid * std::sqrt(kMinFill) / across)));
     if (refined > grid) grid = std::min(refined, std::max(grid, std::min(kMaxGrid, kMaxRefine * base_grid)));
     return grid;

@@ -139,6 +139,10 @@ TEST(PlanGhosts, RimRuleRefinesBentVignettedGhosts) {
     EXPECT_EQ(plan_ghosts(e, a, 32, pixel_mm, true)[0].grid, 104);             // in proportion to the base
     e[0].power = 1e-3;  // dim: the level of detail scales the refined grid down
     EXPECT_LT(plan_ghosts(e, a, 16, pixel_mm, true)[0].grid, 52);
+    e[0].power = 1.0;  // the longest outline a bounds table may hold: capped, no overflow (UBSan)
+    e[0].rim_edge = e[0].failed_edge = 1e9;
+    e[0].extent_mm = 1e9;
+    EXPECT_EQ(plan_ghosts(e, a, 16, pixel_mm, true)[0].grid, 128);
 }
 
 // Reduced drawing: smooth ghosts at 1/2 from 96 pixels across, 1/4 from 256, 1/8 from 1024, 1/16 from
