@@ -157,13 +157,14 @@ std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& 
     std::vector<std::vector<BatchJob>> batches;
     for (std::size_t next = 0; next < todo.size();) {
         std::vector<BatchJob> batch;
-        std::size_t used = 0;
+        std::size_t used = 0, indices = 0;
         while (next < todo.size()) {
             const std::size_t g = todo[next];
             const auto side = static_cast<std::size_t>(plans[g].grid + 1);
             if (!batch.empty() && (per_ghost_power || used + side * side > capacity)) break;
-            batch.push_back({g, used});
+            batch.push_back({g, used, indices});
             used += side * side;
+            indices += 6 * (side - 1) * (side - 1);
             ++next;
         }
         batches.push_back(std::move(batch));

@@ -104,14 +104,16 @@ struct GhostPrograms {
     Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster", raster_stages("")};
     Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
-    Program faint{"ghost_raster_faint", raster_stages("#define FAINT\n")};  // batched faint ghosts
+    Program indexed{"ghost_raster_indexed", raster_stages("#define INDEXED\n")};  // no rim pass: a vertex shaded once
     Program splat{"ghost_splat",
                   {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
                    {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
     // Those that draw a ghost's triangles and share its uniforms.
-    std::array<const Program*, 3> drawing() const { return {&raster, &area, &splat}; }
-    // The one that draws a ghost's triangles as planned.
-    const Program& triangles(const GhostPlan& plan) const { return plan.area_coverage ? area : raster; }
+    std::array<const Program*, 4> drawing() const { return {&raster, &area, &indexed, &splat}; }
+    // The one that draws a ghost's triangles as planned, in ghost_raster_frag's rim_mode (0: no rim pass).
+    const Program& triangles(const GhostPlan& plan, int rim_mode) const {
+        return plan.area_coverage ? area : rim_mode == 0 ? indexed : raster;
+    }
 };
 
 // The buffers the passes read and write: the vertex array, the traced vertices (grown to the largest batch
@@ -121,7 +123,7 @@ struct DrawBuffers {
     GlObject vertices = GlObject::buffer();
     std::size_t vertices_bytes = 0;
     GlObject jobs = GlObject::buffer();
-    GlObject indices = GlObject::buffer();  // a batched draw's triangles (ghost_shade_comp's write_cell_indices)
+    GlObject indices = GlObject::buffer();  // the rasterised triangles (ghost_shade_comp's write_cell_indices)
     std::size_t indices_bytes = 0;
 
     void reserve_vertices(std::size_t bytes) {
@@ -720,7 +722,8 @@ private:
     UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
-    void dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings, bool area_coverage);
+    void dispatch_shade(int res, std::size_t vertex_offset, std::size_t first_index, int reduce, int stop_crossings,
+                        bool area_coverage);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage);
     void dispatch_batched(const Program& program, const FaintRun& run);
@@ -733,6 +736,7 @@ private:
     void draw_pass(std::size_t l, std::size_t p);
     void trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
+    void draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     GhostDrawValues draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const;
     void ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     void draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd);
@@ -869,10 +873,11 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
 // triangles that are rasterised at 1/reduce of the image.
 // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
-void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, int reduce, int stop_crossings,
-                                            bool area_coverage) {
+void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, std::size_t first_index, int reduce,
+                                            int stop_crossings, bool area_coverage) {
     shade_uniforms(res, reduce, area_coverage);
     glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
+    glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(first_index));
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
@@ -1088,9 +1093,13 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
     draw_batched(plan.batched, pd);
 }
 
-// The batch's ray grids traced and shaded into the vertex buffer.
+// The batch's ray grids traced and shaded into the vertex buffer, their rasterised triangles into the index buffer.
 void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
+    const BatchJob& last = batch.back();
+    s_.buffers.reserve_indices((last.first_index + 6 * static_cast<std::size_t>(pd.plans[last.ghost].grid) * pd.plans[last.ghost].grid) *
+                               sizeof(GLuint));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
     for (const BatchJob& job : batch) {
         const std::size_t g = job.ghost;
         const int grid = pd.plans[g].grid;
@@ -1101,9 +1110,9 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glUseProgram(s_.programs.shade.get());
     for (const BatchJob& job : batch)
-        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, pd.plans[job.ghost].reduce, pd.seq.stop_crossings[job.ghost],
-                       pd.plans[job.ghost].area_coverage);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, job.first_index, pd.plans[job.ghost].reduce,
+                       pd.seq.stop_crossings[job.ghost], pd.plans[job.ghost].area_coverage);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
 
@@ -1111,6 +1120,7 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
 // kRimReduce times their level's resolution (ghost_raster_frag's rim_mode 2), grouped by target. Later bands
 // draw only into the full-size target.
 void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
+    glVertexArrayElementBuffer(s_.buffers.vao.get(), s_.buffers.indices.get());
     for (const int reduce : {32, 16, 8, 4, 2, 1}) {
         if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
         bool bound = false;
@@ -1121,9 +1131,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!bound) bind_level(reduce);
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
-            ghost_uniforms(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
-            glUseProgram(s_.programs.triangles(plan).get());
-            glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+            draw_triangles(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
             if (plan.splat && !plan.area_coverage) {
                 glUseProgram(s_.programs.splat.get());
                 glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
@@ -1140,12 +1148,24 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!plan.rim || plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
             if (!bound) bind_level(level);
             bound = true;
-            ghost_uniforms(job, pd, plan.reduce, 2);
-            glUseProgram(s_.programs.triangles(plan).get());
-            glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
+            draw_triangles(job, pd, plan.reduce, 2);
             check_gl(fmt::format("the rim of ghost {},{}", ghosts_[job.ghost].second, ghosts_[job.ghost].first));
         }
     }
+    glVertexArrayElementBuffer(s_.buffers.vao.get(), 0);
+}
+
+// A ghost's triangles drawn at 1/reduce of the image in ghost_raster_frag's rim_mode: without a rim pass (0) by
+// the indices its shade pass wrote, each grid vertex shaded once; else each triangle's corners shaded alone, as
+// the rim's values (ghost_raster_vert's v_bary, v_outer) are the triangle's own.
+void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
+    const GhostPlan& plan = pd.plans[job.ghost];
+    ghost_uniforms(job, pd, reduce, rim_mode);
+    const auto triangle_indices = 6 * plan.grid * plan.grid;
+    if (&s_.programs.triangles(plan, rim_mode) == &s_.programs.indexed)
+        glDrawElements(GL_TRIANGLES, triangle_indices, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
+    else
+        glDrawArrays(GL_TRIANGLES, 0, triangle_indices);
 }
 
 // Ghost g's own draw values into a target at 1/target_reduce of the image (the full-size one in bands).
@@ -1172,21 +1192,23 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
     return v;
 }
 
-// One ghost's uniforms in both programs. Its triangles are sorted into rasterised and splatted by the pixels
-// of its level (1/reduce of the image); rim_mode 2 draws the same triangles at kRimReduce times that resolution.
+// One ghost's uniforms in the program that draws its triangles and in the splats'. Its triangles are sorted
+// into rasterised and splatted by the pixels of its level (1/reduce of the image: the shade pass's splat_limit);
+// rim_mode 2 draws the same triangles at kRimReduce times that resolution.
 void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const std::size_t g = job.ghost;
     // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
-    for (const Program* program : s_.programs.drawing()) {
+    const Program& triangles = s_.programs.triangles(pd.plans[g], rim_mode);
+    for (const Program* program : std::array<const Program*, 2>{&triangles, &s_.programs.splat}) {
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
+        glUniform1ui(program->uniform("first_index"), static_cast<GLuint>(job.first_index));
         glUniform2f(program->uniform("half_sensor"), static_cast<float>(view_.sensor_width_mm / 2), static_cast<float>(v.half_height));
         glUniform1f(program->uniform("triangle_flux"), static_cast<float>(v.triangle_flux));
         glUniform1f(program->uniform("pixel_area"), static_cast<float>(level_pixel_area(reduce)));
-        glUniform1f(program->uniform("splat_area"), static_cast<float>(kSplatArea));
         glUniform2f(program->uniform("viewport"), static_cast<float>(v.target_w), static_cast<float>(v.target_h));
         glUniform1i(program->uniform("iris_sdf"), 0);
         glUniform1f(program->uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
@@ -1195,7 +1217,6 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
                     static_cast<float>(v.channels[2]), 0.0f);
         glUniform2f(program->uniform("offset_mm"), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]));
     }
-    const Program& triangles = s_.programs.triangles(pd.plans[g]);
     glUseProgram(triangles.get());
     glUniform1i(triangles.uniform("rim_mode"), rim_mode);
     glUniform1f(triangles.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
@@ -1257,7 +1278,7 @@ void FlareRenderer::Drawing::dispatch_batched(const Program& program, const Fain
 void FlareRenderer::Drawing::raster_faint(const FaintRun& run, const PassDraw& pd) {
     bind_level(run.reduce);
     const GhostDrawValues v = draw_values(run.ghosts.front(), pd, run.reduce);
-    const Program& raster = s_.programs.faint;
+    const Program& raster = s_.programs.indexed;
     glUseProgram(raster.get());
     glUniform1i(raster.uniform("batched"), 1);
     glUniform1i(raster.uniform("first_job"), static_cast<GLint>(run.first_job));
@@ -1349,7 +1370,7 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
     const optics::Ray axis = optics::collimated_ray(view_.angle_x_deg, view_.angle_y_deg, 0.0, 0.0, 0.0);
     const ScaledLight light{view_.angle_x_deg, view_.angle_y_deg, {1.0, 1.0, 1.0}};
     const PassDraw pd{light, passes_[0], seq, estimates, plans, 0.0, axis.direction, std::abs(axis.direction.z)};
-    trace_batch({{g, 0}}, pd);
+    trace_batch({{g, 0, 0}}, pd);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<float> vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12);
     glGetNamedBufferSubData(s_.buffers.vertices.get(), 0, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data());

@@ -167,8 +167,8 @@ uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, ext
 uniform float iris_extent;
 uniform int stop_crossings;
 uniform bool ringing;
-uniform uint first_index;  // batched: where the dispatch's first ghost's triangles go in indices[]
-layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // batched: the draw's triangles
+uniform uint first_index;  // where the dispatch's (first) ghost's triangles go in indices[]
+layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // the rasterised triangles
 uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
 int crossings = 0;
 
@@ -227,9 +227,11 @@ float triangle_area(uint a, uint b, uint c) {
     return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
 }
 
-// A batched draw's triangles of the cell at id (ghost_raster_vert's FAINT draw, which shades each grid vertex
-// once): each of the cell's two, split as ghost_grid_glsl's, where a ghost drawn alone keeps it (corners valid,
-// not all beyond the apertures, at least splat_limit), else a point (a, a, a), which draws nothing.
+// The rasterised triangles of the cell at id: each of the cell's two, split as ghost_grid_glsl's, where it is
+// rasterised (corners valid, not all beyond the apertures, at least splat_limit), else a point (a, a, a), which
+// draws nothing. ghost_raster_vert's INDEXED draw draws them, shading each grid vertex once; the per-triangle
+// draws (the rim passes, the splats) read here which triangles are rasterised (ghost_grid_glsl's rasterised),
+// so that a triangle is rasterised or splatted by one decision.
 void write_cell_indices(uvec2 id) {
     uint stride = uint(grid + 1);
     uint a = first + id.y * stride + id.x;
@@ -252,7 +254,7 @@ void main() {
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     first = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
     crossings = batched ? jobs[batch_job()].steps.w : stop_crossings;
-    if (batched && id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
+    if (id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
     uint stride = uint(grid + 1);
     float area = 0.0;
     float triangles = 0.0;
@@ -297,9 +299,9 @@ void main() {
 }
 )GLSL";
 
-// Shared by both grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
-// whether a triangle's sensor footprint is too small for pixel-centre rasterisation (under `splat_area`
-// pixels), in which case it is drawn as a point splat instead.
+// Shared by the grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
+// whether a triangle is rasterised or, its sensor footprint too small for pixel-centre rasterisation (under
+// ghost_shade_comp's splat_limit), drawn as a point splat instead.
 inline constexpr const char* ghost_grid_glsl = R"GLSL(
 #version 430
 layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
@@ -309,10 +311,11 @@ uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
 uniform float pixel_area;     // mm^2
-uniform float splat_area;     // triangles under this many pixels are splatted, not rasterised
 uniform vec4 channels;        // what the ghost adds to R, G, B
 uniform int stop_crossings;
 uniform vec2 viewport;        // the target's pixels (a band of the full-size image: its rows)
+uniform uint first_index;     // the ghost's first triangle index in indices[] (ghost_shade_comp's write_cell_indices)
+layout(std430, binding = 4) readonly buffer Indices { uint indices[]; };
 
 // A batched draw's ghost of this vertex: its vertices are the (grid + 1)^2 from the draw's first_vertex on,
 // one ghost's after another.
@@ -335,14 +338,14 @@ ivec3 triangle_corners(int tri) {
     return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
 }
 
-bool corners_valid(ivec3 i) {
-    return vertices[3 * i.x + 2].z > 0.5 && vertices[3 * i.y + 2].z > 0.5 && vertices[3 * i.z + 2].z > 0.5;
+// Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not splatted or dropped.
+bool rasterised(int tri) {
+    uint at = first_index + 3u * uint(tri);
+    return indices[at] != indices[at + 1u];
 }
 
-float sensor_area(ivec3 i) {
-    vec2 e1 = vertices[3 * i.y].xy - vertices[3 * i.x].xy;
-    vec2 e2 = vertices[3 * i.z].xy - vertices[3 * i.x].xy;
-    return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
+bool corners_valid(ivec3 i) {
+    return vertices[3 * i.x + 2].z > 0.5 && vertices[3 * i.y + 2].z > 0.5 && vertices[3 * i.z + 2].z > 0.5;
 }
 
 // Upright photograph: the sensor image turned 180 degrees.
@@ -459,8 +462,8 @@ vec3 covered_moments(vec2 p0, vec2 p1, vec2 p2) {
 // Triangles fetched by gl_VertexID, Gouraud-shaded: each corner carries the irradiance ghost_shade_comp
 // averaged over its cells, interpolated across the triangle, so a coarse grid shows no flat cells. Triangles
 // with a lost corner (missed surface, total internal reflection) are dropped. Compiled two ways:
-// - point sampling: a pixel takes the value at its centre. Triangles under `splat_area` pixels are dropped
-//   (ghost_splat_vert draws those, each with its own flux).
+// - point sampling: a pixel takes the value at its centre. Triangles under ghost_shade_comp's splat_limit are
+//   dropped (ghost_splat_vert draws those, each with its own flux).
 // - AREA_COVERAGE: every triangle is drawn, grown by half a pixel's extent across each edge so that it
 //   reaches every pixel it touches, and each of those pixels takes the integral of the triangle's light over
 //   the part of it the triangle covers (ghost_raster_frag): a box filter of the Gouraud-shaded mesh.
@@ -473,7 +476,7 @@ out vec2 v_uv0;
 out vec2 v_uv1;
 out vec2 v_uv2;
 out float v_irradiance;
-#ifndef FAINT
+#ifndef INDEXED
 out vec3 v_bary;           // barycentric: 1 at this corner
 flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
 #endif
@@ -538,11 +541,11 @@ void emit_grown_corner(ivec3 i, int corner, bool drop) {
 }
 #endif
 
-#ifdef FAINT
-// A grid vertex of a batched draw of faint ghosts (point sampling, no rim pass, no splats), drawn by the
-// indices ghost_shade_comp wrote (write_cell_indices: the triangles a ghost drawn alone keeps), so shaded once
-// however many triangles share it rather than once per triangle corner; without the rim's values (v_bary,
-// v_outer), which cost every triangle and every pixel.
+#ifdef INDEXED
+// A grid vertex of an indexed draw (point sampling, no rim pass: a ghost drawn alone at its level, or a batch
+// of faint ghosts), drawn by the indices ghost_shade_comp wrote (write_cell_indices: the rasterised triangles),
+// so shaded once however many triangles share it rather than once per triangle corner; without the rim's values
+// (v_bary, v_outer), which cost every triangle and every pixel.
 void main() {
     vec4 q = vertices[3 * gl_VertexID];
     vec4 w = vertices[3 * gl_VertexID + 2];
@@ -570,14 +573,11 @@ void main() {
     emit_grown_corner(i, corner, !corners_valid(i) || clipped || (rim_mode == 2 && !in_band));
 #else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
-    float area = sensor_area(i);
     int me = i[corner];
     vec4 q = vertices[3 * me];
     vec4 s = vertices[3 * me + 1];
     vec4 w = vertices[3 * me + 2];
-    // A triangle whose corners are all beyond the lens's apertures (r_rel > 1, linear over it) draws nothing.
-    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
-    if (!corners_valid(i) || clipped || !(area >= splat_area * pixel_area) || (rim_mode == 2 && !in_band)) {
+    if (!rasterised(tri) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
     } else {
         gl_Position = clip_position(q.xy);
@@ -588,7 +588,7 @@ void main() {
 #endif
 )GLSL";
 
-// One 3 x 3-pixel point per triangle smaller than `splat_area` pixels, at its centroid, its flux shared
+// One 3 x 3-pixel point per triangle smaller than ghost_shade_comp's splat_limit, at its centroid, its flux shared
 // over the nine pixels (ghost_splat_frag): a pixel centre
 // would catch such a triangle (and its flux) or miss it by chance, and along a caustic's rim, where the
 // grid's triangles crowd, the catches and misses are correlated, so the ghost's power came out wrong and
@@ -610,9 +610,11 @@ float iris(vec2 uv) {
 
 void main() {
     ivec3 i = triangle_corners(gl_VertexID);
-    float area = sensor_area(i);
     gl_PointSize = 3.0;
-    if (!corners_valid(i) || !(area < splat_area * pixel_area)) {
+    // Splatted: the triangles not rasterised for their size (one whose corners are all beyond the apertures,
+    // r_rel > 1, linear over it, draws nothing).
+    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
+    if (!corners_valid(i) || clipped || rasterised(gl_VertexID)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
         return;
@@ -682,7 +684,7 @@ in vec2 v_uv0;
 in vec2 v_uv1;
 in vec2 v_uv2;
 in float v_irradiance;
-#ifndef FAINT
+#ifndef INDEXED
 in vec3 v_bary;
 flat in int v_outer;
 #endif
@@ -697,9 +699,9 @@ uniform float rim_reduce;      // target pixels per reduced pixel (mode 2)
 out vec4 colour;
 
 // An iris texture at uv (stop radii). It has one level, filtered alike near and far (IrisTextures), so a
-// faint ghost's draw, which takes no derivatives, reads level 0: the same, for less.
+// indexed draw, which takes no derivatives, reads level 0: the same, for less.
 float iris_texel(sampler2D t, vec2 uv) {
-#ifdef FAINT
+#ifdef INDEXED
     return textureLod(t, uv / (2.0 * iris_extent) + 0.5, 0.0).r;
 #else
     return texture(t, uv / (2.0 * iris_extent) + 0.5).r;
@@ -715,7 +717,7 @@ float pixels_inside(float f) {
     return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
 }
 
-#ifndef FAINT
+#ifndef INDEXED
 // The rim pass's share of the pixel (rim_mode 1 or 2), from its distance to the rim at its centre: to r_rel = 1,
 // to the iris (s: its signed distances at the stop crossings) and to the edges along dropped cells.
 float rim_weight(vec3 s, int stop_crossings) {
@@ -776,8 +778,8 @@ void main() {
     if (iris <= 0.0 && !ringing) discard;
     colour = v_channels * (light * iris * weight * m.x);
 }
-#elif defined(FAINT)
-// A faint ghost (ghost_raster_vert's FAINT): no rim pass, so no derivatives: the iris read at level 0, and
+#elif defined(INDEXED)
+// An indexed draw (ghost_raster_vert's INDEXED): no rim pass, so no derivatives: the iris read at level 0, and
 // only at the ghost's own stop crossings (a loop over them, which llvmpipe leaves when every pixel of its
 // block has, in place of three conditional reads).
 void main() {

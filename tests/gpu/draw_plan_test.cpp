@@ -236,10 +236,12 @@ TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
     ASSERT_EQ(batches[0].size(), 2u);
     EXPECT_EQ(batches[0][1].ghost, 1u);
     EXPECT_EQ(batches[0][1].first_vertex, 100u);
+    EXPECT_EQ(batches[0][1].first_index, 6u * 9 * 9);  // after ghost 0's 81 cells
     ASSERT_EQ(batches[1].size(), 1u);
     EXPECT_EQ(batches[1][0].ghost, 2u);
     EXPECT_EQ(batches[2][0].ghost, 3u);
     EXPECT_EQ(batches[2][0].first_vertex, 0u);
+    EXPECT_EQ(batches[2][0].first_index, 0u);
     EXPECT_EQ(batch_ghosts({0, 1, 3}, plans, 250, true).size(), 3u);
     EXPECT_TRUE(batch_ghosts({}, plans, 250, false).empty());
 }

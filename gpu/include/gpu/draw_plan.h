@@ -82,10 +82,12 @@ struct PassPlan {
 PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
                    const GhostSelection& selection, const DetailSettings& detail, int band);
 
-// A ghost of a batch and where its grid vertices start in the vertex buffer.
+// A ghost of a batch, where its grid vertices start in the vertex buffer and its triangles (6 indices a
+// grid cell) in the index buffer.
 struct BatchJob {
     std::size_t ghost;
     std::size_t first_vertex;
+    std::size_t first_index;
 };
 // The todo ghosts in batches traced into one vertex buffer of `capacity` vertices, in order; a ghost larger
 // than the buffer alone (the buffer is made for the largest grid). Per-ghost power: a ghost a batch.
