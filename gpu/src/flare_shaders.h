@@ -174,6 +174,12 @@ int crossings = 0;
 
 bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
 
+// Vertex i's coordinates at the iris at its stop crossing c (ghost_trace_comp's layout).
+vec2 stop_uv(uint i, int c) {
+    vec4 s = vertices[3u * i + 1u];
+    return c == 0 ? s.xy : c == 1 ? s.zw : vertices[3u * i + 2u].xy;
+}
+
 bool cell_valid(int cx, int cy) {
     if (cx < 0 || cy < 0 || cx >= grid || cy >= grid) return true;  // beyond the grid: no cut of its own
     uint stride = uint(grid + 1);
@@ -205,11 +211,7 @@ bool near_rim(uvec3 i, int outer) {
     bool outside = all(lessThan(d, vec3(-1.0)));
     vec3 nearest = d;
     for (int c = 0; c < 3 && c < crossings && !ringing; ++c) {
-        vec2 uv[3];
-        for (int k = 0; k < 3; ++k) {
-            vec4 s = vertices[3u * i[k] + 1u];
-            uv[k] = c == 0 ? s.xy : c == 1 ? s.zw : vertices[3u * i[k] + 2u].xy;
-        }
+        vec2 uv[3] = vec2[3](stop_uv(i.x, c), stop_uv(i.y, c), stop_uv(i.z, c));
         vec3 f = vec3(textureLod(iris_sdf, uv[0] / (2.0 * iris_extent) + 0.5, 0.0).r,
                       textureLod(iris_sdf, uv[1] / (2.0 * iris_extent) + 0.5, 0.0).r,
                       textureLod(iris_sdf, uv[2] / (2.0 * iris_extent) + 0.5, 0.0).r);
@@ -219,6 +221,27 @@ bool near_rim(uvec3 i, int outer) {
     }
     if (outside) return false;
     return outer != 0 || any(lessThan(nearest, vec3(rim_band)));
+}
+
+// Whether every point of the triangles round vertex me (at (cx, cy) of the grid) lies inside the iris at each
+// of the ghost's stop crossings, so that their pixels need not look the iris up (ghost_raster_frag's INDEXED
+// draw): the iris texture's bilinear SDF changes by at most sqrt(2) x the distance, so its value at me must be
+// below -1.5 x the farthest valid neighbour's distance at that crossing (a triangle with a lost corner is not
+// drawn). Never with ringing, whose transmission varies inside the iris too.
+bool fan_inside_iris(uint me, int cx, int cy) {
+    if (ringing) return false;
+    uint stride = uint(grid + 1);
+    for (int c = 0; c < 3 && c < crossings; ++c) {
+        vec2 uv = stop_uv(me, c);
+        float reach = 0.0;
+        for (int y = max(cy - 1, 0); y <= min(cy + 1, grid); ++y)
+            for (int x = max(cx - 1, 0); x <= min(cx + 1, grid); ++x) {
+                uint n = first + uint(y) * stride + uint(x);
+                if (valid(n)) reach = max(reach, distance(stop_uv(n, c), uv));
+            }
+        if (!(textureLod(iris_sdf, uv / (2.0 * iris_extent) + 0.5, 0.0).r < -1.5 * reach - 1e-3)) return false;
+    }
+    return true;
 }
 
 float triangle_area(uint a, uint b, uint c) {
@@ -277,10 +300,11 @@ void main() {
     }
     uint me = first + id.y * stride + id.x;
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
-    if (!valid(me) || batched) return;  // a batched (faint) ghost has no rim pass: no edge bits
-    int bits = 0;
+    if (!valid(me)) return;
     int cx = int(id.x), cy = int(id.y);
-    if (cx < grid && cy < grid && cell_valid(cx, cy)) {
+    int bits = fan_inside_iris(me, cx, cy) ? 64 : 0;
+    // A batched (faint) ghost has no rim pass: no edge bits.
+    if (!batched && cx < grid && cy < grid && cell_valid(cx, cy)) {
         int outer = (cell_valid(cx, cy - 1) ? 0 : 1) | (cell_valid(cx + 1, cy) ? 0 : 2) | (cell_valid(cx, cy + 1) ? 0 : 4) |
                     (cell_valid(cx - 1, cy) ? 0 : 8);
         // Which of the cell's two triangles the rim pass draws (bits 16 lower, 32 upper), with their edges
@@ -479,6 +503,8 @@ out float v_irradiance;
 #ifndef INDEXED
 out vec3 v_bary;           // barycentric: 1 at this corner
 flat out int v_outer;      // corners whose opposite edge borders a dropped cell (bits 1, 2, 4)
+#else
+flat out int v_inside_iris;  // the provoking vertex's triangles lie inside the iris (ghost_shade_comp's bit 64)
 #endif
 flat out vec4 v_channels;
 flat out int v_stop_crossings;
@@ -552,6 +578,7 @@ void main() {
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
     gl_Position = w.z > 0.5 ? clip_position(q.xy) : vec4(2.0, 2.0, 2.0, 1.0);  // a lost ray: only in points
+    v_inside_iris = w.z > 0.5 ? int(round((w.z - 1.0) * 1024.0)) & 64 : 0;
     emit_values(q, vertices[3 * gl_VertexID + 1], w);
 }
 #else
@@ -687,6 +714,8 @@ in float v_irradiance;
 #ifndef INDEXED
 in vec3 v_bary;
 flat in int v_outer;
+#else
+flat in int v_inside_iris;
 #endif
 flat in vec4 v_channels;       // the ghost's (ghost_channels)
 flat in int v_stop_crossings;
@@ -781,11 +810,12 @@ void main() {
 #elif defined(INDEXED)
 // An indexed draw (ghost_raster_vert's INDEXED): no rim pass, so no derivatives: the iris read at level 0, and
 // only at the ghost's own stop crossings (a loop over them, which llvmpipe leaves when every pixel of its
-// block has, in place of three conditional reads).
+// block has, in place of three conditional reads), and not at all in a triangle known to lie inside it.
 void main() {
     if (v_r_rel > 1.0) discard;
     float iris = 1.0;
-    for (int c = 0; c < v_stop_crossings; ++c) {
+    int crossings = v_inside_iris != 0 ? 0 : v_stop_crossings;
+    for (int c = 0; c < crossings; ++c) {
         vec2 uv = c == 0 ? v_uv0 : c == 1 ? v_uv1 : v_uv2;
         iris *= ringing ? ringing_at(uv) : sdf(uv) > 0.0 ? 0.0 : 1.0;
     }
