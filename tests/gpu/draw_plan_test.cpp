@@ -15,6 +15,7 @@
 #include <gpu/context.h>
 #include <gpu/draw_plan.h>
 #include <gpu/flare_renderer.h>
+#include <optics/aperture.h>
 #include <optics/ghosts.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
@@ -347,6 +348,56 @@ TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
     EXPECT_GT(both, 100);  // of 33 x 33 over the entrance square: about a fifth get through
     EXPECT_LE(disagree, kGrid);  // rays at a surface's edge may go either way in float
     EXPECT_THROW(renderer.trace_ghost(system, view, {0, 99}, kGrid, square), std::invalid_argument);
+}
+
+// The shade step's mark that a vertex's triangles lie inside the iris (bit 64 of its valid flag), by which the
+// indexed draw skips their pixels' iris look-ups: wherever it is set, every point of the triangles round the
+// vertex lies inside the iris (the exact CPU SDF) at each stop crossing; and it is set for most of the vertices
+// of a ghost a six-bladed iris cuts, but not for those along the cut.
+TEST(ShadeStep, InsideIrisMarkOnlyWhereTheTrianglesAreInside) {
+    optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    system.aperture.blades = 6;
+    FlareView view;
+    view.angle_x_deg = 3.0;
+    view.angle_y_deg = 2.0;
+    view.wavelength_nm = 550.0;
+    const optics::TraceSystem traced(system, 550.0);
+    const PupilRect square = entrance_square(traced, view);
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    constexpr int kGrid = 48;
+    const std::vector<float> vertices = renderer.trace_ghost(system, view, {0, 6}, kGrid, square);
+    ASSERT_EQ(vertices.size(), static_cast<std::size_t>((kGrid + 1) * (kGrid + 1) * 12));
+    auto at = [&](int ix, int iy) { return vertices.data() + static_cast<std::size_t>(iy * (kGrid + 1) + ix) * 12; };
+    auto valid = [](const float* v) { return v[10] > 0.5f; };
+    auto marked = [](const float* v) { return (static_cast<int>(std::lround((v[10] - 1.0f) * 1024.0f)) & 64) != 0; };
+    const optics::IrisSdf sdf(system.aperture);
+    int inside = 0, cut = 0, marks = 0;
+    for (int iy = 0; iy <= kGrid; ++iy)
+        for (int ix = 0; ix <= kGrid; ++ix) {
+            const float* me = at(ix, iy);
+            if (!valid(me)) continue;
+            bool fan_inside = true;  // every point of the segments to the valid neighbours, at each crossing
+            for (int ny = std::max(iy - 1, 0); ny <= std::min(iy + 1, kGrid); ++ny)
+                for (int nx = std::max(ix - 1, 0); nx <= std::min(ix + 1, kGrid); ++nx) {
+                    const float* n = at(nx, ny);
+                    if (!valid(n)) continue;
+                    for (int c = 0; c < 3; ++c)
+                        for (int k = 0; k <= 8; ++k) {
+                            const double t = k / 8.0;
+                            const double u = std::lerp(double{me[4 + 2 * c]}, double{n[4 + 2 * c]}, t);
+                            const double w = std::lerp(double{me[5 + 2 * c]}, double{n[5 + 2 * c]}, t);
+                            if (!(sdf(u, w) < 0.0)) fan_inside = false;
+                        }
+                }
+            if (marked(me)) {
+                ++marks;
+                EXPECT_TRUE(fan_inside) << "marked inside the iris at " << ix << "," << iy;
+            }
+            (fan_inside ? inside : cut) += 1;
+        }
+    EXPECT_GT(cut, 0);                // the iris cuts this ghost
+    EXPECT_GT(marks, inside / 2);     // and the mark spares most of the inside its look-ups
 }
 
 // A visibility map over a width x height frame under which every ghost whose peak is known is faint and none
