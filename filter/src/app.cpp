@@ -20,6 +20,7 @@
 
 #include <gpu/context.h>
 
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 
 #include "version_info.h"
@@ -247,6 +248,7 @@ std::unique_ptr<CLI::App> build_app() {
     register_bench_command(*app);
     register_farm_command(*app);
     register_predict_command(*app);
+    check_every_number(*app);
     return app;
 }
 

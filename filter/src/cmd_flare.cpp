@@ -322,7 +322,7 @@ void register_flare_command(CLI::App& app) {
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
-        ->excludes("--wavelength");
+        ->check(bands_check())->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
         ->needs("--bands");
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
@@ -336,11 +336,12 @@ void register_flare_command(CLI::App& app) {
     add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
-    cmd->add_option("--exposure,--preview-exposure", args->preview_exposure, "Exposure in stops before the preview's display transform (default: automatic)");
+    cmd->add_option("--exposure,--preview-exposure", args->preview_exposure, "Exposure in stops before the preview's display transform (default: automatic)")
+        ->check(CLI::Range(-64.0, 64.0));
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
-    cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
+    cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str()->check(CLI::Range(1, 4096));
     cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
-        ->capture_default_str();
+        ->capture_default_str()->check(CLI::Range(2, 2048));
     add_acceleration_options(*cmd, args->accel, "GPU accelerations");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");

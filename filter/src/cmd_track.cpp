@@ -125,7 +125,7 @@ void register_track_command(CLI::App& app) {
     cmd->add_option("--frames", s->frames, "Frames of a pattern input (1-100, 1-100x2, 3,7,10-20); default: all on disk");
     cmd->add_option("--tracks-out", s->tracks_out, "The track file to write (JSON)")->required();
     cmd->add_option("--threshold", s->threshold, "Birth threshold: a luminance (20) or stops above the frame's median (+6ev)")->check(threshold_check());
-    cmd->add_option("--max-lights", s->detector.max_lights, "Brightest sources kept per frame")->check(CLI::NonNegativeNumber);
+    cmd->add_option("--max-lights", s->detector.max_lights, "Brightest sources kept per frame")->check(CLI::Range(0, 4096));
     cmd->add_option("--hysteresis", s->detector.hysteresis_ev, "Stops below the threshold where a tracked light lives on")
         ->check(CLI::NonNegativeNumber);
     cmd->add_option("--merge-radius", s->detector.merge_radius, "Pixels: components closer than this are one source")

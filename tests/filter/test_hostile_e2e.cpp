@@ -397,8 +397,13 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     const std::string d = dir.string();
     const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar -q", d);
     const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
-        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1"}},
-        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310"}},
+        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1", "1e308", "1001", "0.09", "36x1e308"}},
+        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310", "", "0G"}},
+        {"--dirt-seed", {"-1", "1.5", "nan", "99999999999999999999", "", "12abc", "1e3"}},
+        {"--scratch-angle", {"", "1e-310", "12abc"}},         {"--queue-depth", {"99999999999", "0"}},
+        {"--fstop", {"1e308", "1001"}},                       {"--bands", {"3", "82", "1e308"}},
+        {"--focus", {"nan", "inf"}},                          {"--depth-scale", {"nan"}},
+        {"--bits", {""}},                                     {"--threads", {"", "-1", "1e3"}},
         {"--dust", {"nan"}},                                  {"--dust-size", {"nan"}},
         {"--dust-opacity", {"nan"}},                          {"--scratch-length", {"nan"}},
         {"--scratch-width", {"nan"}},                         {"--scratch-angle", {"nan", "inf"}},
@@ -421,6 +426,54 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     expect_one_line_refusal(track, "--threshold");
     EXPECT_EQ(track.exit_code, 2);
     EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    // 0 is --memory-limit's documented "no limit" (as `none`), and is kept.
+    EXPECT_EQ(run(filter + " --memory-limit 0").exit_code, 0);
+    fs::remove_all(dir);
+}
+
+// Class 10 (option values, every command): what CLI11's own conversion lets through (an empty value read as 0,
+// NaN past its range checks, "-1" wrapped to the largest unsigned, 99999999999999999999 saturated) and the
+// sizes past what the code can hold are usage errors in every command (exit 2, one line naming the option),
+// before any lens, light or file is looked at. `lensfx flare --sensor 1e308` once crashed in the starburst,
+// --sensor 1x1e308 never ended.
+TEST(Hostile, EveryCommandRefusesHostileNumbers) {
+    const auto dir = scratch_dir("hostile-numbers");
+    const std::string d = dir.string(), t = "timeout 20 env " + lensfx_in(dir);
+    const std::string flare = fmt::format(" flare --lens brendel-tessar --angle 5,0 -o {}/f.exr", d);
+    const std::string track = fmt::format(" track -i {0}/missing.exr --tracks-out {0}/t.json", d);
+    const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+        {flare + " --sensor", {"1e308", "1e-10", "1x1e308", "1e308x1"}},
+        {flare + " --seed", {"-1", "99999999999999999999", ""}},
+        {flare + " --dirt-seed", {"-1", "0.5"}},
+        {flare + " --exposure", {"1e308", "nan"}},
+        {flare + " --rays", {"99999999", "0"}},
+        {flare + " --grid", {"100000000", "-5"}},
+        {flare + " --bands", {"100000", "-3", "5"}},
+        {flare + " --starburst-scale", {"inf", "nan"}},
+        {flare + " --iso", {"nan"}},
+        {track + " --hysteresis", {"nan", "inf"}},
+        {track + " --gate", {"nan", ""}},
+        {track + " --visibility", {"nan"}},
+        {track + " --max-lights", {"2000000000", "-1"}},
+        {" lens info brendel-tessar --fstop", {"1e308", "inf"}},
+        {" lens info brendel-tessar --sensor", {"1e308x24", "36x0"}},
+        {" lens trace brendel-tessar --angle 1 --height", {"nan", "inf", ""}},
+        {fmt::format(" farm -i {0}/s.####.exr -o {0}/o.####.exr --engine local --retries", d), {"2000000000", "-1"}},
+        {" bench time-vs-error --quick --rays", {"99999999", ""}}};
+    for (const auto& [command, values] : cases)
+        for (const std::string& value : values) {
+            const RunResult r = run(fmt::format("{}{} '{}'", t, command, value));
+            const std::string option = command.substr(command.rfind(' ') + 1);
+            expect_one_line_refusal(r, option);
+            EXPECT_EQ(r.exit_code, 2) << command << " " << value << ": " << r.stderr_text;
+        }
+    // "010" is ten, not octal eight: the seed a script zero-pads is the seed it means.
+    const std::string dirt = " flare --lens brendel-tessar --angle 5,0 --size 64x48 --dust 200 --parts starburst --dirt-seed ";
+    ASSERT_EQ(run(t + dirt + "010 -o " + d + "/a.exr").exit_code, 0);
+    ASSERT_EQ(run(t + dirt + "10 -o " + d + "/b.exr").exit_code, 0);
+    ASSERT_EQ(run(t + dirt + "8 -o " + d + "/c.exr").exit_code, 0);
+    EXPECT_TRUE(slurp(dir / "a.exr") == slurp(dir / "b.exr"));
+    EXPECT_FALSE(slurp(dir / "a.exr") == slurp(dir / "c.exr"));
     fs::remove_all(dir);
 }
 
