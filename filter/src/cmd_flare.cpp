@@ -24,6 +24,7 @@
 #include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
 #include <gpu/acceleration.h>
+#include <gpu/address_space.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
 #include <flare/direct_power.h>
@@ -280,6 +281,7 @@ void print_ghost_list(const FlareArgs& args, const optics::System& system, const
 // A physical lens: its ghosts (reference or GPU) and the light's starburst, each as --parts asks and times
 // its gain; listed with --list.
 void run_flare(const FlareArgs& args) {
+    gpu::require_address_space();  // before FFTW (the starburst) or GL, which abort below it
     // A directory (or device, pipe) under an output's name is refused before the render, not after it.
     refuse_special_output(args.output, "-o");
     refuse_special_output(args.preview, "--preview");
