@@ -477,6 +477,35 @@ TEST(Hostile, EveryCommandRefusesHostileNumbers) {
     fs::remove_all(dir);
 }
 
+// Class 9 (full and odd outputs, red-team pass): /dev/full as -o names the device (it once said "unknown output
+// format"); `track --tracks-out -` writes to stdout, as --report - does (it wrote a file named "-" and said
+// nothing of a full stdout); --help and --version to a full stdout fail in one line (they exited 0); a misspelt
+// key in a --config shot file is a usage error (it was ignored).
+TEST(Hostile, FullOutputsAndShotFileTyposAreOneLine) {
+    const auto dir = scratch_dir("hostile-full");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    if (fs::exists("/dev/full")) {
+        expect_one_line_refusal(run(lensfx_cmd() + fmt::format(" -i {}/in.exr -o /dev/full", d)), "-o /dev/full: a device");
+        expect_one_line_refusal(run(fmt::format("cd {} && {} track -i in.exr --tracks-out - > /dev/full", d, lensfx_cmd())), "stdout: write failed");
+        for (const char* printing : {" --help", " --version", " flare --help"}) {
+            const RunResult r = run(lensfx_cmd() + printing + " > /dev/full");
+            expect_one_line_refusal(r, "stdout: write failed");
+            EXPECT_EQ(r.exit_code, 1) << printing;
+        }
+    }
+    const RunResult tracks = run(fmt::format("cd {0} && {1} track -i in.exr --tracks-out - -q > {0}/piped.json", d, lensfx_cmd()));
+    EXPECT_EQ(tracks.exit_code, 0) << tracks.stderr_text;
+    EXPECT_NE(slurp(dir / "piped.json").find("\"lensfx-tracks\""), std::string::npos) << slurp(dir / "piped.json");
+    EXPECT_FALSE(fs::exists(dir / "-"));
+    std::ofstream(dir / "shot.toml") << "input = \"" << d << "/in.exr\"\noutput = \"" << d << "/o.exr\"\nexposre = 2\n";
+    const RunResult shot = run(fmt::format("{} --config {}/shot.toml", lensfx_cmd(), d));
+    expect_one_line_refusal(shot, "exposre");
+    EXPECT_EQ(shot.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
 // Class 11 (address space): under a low `ulimit -v` a render is refused at once in one line naming the limit,
 // where llvmpipe's JIT aborted ("LLVM ERROR: Unable to allocate section memory"), crashed, or failed in three
 // lines, and a run that ran out in the GL driver left a wrong ghost bounds table in the cache (CandleGlass.exr:
