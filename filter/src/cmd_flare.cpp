@@ -83,6 +83,15 @@ std::pair<double, double> parse_pair(const std::string& text, char sep, const ch
     return {(*ab)[0], (*ab)[1]};
 }
 
+// --angle "AX,AY": each within (-90, 90) degrees, a light in front of the lens (the direction is taken through
+// tan, which wraps past 90: --angle 1e308,0 rendered a light from nowhere and exited 0).
+std::pair<double, double> parse_angle(const std::string& text) {
+    const auto [ax, ay] = parse_pair(text, ',', "--angle");
+    if (!(std::fabs(ax) < 90.0 && std::fabs(ay) < 90.0))
+        throw std::invalid_argument(fmt::format("--angle {}: each angle within -90..90 degrees (a light in front of the lens)", text));
+    return {ax, ay};
+}
+
 void write_exr(const flare::FlareImage& image, const std::string& path) {
     WriteOptions options;
     options.compression = "zip";
@@ -131,7 +140,7 @@ std::pair<int, int> flare_image_size(const std::string& text) {
 
 flare::FlareView flare_view(const FlareArgs& args) {
     flare::FlareView view;
-    std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
+    std::tie(view.angle_x_deg, view.angle_y_deg) = parse_angle(args.angle);
     const auto [sensor_w, sensor_h] = parse_sensor(args.sensor);  // as the filter's
     view.sensor_width_mm = sensor_w;
     view.sensor_height_mm = sensor_h;
@@ -317,7 +326,8 @@ void register_flare_command(CLI::App& app) {
     auto* cmd = app.add_subcommand("flare", "Render the ghosts of one collimated light of irradiance 1 (sensor irradiance)");
     cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
     add_lens_options(*cmd, *args, "Flare");
-    cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
+    cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required()
+        ->check(parsed_by([](const std::string& text) { parse_angle(text); }, "--angle", "AX,AY"));
     cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str()->check(sensor_check());
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)")
         ->check(parsed_by([](const std::string& text) { flare_image_size(text); }, "--size", "WxH"));

@@ -443,6 +443,7 @@ TEST(Hostile, EveryCommandRefusesHostileNumbers) {
     const std::string track = fmt::format(" track -i {0}/missing.exr --tracks-out {0}/t.json", d);
     const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
         {flare + " --sensor", {"1e308", "1e-10", "1x1e308", "1e308x1"}},
+        {" flare --lens brendel-tessar -o f.exr --angle", {"1e308,0", "0,90", "-90,0", "nan,0"}},
         {flare + " --seed", {"-1", "99999999999999999999", ""}},
         {flare + " --dirt-seed", {"-1", "0.5"}},
         {flare + " --exposure", {"1e308", "nan"}},
