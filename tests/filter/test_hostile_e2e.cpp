@@ -507,6 +507,29 @@ TEST(Hostile, FullOutputsAndShotFileTyposAreOneLine) {
     fs::remove_all(dir);
 }
 
+// Class 9 (unreadable files, red-team pass): an input or lens file the user may not read says so; the input's
+// once said "is not an OpenEXR file". Root reads everything, so as root the runs drop to nobody (setpriv).
+TEST(Hostile, UnreadableFilesSayPermissionDenied) {
+    const bool root = ::geteuid() == 0;
+    if (root && run("command -v setpriv").exit_code != 0) GTEST_SKIP() << "root without setpriv: every file is readable";
+    const auto dir = scratch_dir("hostile-unreadable");
+    write_rgb(dir / "in.exr");
+    fs::copy_file(dir / "in.exr", dir / "secret.exr");
+    std::ofstream(dir / "secret.toml") << "not read\n";
+    fs::permissions(dir / "secret.exr", fs::perms::owner_read | fs::perms::owner_write);
+    fs::permissions(dir / "secret.toml", fs::perms::owner_read | fs::perms::owner_write);
+    fs::permissions(dir, fs::perms::all);
+    for (fs::path up = dir.parent_path(); root && up != up.root_path(); up = up.parent_path())
+        ASSERT_TRUE((fs::status(up).permissions() & fs::perms::others_exec) != fs::perms::none) << up << " is closed to nobody";
+    const std::string as_user = root ? "setpriv --reuid=65534 --regid=65534 --clear-groups env " : "env ";
+    const std::string d = dir.string(), lensfx = as_user + "LENSFX_CACHE_DIR=none " + lensfx_cmd();
+    expect_one_line_refusal(run(lensfx + fmt::format(" -i {0}/secret.exr -o {0}/o.exr", d)), "secret.exr: frame 1: cannot read: Permission denied");
+    expect_one_line_refusal(run(lensfx + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens {0}/secret.toml", d)),
+                            "secret.toml: cannot open the lens file: Permission denied");
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
 // Class 11 (address space): under a low `ulimit -v` a render is refused at once in one line naming the limit,
 // where llvmpipe's JIT aborted ("LLVM ERROR: Unable to allocate section memory"), crashed, or failed in three
 // lines, and a run that ran out in the GL driver left a wrong ghost bounds table in the cache (CandleGlass.exr:
