@@ -73,9 +73,10 @@ CLI::Validator bands_check() {
 CLI::Validator zoom_check() {
     return CLI::Validator(
         [](std::string& text) -> std::string {
+            if (text.empty()) return "needs a value: 0..1, or a focal length like 135mm";
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
-            if (end != text.c_str() + text.size() || text.empty()) return {};  // a label (135mm): checked against the lens
+            if (end != text.c_str() + text.size()) return {};  // a label (135mm): checked against the lens
             if (!(v >= 0.0 && v <= 1.0)) return "the zoom parameter runs from 0 to 1 (or give a focal length like 135mm), not " + text;
             return {};
         },

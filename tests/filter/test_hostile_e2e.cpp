@@ -398,7 +398,7 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar -q", d);
     const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
         {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1", "1e308", "1001", "0.09", "36x1e308"}},
-        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310", "", "0G"}},
+        {"--zoom", {"-1", "nan", "inf", "1e308", "2", ""}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310", "", "0G"}},
         {"--dirt-seed", {"-1", "1.5", "nan", "99999999999999999999", "", "12abc", "1e3"}},
         {"--scratch-angle", {"", "1e-310", "12abc"}},         {"--queue-depth", {"99999999999", "0"}},
         {"--fstop", {"1e308", "1001"}},                       {"--bands", {"3", "82", "1e308"}},
