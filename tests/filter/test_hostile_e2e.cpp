@@ -504,6 +504,17 @@ TEST(Hostile, FullOutputsAndShotFileTyposAreOneLine) {
     expect_one_line_refusal(shot, "exposre");
     EXPECT_EQ(shot.exit_code, 2);
     EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    // A subcommand's section: its keys are that command's options, a typo among them refused too.
+    const std::string section = fmt::format("[flare]\nlens = \"brendel-tessar\"\nangle = \"5,0\"\nsize = \"32x24\"\noutput = \"{}/f.exr\"\n", d);
+    std::ofstream(dir / "flare.toml") << section;
+    std::ofstream(dir / "typo.toml") << section << "gian = 2\n";
+    const RunResult typo = run(fmt::format("{} --config {}/typo.toml flare", lensfx_in(dir), d));
+    expect_one_line_refusal(typo, "gian");
+    EXPECT_EQ(typo.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    const RunResult good = run(fmt::format("{} --config {}/flare.toml flare", lensfx_in(dir), d));
+    EXPECT_EQ(good.exit_code, 0) << good.stderr_text;
+    EXPECT_TRUE(fs::exists(dir / "f.exr"));
     fs::remove_all(dir);
 }
 
