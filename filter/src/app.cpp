@@ -20,6 +20,7 @@
 
 #include <gpu/context.h>
 
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 
 #include "version_info.h"
@@ -234,6 +235,7 @@ std::unique_ptr<CLI::App> build_app() {
     auto app = std::make_unique<CLI::App>("lensfx: physically based lens flare for HDR frames and streams", "lensfx");
     app->require_subcommand(0, 1);
     app->set_config("--config", "", "Read options from a TOML shot file (every long option a key; [flare], [track]... for subcommands)");
+    app->allow_config_extras(CLI::config_extras_mode::error);  // a misspelt key in a shot file is an error, not ignored
     // Both are handled by main() before parsing (see wants_version), so that nothing else runs.
     app->add_flag("--version")
         ->description("Print the version, the commit, the build type and the libraries (with --verbose: the GL renderer), and exit")
@@ -247,6 +249,7 @@ std::unique_ptr<CLI::App> build_app() {
     register_bench_command(*app);
     register_farm_command(*app);
     register_predict_command(*app);
+    check_every_number(*app);
     return app;
 }
 

@@ -291,9 +291,9 @@ void register_bench_command(CLI::App& app) {
                                             "lens's Pareto front (lens, setting, ms, rel_l1, front), for bench/plot_time_vs_error.gp");
     tve->add_option("--lens", args->lenses, "Lens presets or files (repeatable; default: three presets, one with --quick)");
     tve->add_option("--size", args->size, "Image WxH in pixels")->capture_default_str();
-    tve->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
-    tve->add_option("--repeat", args->repeat, "Timed renders per setting (the fastest is reported: others load the machine)")->capture_default_str();
-    tve->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str();
+    tve->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str()->check(CLI::Range(1, 4096));
+    tve->add_option("--repeat", args->repeat, "Timed renders per setting (the fastest is reported: others load the machine)")->capture_default_str()->check(CLI::Range(1, 1000));
+    tve->add_option("--threads", args->threads, "Reference: worker threads")->capture_default_str()->check(CLI::Range(0, 1024));
     tve->add_option("--gpu", args->gpu, "EGL platform: auto, device or surfaceless")
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}))->capture_default_str();
     tve->callback([args] {

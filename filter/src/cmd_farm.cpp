@@ -621,10 +621,10 @@ void register_farm_command(CLI::App& app) {
     cmd->add_option("--engine", s->engine, "slurm (sbatch --array), local (processes here), auto (slurm when sinfo answers)")
         ->check(CLI::IsMember({"auto", "slurm", "local"}));
     cmd->add_flag("--wait", s->wait, "Follow the Slurm job to its end, report each chunk and resubmit failed ones (local always waits)");
-    cmd->add_option("--retries", s->retries, "Tries again for a failed chunk")->check(CLI::NonNegativeNumber);
+    cmd->add_option("--retries", s->retries, "Tries again for a failed chunk")->check(CLI::Range(0, 100));
     cmd->add_flag("--resume", s->resume, "Render only the frames not complete yet (otherwise existing output frames are an error)");
     cmd->add_option("--tracks", s->tracks, "Render from this track file instead of tracking the shot first");
-    cmd->add_option("--local-jobs", s->local_jobs, "Chunks run at once by the local engine")->check(CLI::PositiveNumber);
+    cmd->add_option("--local-jobs", s->local_jobs, "Chunks run at once by the local engine")->check(CLI::Range(1, 1024));
     cmd->add_option("--sbatch", s->sbatch_options, "An extra #SBATCH line for the job script, e.g. --sbatch=--partition=render (repeatable)");
     cmd->callback([s, cmd] {
         s->filter_options = cmd->remaining();

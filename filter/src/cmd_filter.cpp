@@ -237,7 +237,7 @@ void register_filter(CLI::App& app) {
     app.add_option("-o,--output", o.output, "Output file, pattern or - (stdout)");
     app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2 (every 2nd), 1-100y2 (the others), 100-1, 3,7,10-20; also in the pattern: pan.1-5#.exr (default: those on disk)");
     app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
-    app.add_option("--queue-depth", o.queue_depth, "Frames held between reader, effects and writer")->check(CLI::PositiveNumber);
+    app.add_option("--queue-depth", o.queue_depth, "Frames held between reader, effects and writer")->check(CLI::Range(1, 256));
     app.add_option("--compression", o.write.compression, "EXR compression: piz, zip, zips, dwaa[:level], none... (default: the input's, else piz)");
     app.add_option("--pfm-order", args->pfm_order, "PFM row order: top (ffmpeg 5.1), bottom (the PFM spec), auto (top on pipes, bottom in files)")
         ->check(CLI::IsMember({"auto", "top", "bottom"}));

@@ -24,6 +24,7 @@
 #include <filter/ghost_options.h>
 #include <filter/pupil_options.h>
 #include <gpu/acceleration.h>
+#include <gpu/address_space.h>
 #include <gpu/band_filter.h>
 #include <gpu/context.h>
 #include <flare/direct_power.h>
@@ -82,6 +83,15 @@ std::pair<double, double> parse_pair(const std::string& text, char sep, const ch
     return {(*ab)[0], (*ab)[1]};
 }
 
+// --angle "AX,AY": each within (-90, 90) degrees, a light in front of the lens (the direction is taken through
+// tan, which wraps past 90: --angle 1e308,0 rendered a light from nowhere and exited 0).
+std::pair<double, double> parse_angle(const std::string& text) {
+    const auto [ax, ay] = parse_pair(text, ',', "--angle");
+    if (!(std::fabs(ax) < 90.0 && std::fabs(ay) < 90.0))
+        throw std::invalid_argument(fmt::format("--angle {}: each angle within -90..90 degrees (a light in front of the lens)", text));
+    return {ax, ay};
+}
+
 void write_exr(const flare::FlareImage& image, const std::string& path) {
     WriteOptions options;
     options.compression = "zip";
@@ -130,7 +140,7 @@ std::pair<int, int> flare_image_size(const std::string& text) {
 
 flare::FlareView flare_view(const FlareArgs& args) {
     flare::FlareView view;
-    std::tie(view.angle_x_deg, view.angle_y_deg) = parse_pair(args.angle, ',', "--angle");
+    std::tie(view.angle_x_deg, view.angle_y_deg) = parse_angle(args.angle);
     const auto [sensor_w, sensor_h] = parse_sensor(args.sensor);  // as the filter's
     view.sensor_width_mm = sensor_w;
     view.sensor_height_mm = sensor_h;
@@ -280,6 +290,7 @@ void print_ghost_list(const FlareArgs& args, const optics::System& system, const
 // A physical lens: its ghosts (reference or GPU) and the light's starburst, each as --parts asks and times
 // its gain; listed with --list.
 void run_flare(const FlareArgs& args) {
+    gpu::require_address_space();  // before FFTW (the starburst) or GL, which abort below it
     // A directory (or device, pipe) under an output's name is refused before the render, not after it.
     refuse_special_output(args.output, "-o");
     refuse_special_output(args.preview, "--preview");
@@ -315,14 +326,15 @@ void register_flare_command(CLI::App& app) {
     auto* cmd = app.add_subcommand("flare", "Render the ghosts of one collimated light of irradiance 1 (sensor irradiance)");
     cmd->add_option("--lens", args->lens, "Preset name or lens file")->required();
     add_lens_options(*cmd, *args, "Flare");
-    cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required();
+    cmd->add_option("--angle", args->angle, "Light direction AX,AY in degrees (right, up of the view axis)")->required()
+        ->check(parsed_by([](const std::string& text) { parse_angle(text); }, "--angle", "AX,AY"));
     cmd->add_option("--sensor", args->sensor, "Sensor width in mm, or WxH (the height follows the image's aspect, else 3:2)")->capture_default_str()->check(sensor_check());
     cmd->add_option("--size", args->size, "Image WxH in pixels (default 960 wide, sensor aspect)")
         ->check(parsed_by([](const std::string& text) { flare_image_size(text); }, "--size", "WxH"));
     cmd->add_option("--wavelength", args->wavelength, "One wavelength (nm) into all channels (default: R 650, G 550, B 450 nm)")
         ->check(CLI::Range(360.0, 830.0))->check(finite_number());
     cmd->add_option("--bands", args->bands, "Spectral bands over 380..780 nm (7..81) into linear Rec.709 through the CIE 1931 functions (0: RGB, 3 wavelengths)")->capture_default_str()
-        ->excludes("--wavelength");
+        ->check(bands_check())->excludes("--wavelength");
     cmd->add_flag("--band-filter", args->band_filter, "With --bands: blur each ghost between neighbouring bands (flare paper 4.2); one render per ghost and band")
         ->needs("--bands");
     cmd->add_option("--ghost", args->ghosts, "Only the ghost reflecting at surfaces I,J (1-based; repeatable)");
@@ -336,11 +348,12 @@ void register_flare_command(CLI::App& app) {
     add_pupil_options(*cmd, args->pupil);
     cmd->add_option("-o,--output", args->output, "Output EXR (float RGB, sensor irradiance)");
     cmd->add_option("--preview", args->preview, "Tone-mapped PNG preview");
-    cmd->add_option("--exposure,--preview-exposure", args->preview_exposure, "Exposure in stops before the preview's display transform (default: automatic)");
+    cmd->add_option("--exposure,--preview-exposure", args->preview_exposure, "Exposure in stops before the preview's display transform (default: automatic)")
+        ->check(CLI::Range(-64.0, 64.0));
     cmd->add_flag("--reference", args->reference, "Dense CPU reference instead of the GPU");
-    cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str();
+    cmd->add_option("--rays", args->rays, "Reference: N x N rays per ghost and wavelength")->capture_default_str()->check(CLI::Range(1, 4096));
     cmd->add_option("--grid", args->grid, "GPU: base ray grid cells per side per ghost (the adaptive grid scales it)")
-        ->capture_default_str();
+        ->capture_default_str()->check(CLI::Range(2, 2048));
     add_acceleration_options(*cmd, args->accel, "GPU accelerations");
     cmd->add_flag("--ringing", args->ringing, "GPU: shade ghosts by the iris with its diffraction ringing (high quality)");
     cmd->add_option("--flare-look", args->flare_look, "GPU: per-ghost colour, gain and offset, imperfect symmetry (TOML)");

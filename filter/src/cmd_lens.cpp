@@ -18,6 +18,8 @@
 #include <optics/tracer.h>
 #include <optics/text_pairs.h>
 
+#include <filter/flare_settings.h>
+#include <filter/option_checks.h>
 #include <filter/output_files.h>
 
 #include "commands.h"
@@ -36,10 +38,10 @@ struct LensOptions {
     bool json = false;
 };
 
-// "36x24" -> {36, 24} (mm).
-std::pair<double, double> parse_sensor(const std::string& text) {
-    const auto wh = parse_pair_of<double>(text, 'x');
-    if (wh && (*wh)[0] > 0 && (*wh)[1] > 0) return {(*wh)[0], (*wh)[1]};
+// "36x24" -> {36, 24} (mm): the flare's --sensor (parse_sensor, its bounds), both sides given.
+std::pair<double, double> lens_sensor(const std::string& text) {
+    const auto [w, h] = parse_sensor(text);
+    if (h > 0.0) return {w, h};
     throw std::invalid_argument(fmt::format("--sensor '{}': expected WxH in mm, e.g. 36x24", text));
 }
 
@@ -48,8 +50,9 @@ void add_lens_options(CLI::App* cmd, LensOptions& o) {
     cmd->add_option("--zoom", o.zoom, "Zoom: 0 (short) to 1 (long), or a focal length label like 135mm");
     cmd->add_option("--wavelength", o.wavelength_nm, "Wavelength in nm")->check(CLI::Range(300.0, 1100.0));
     cmd->add_option("--fstop", o.f_number, "Set the stop for this paraxial f-number (default: the stop wide open)")
-        ->check(CLI::PositiveNumber);
-    cmd->add_option("--sensor", o.sensor, "Sensor WxH in mm, for the field of view (default 36x24)");
+        ->check(CLI::PositiveNumber)->check(CLI::Range(0.0, kMaxFNumber));
+    cmd->add_option("--sensor", o.sensor, "Sensor WxH in mm, for the field of view (default 36x24)")
+        ->check(parsed_by([](const std::string& text) { lens_sensor(text); }, "--sensor", "WxH"));
     cmd->add_flag("--json", o.json, "Print JSON");
 }
 
@@ -84,7 +87,7 @@ void lens_info(const LensOptions& o) {
         fmt::print("{}\n", j.dump(2));
         return;
     }
-    const auto [sensor_w, sensor_h] = parse_sensor(o.sensor);
+    const auto [sensor_w, sensor_h] = lens_sensor(o.sensor);
     const optics::FieldOfView fov = optics::field_of_view(p, sensor_w, sensor_h);
     fmt::print("lens:            {}\n", lens.name);
     if (!lens.source.empty()) fmt::print("source:          {}\n", lens.source);

@@ -42,10 +42,6 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-// A sensor's width and height in mm at least and at most: a phone's to large-format film's, with room
-// (1e300 mm once gave NaN estimators and a success).
-constexpr double kMinSensorMm = 0.1, kMaxSensorMm = 1000.0;
-
 // The sensor of a sweep or a prediction, read as the flare's --sensor (parse_sensor): "36" (height from the
 // image's aspect) or "36x24", each within kMinSensorMm..kMaxSensorMm.
 std::array<double, 2> sensor_of(const std::string& text, int width, int height) {

@@ -65,9 +65,12 @@ public:
             throw std::runtime_error(fmt::format("{}: no frames read (an empty stream: did the program before lensfx fail?); "
                                                  "--allow-empty accepts it", settings_.input == "-" ? "stdin" : settings_.input));
         }
-        write_file(settings_.tracks_out, detect::to_json_text(file_));
+        const bool to_stdout = settings_.tracks_out == "-";  // as --report -: a full or closed stdout is an error
+        if (to_stdout) write_stdout(detect::to_json_text(file_));
+        else write_file(settings_.tracks_out, detect::to_json_text(file_));
         if (!settings_.quiet)
-            fmt::print(stderr, "lensfx track: {} frames, {} tracks, {} cuts -> {}\n", frames_, file_.tracks.size(), cuts_, settings_.tracks_out);
+            fmt::print(stderr, "lensfx track: {} frames, {} tracks, {} cuts -> {}\n", frames_, file_.tracks.size(), cuts_,
+                       to_stdout ? "stdout" : settings_.tracks_out);
     }
 
 private:
@@ -123,9 +126,9 @@ void register_track_command(CLI::App& app) {
     cmd->option_defaults()->always_capture_default();
     cmd->add_option("-i,--input", s->input, "Input: a file, a pattern (shot.####.exr) or - for a PFM stream on stdin")->required();
     cmd->add_option("--frames", s->frames, "Frames of a pattern input (1-100, 1-100x2, 3,7,10-20); default: all on disk");
-    cmd->add_option("--tracks-out", s->tracks_out, "The track file to write (JSON)")->required();
+    cmd->add_option("--tracks-out", s->tracks_out, "The track file to write (JSON; - : stdout)")->required();
     cmd->add_option("--threshold", s->threshold, "Birth threshold: a luminance (20) or stops above the frame's median (+6ev)")->check(threshold_check());
-    cmd->add_option("--max-lights", s->detector.max_lights, "Brightest sources kept per frame")->check(CLI::NonNegativeNumber);
+    cmd->add_option("--max-lights", s->detector.max_lights, "Brightest sources kept per frame")->check(CLI::Range(0, 4096));
     cmd->add_option("--hysteresis", s->detector.hysteresis_ev, "Stops below the threshold where a tracked light lives on")
         ->check(CLI::NonNegativeNumber);
     cmd->add_option("--merge-radius", s->detector.merge_radius, "Pixels: components closer than this are one source")

@@ -33,7 +33,8 @@ RealizedLens realize_lens(const LensChoice& c) {
 
 void add_lens_options(CLI::App& app, LensChoice& c, const std::string& group) {
     app.add_option("--zoom", c.zoom, "Zoom position: 0..1, or a focal-length label such as 135mm")->group(group)->check(zoom_check());
-    app.add_option("--fstop", c.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number());
+    app.add_option("--fstop", c.fstop, "Stop the iris down to this f-number")->group(group)->check(CLI::PositiveNumber)->check(finite_number())
+        ->check(CLI::Range(0.0, kMaxFNumber));
     app.add_option("--blades", c.blades, "Iris blade count (0 = round), overriding the lens's")->group(group)->check(CLI::Range(0, 64));
     add_coating_options(app, c.coating, c.coating_spread, group);
 }
@@ -44,6 +45,10 @@ std::array<double, 2> parse_sensor(const std::string& text) {
     const auto [w, h] = *wh;
     if (!(w > 0.0) || !std::isfinite(w) || h < 0.0 || !std::isfinite(h))
         throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", text));
+    const auto within = [](double side) { return side >= kMinSensorMm && side <= kMaxSensorMm; };
+    if (!within(w) || (h != 0.0 && !within(h)))
+        throw std::invalid_argument(fmt::format("--sensor {}: each side {:g} to {:g} mm (a phone's sensor to the largest plate film, with room; "
+                                                "sizes beyond overflow the starburst's pixel arithmetic)", text, kMinSensorMm, kMaxSensorMm));
     return {w, h};
 }
 
@@ -55,12 +60,23 @@ CLI::Validator threshold_check() {
     return parsed_by([](const std::string& text) { detect::Threshold::parse(text); }, "--threshold", "THRESHOLD");
 }
 
+CLI::Validator bands_check() {
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            int bands = 0;
+            if (!CLI::detail::lexical_cast(text, bands) || bands == 0 || (bands >= flare::kMinBands && bands <= flare::kMaxBands)) return {};
+            return fmt::format("give 0 (RGB, three wavelengths) or {}..{} spectral bands, not {}", flare::kMinBands, flare::kMaxBands, text);
+        },
+        "0|7..81");
+}
+
 CLI::Validator zoom_check() {
     return CLI::Validator(
         [](std::string& text) -> std::string {
+            if (text.empty()) return "needs a value: 0..1, or a focal length like 135mm";
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
-            if (end != text.c_str() + text.size() || text.empty()) return {};  // a label (135mm): checked against the lens
+            if (end != text.c_str() + text.size()) return {};  // a label (135mm): checked against the lens
             if (!(v >= 0.0 && v <= 1.0)) return "the zoom parameter runs from 0 to 1 (or give a focal length like 135mm), not " + text;
             return {};
         },
@@ -88,7 +104,7 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     add_flare_control_options(app, s.controls, group);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());
     app.add_option("--bands", s.bands, "Spectral quality: 0 = RGB (650/550/450 nm), or 7..81 bands over 380..780 nm through the CIE 1931 functions")
-        ->capture_default_str()->group(group)->check(CLI::Range(0, flare::kMaxBands));
+        ->capture_default_str()->group(group)->check(bands_check());
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
     app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
         ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());

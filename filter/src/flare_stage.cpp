@@ -32,6 +32,7 @@
 #include <flare/convolve.h>
 #include <flare/footprint.h>
 #include <flare/starburst_cache.h>
+#include <gpu/address_space.h>
 #include <gpu/band_filter.h>
 #include <gpu/flare_renderer.h>
 #include <gpu/measured_renderer.h>
@@ -923,7 +924,10 @@ struct FlareStage::State {
 };
 
 FlareStage::FlareStage(FlareSettings settings, std::shared_ptr<GpuSession> gpu, PrimariesSource working_rgb_to_xyz)
-    : state_(std::make_unique<State>(std::move(settings), std::move(gpu), std::move(working_rgb_to_xyz))) {}
+ {
+    gpu::require_address_space();  // before the GL context is made ahead and before FFTW: both abort below it
+    state_ = std::make_unique<State>(std::move(settings), std::move(gpu), std::move(working_rgb_to_xyz));
+}
 FlareStage::~FlareStage() = default;
 
 std::vector<std::pair<std::string, double>> FlareStage::part_times() const { return state_->report.times; }

@@ -105,6 +105,8 @@ OiioModule::RowSource native_rows(const Frame& frame) {
 Frame read_image(const std::string& path, PfmOrder pfm_order, const MemoryBudget& budget) {
     if (!fs::exists(path)) throw std::runtime_error("file does not exist");
     require_regular_file(path, "");  // /dev/zero or a named pipe would never end
+    // An unreadable file says so (the format probes would call it "not an OpenEXR file").
+    if (::access(path.c_str(), R_OK) != 0) throw std::runtime_error(fmt::format("cannot read: {}", std::strerror(errno)));
     if (is_pfm_file(path)) {
         File f(std::fopen(path.c_str(), "rb"));
         if (!f) throw std::runtime_error(fmt::format("cannot open: {}", std::strerror(errno)));

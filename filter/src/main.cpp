@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 #include <exception>
+#include <iostream>
 #include <new>
 
 #include <CLI/CLI.hpp>
@@ -60,6 +61,17 @@ void say(const std::string& line) noexcept {
     }
 }
 
+// `code`, once what was printed is written: a full or closed stdout is a failure (one line, exit 1), not a
+// success, after --help and --version as after a command.
+int flushed(int code) {
+    std::cout.flush();
+    if (!std::cout || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+        say(fmt::format("stdout: write failed: {}", lensfx::filter::write_failure(errno)));
+        return 1;
+    }
+    return code;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -69,7 +81,7 @@ int main(int argc, char** argv) {
     tune_process_heap();  // before the first frame-sized allocation
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
-        return 0;
+        return flushed(0);
     }
     if (const std::string empty = empty_value_option(argc, argv); !empty.empty()) {
         say(fmt::format("{}= has no value (write {}=VALUE or {} VALUE)", empty, empty, empty));
@@ -82,11 +94,11 @@ int main(int argc, char** argv) {
         std::reverse(args.begin(), args.end());  // CLI11 takes them last first
         app->parse(args);
     } catch (const CLI::CallForHelp& e) {
-        return app->exit(e);
+        return flushed(app->exit(e));
     } catch (const CLI::CallForAllHelp& e) {
-        return app->exit(e);
+        return flushed(app->exit(e));
     } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) return app->exit(e);
+        if (e.get_exit_code() == 0) return flushed(app->exit(e));
         say(usage_error_message(*app, e));
         return 2;
     } catch (const std::bad_alloc&) {
@@ -97,10 +109,5 @@ int main(int argc, char** argv) {
         say(e.what());
         return 1;
     }
-    // What a command printed is only written now: a full or closed stdout is a failure, not a success.
-    if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-        say(fmt::format("stdout: write failed: {}", lensfx::filter::write_failure(errno)));
-        return 1;
-    }
-    return 0;
+    return flushed(0);  // what a command printed is only written now
 }

@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <filter/sequence.h>
+#include <optics/process_liveness.h>
 
 namespace lensfx::filter {
 
@@ -95,11 +96,17 @@ long temporary_pid(const std::string& name) {
     return ends && i > tag + kTempTag.size() ? pid : 0;
 }
 
-bool process_is_gone(long pid) { return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH; }
-
 // What a file that is not a regular one is, for a message.
 const char* kind_of(mode_t mode) {
     return S_ISDIR(mode) ? "a directory" : S_ISFIFO(mode) ? "a named pipe" : S_ISCHR(mode) || S_ISBLK(mode) ? "a device" : "a special file";
+}
+
+// What `path` (a link followed) is when it exists and is no regular file ("a named pipe"...); nullptr for a
+// regular file or a missing one. The one check of TempFile and require_regular_file.
+const char* special_kind(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return nullptr;
+    return kind_of(st.st_mode);
 }
 
 using FileId = std::pair<dev_t, ino_t>;
@@ -161,9 +168,9 @@ std::string written_path(const std::string& path) {
 
 TempFile::TempFile(const std::string& target) : target_(written_path(target)) {
     // A device, named pipe or directory is never replaced by a file (as root, /dev/null could be).
-    if (struct stat st {}; ::stat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    if (const char* kind = special_kind(target_)) {
         const std::string link = target_ == target ? std::string() : fmt::format(" (a link to {})", target_);
-        throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind_of(st.st_mode)));
+        throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind));
     }
     const fs::path t(target_);
     const std::string name = fmt::format(".{}{}{}{}", t.stem().string(), kTempTag, ::getpid(), t.extension().string());
@@ -237,10 +244,10 @@ void refuse_overwrite(const std::string& path, std::string_view option, const st
 }
 
 void require_regular_file(const std::string& path, std::string_view what) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return;  // a missing file: the reader says so
+    const char* kind = special_kind(path);
+    if (!kind) return;  // a regular file, or a missing one: the reader says so
     const std::string where = what.empty() ? std::string() : fmt::format("{} {}: ", what, path);
-    throw std::runtime_error(fmt::format("{}{}, not a regular file", where, kind_of(st.st_mode)));
+    throw std::runtime_error(fmt::format("{}{}, not a regular file", where, kind));
 }
 
 }  // namespace lensfx::filter

@@ -279,13 +279,13 @@ Plan make_plan(const PipelineOptions& o) {
         if (dir.empty()) dir = ".";
         if (!fs::is_directory(dir)) throw std::runtime_error(fmt::format("{}: output directory {} does not exist", o.output, dir.string()));
         if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(fmt::format("{}: output directory {} is not writable", o.output, dir.string()));
+        refuse_special_outputs(plan.out_pattern);  // before its format: -o /dev/full is a device, whatever its name
         if (!is_known_output_format(o.output)) {
             throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", o.output, fs::path(o.output).extension().string()));
         }
     }
     if (plan.stream_in) {
         if (!o.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");
-        if (!plan.stream_out) refuse_special_outputs(plan.out_pattern);
         return plan;
     }
     plan.in_pattern = parse_pattern(o.input);

@@ -39,6 +39,13 @@ constexpr int kDefaultMmapMax = 65536;     // glibc's default M_MMAP_MAX
 // pad, so that a 1080p job never shrinks it; an 8K frame's freed buffers do.
 constexpr int kTrimThreshold = 288 << 20;
 
+// A capped address space or data segment: every thread's arena (64 MiB of address space each, one per thread
+// up to 8 a core) counts against it.
+bool memory_is_capped() {
+    rlimit as{}, data{};
+    return (getrlimit(RLIMIT_AS, &as) == 0 && as.rlim_cur != RLIM_INFINITY) || (getrlimit(RLIMIT_DATA, &data) == 0 && data.rlim_cur != RLIM_INFINITY);
+}
+
 // Why the heap is better left alone here, or "".
 std::string reason_to_leave_heap() {
     if (std::getenv("LENSFX_SYSTEM_HEAP") != nullptr) return "LENSFX_SYSTEM_HEAP is set";
@@ -73,7 +80,12 @@ HeapTuning tune_process_heap() {
 #if defined(__SANITIZE_ADDRESS__)
     return {false, "AddressSanitizer's allocator"};  // it replaces malloc: nothing here would apply
 #elif defined(__GLIBC__)
-    if (std::string why = reason_to_leave_heap(); !why.empty()) return {false, why};
+    if (std::string why = reason_to_leave_heap(); !why.empty()) {
+        // Under a cap, the threads still share one arena: CandleGlass.exr's flare then runs in 0.5 GiB of address
+        // space instead of 1.06 (llvmpipe's 16 threads: 0.69 instead of 1.56; docs/DESIGN.md, Memory).
+        const bool one_arena = memory_is_capped() && mallopt(M_ARENA_MAX, 1) == 1;
+        return {false, why, one_arena};
+    }
     mallopt(M_TRIM_THRESHOLD, kTrimThreshold);  // a freed frame is the next frame's memory, unless it is huge
     mallopt(M_ARENA_MAX, 1);               // worker threads' blocks from this heap too (small ones stay in tcache)
     mallopt(M_TOP_PAD, kTopPad);
@@ -81,7 +93,7 @@ HeapTuning tune_process_heap() {
     reserve_huge_page_heap();
     mallopt(M_MMAP_MAX, kDefaultMmapMax);
     mallopt(M_MMAP_THRESHOLD, kHeapBlockLimit);  // bigger blocks (4K, 8K) stay mappings given back at free
-    return {true, ""};
+    return {true, "", true};
 #else
     return {false, "not glibc"};
 #endif

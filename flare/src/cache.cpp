@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -18,6 +17,8 @@
 #include <thread>
 
 #include <fmt/core.h>
+
+#include <optics/process_liveness.h>
 
 namespace lensfx::flare {
 
@@ -81,7 +82,7 @@ void remove_stale_temporaries_of(const std::string& path) {
         char* digits_end = nullptr;
         const long pid = std::strtol(name.c_str() + prefix.size(), &digits_end, 10);
         if (pid <= 0 || *digits_end != '.' || pid == static_cast<long>(::getpid())) continue;
-        if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+        if (process_is_gone(pid)) {
             std::error_code ignored;
             std::filesystem::remove(it->path(), ignored);
         }

@@ -168,9 +168,15 @@ int drawn_level(const GhostEstimate& e, double pixel_mm, bool smooth_faint) {
                                            : 1;
 }
 
-// The adaptive grid: the cell-area rule, then the outline rule (failed rays, the iris, lens rims seen at
-// outline_pixel_mm per pixel, thin ghosts).
-int adaptive_grid(const GhostEstimate& e, int base_grid, double outline_pixel_mm) {
+// How the adaptive grid sees a ghost's lens rims: drawn sharp, at pixel_mm per pixel, or not (no rim term).
+struct RimOutline {
+    bool sharp = false;
+    double pixel_mm = 0.0;
+};
+
+// The adaptive grid: the cell-area rule, then the outline rule (failed rays, the iris, lens rims as `rim`
+// sees them, thin ghosts).
+int adaptive_grid(const GhostEstimate& e, int base_grid, const RimOutline& rim) {
     int grid = base_grid;
     if (e.area_cv < kSmoothCv) {
         grid = std::max(std::min(kMinGrid, base_grid), base_grid / 2);
@@ -181,10 +187,10 @@ int adaptive_grid(const GhostEstimate& e, int base_grid, double outline_pixel_mm
     const double across = std::sqrt(std::clamp(e.fill, 1e-4, 1.0));  // passing share of a grid row
     const double scale = static_cast<double>(base_grid) / kMinGrid;
     double edges = std::max(e.failed_edge / kFailedShare, e.iris_edge / kIrisShare);
-    // Rim outlines (kRimShare) where the map bends, down to cells of kRimCellPx at outline_pixel_mm (0: not drawn
-    // sharp, no rim term)
-    if (e.rim_edge > 0.0 && e.area_cv >= kSmoothCv && outline_pixel_mm > 0.0)
-        edges = std::max(edges, std::min(e.rim_edge / kRimShare, e.extent_mm / outline_pixel_mm / kRimCellPx * across / scale));
+    // Rim outlines (kRimShare) where the map bends, down to cells of kRimCellPx at the rim's pixel size (one of
+    // no size has no rim term either)
+    if (e.rim_edge > 0.0 && e.area_cv >= kSmoothCv && rim.sharp && rim.pixel_mm > 0.0)
+        edges = std::max(edges, std::min(e.rim_edge / kRimShare, e.extent_mm / rim.pixel_mm / kRimCellPx * across / scale));
     // (bounded before the cast: a cached outline may be as long as the table allows, 1e9)
     int refined = static_cast<int>(std::ceil(std::min(scale * edges / across, 1e6)));
     if (e.fill < kMinFill) refined = std::max(refined, static_cast<int>(std::ceil(base_grid * std::sqrt(kMinFill) / across)));
@@ -231,7 +237,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         const int outline_level = std::max(spread_level, plan.rim && plan.reduce >= kRimReduce ? plan.reduce / kRimReduce : plan.reduce);
         // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (adaptive_grid)
         const bool sharp_rim = spread_level == 1 && !(accel.lod && share < kFullShare);
-        int grid = accel.adaptive ? adaptive_grid(e, base_grid, sharp_rim ? pixel_mm * outline_level : 0.0) : base_grid;
+        int grid = accel.adaptive ? adaptive_grid(e, base_grid, RimOutline{sharp_rim, pixel_mm * outline_level}) : base_grid;
         if (accel.lod && share < kFullShare) {
             grid = std::clamp(static_cast<int>(std::ceil(grid * std::sqrt(share / kFullShare))), std::min(kMinGrid, grid),
                               grid);

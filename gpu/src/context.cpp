@@ -1,6 +1,8 @@
 // EGL headless context: device platform (hardware first) or Mesa surfaceless, OpenGL 4.3+ core.
 #include <gpu/context.h>
 
+#include <gpu/address_space.h>
+
 #include <cstring>
 #include <stdexcept>
 #include <vector>
@@ -223,6 +225,7 @@ std::string_view platform_name(Platform platform) {
 }
 
 Context::Context(Platform requested) {
+    require_address_space();  // below it llvmpipe aborts the process instead of failing
     const OpenDisplay opened = open_display(requested);
     const Platform used = opened.platform;
     info_.platform = used;

@@ -3,7 +3,9 @@
 #include <optics/lens_file.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <cstdlib>
 #include <set>
@@ -30,8 +32,12 @@ void require_regular_file(const std::filesystem::path& path) {
 
 std::string read_text(const std::filesystem::path& path) {
     require_regular_file(path);
+    errno = 0;
     std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) throw LensFileError(fmt::format("{}: cannot open the lens file", path.string()));
+    if (!in) {  // the system's reason where it gave one (a file of /proc opens but has no end to seek to)
+        const int error = errno;
+        throw LensFileError(fmt::format("{}: cannot open the lens file{}", path.string(), error != 0 ? std::string(": ") + std::strerror(error) : ""));
+    }
     std::string text(static_cast<std::size_t>(in.tellg()), '\0');
     in.seekg(0);
     in.read(text.data(), static_cast<std::streamsize>(text.size()));

@@ -243,8 +243,8 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     EXPECT_EQ(bad_point.exit_code, 2);
     EXPECT_NE(bad_point.stderr_text.find("X,Y,METRES"), std::string::npos) << bad_point.stderr_text;
     const auto bad_bands = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + " --bands 5");
-    EXPECT_NE(bad_bands.exit_code, 0);
-    EXPECT_NE(bad_bands.stderr_text.find("--bands 5"), std::string::npos) << bad_bands.stderr_text;
+    EXPECT_EQ(bad_bands.exit_code, 2) << "a usage error, found before any frame is read";
+    EXPECT_NE(bad_bands.stderr_text.find("--bands: give 0 (RGB, three wavelengths) or 7..81 spectral bands, not 5"), std::string::npos) << bad_bands.stderr_text;
     for (const auto* r : {&bad_point, &bad_bands}) EXPECT_EQ(std::count(r->stderr_text.begin(), r->stderr_text.end(), '\n'), 1) << r->stderr_text;
 }
 

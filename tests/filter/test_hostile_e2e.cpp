@@ -397,8 +397,13 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     const std::string d = dir.string();
     const std::string filter = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens brendel-tessar -q", d);
     const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
-        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1"}},
-        {"--zoom", {"-1", "nan", "inf", "1e308", "2"}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310"}},
+        {"--threshold", {"0", "-1", "nan", "inf"}},         {"--sensor", {"0", "-1", "nan", "inf", "36x-1", "1e308", "1001", "0.09", "36x1e308"}},
+        {"--zoom", {"-1", "nan", "inf", "1e308", "2", ""}},       {"--memory-limit", {"-1", "nan", "1e308", "1e-310", "", "0G"}},
+        {"--dirt-seed", {"-1", "1.5", "nan", "99999999999999999999", "", "12abc", "1e3"}},
+        {"--scratch-angle", {"", "1e-310", "12abc"}},         {"--queue-depth", {"99999999999", "0"}},
+        {"--fstop", {"1e308", "1001"}},                       {"--bands", {"3", "82", "1e308"}},
+        {"--focus", {"nan", "inf"}},                          {"--depth-scale", {"nan"}},
+        {"--bits", {""}},                                     {"--threads", {"", "-1", "1e3"}},
         {"--dust", {"nan"}},                                  {"--dust-size", {"nan"}},
         {"--dust-opacity", {"nan"}},                          {"--scratch-length", {"nan"}},
         {"--scratch-width", {"nan"}},                         {"--scratch-angle", {"nan", "inf"}},
@@ -421,6 +426,144 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     expect_one_line_refusal(track, "--threshold");
     EXPECT_EQ(track.exit_code, 2);
     EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    // 0 is --memory-limit's documented "no limit" (as `none`), and is kept.
+    EXPECT_EQ(run(filter + " --memory-limit 0").exit_code, 0);
+    fs::remove_all(dir);
+}
+
+// Class 10 (option values, every command): what CLI11's own conversion lets through (an empty value read as 0,
+// NaN past its range checks, "-1" wrapped to the largest unsigned, 99999999999999999999 saturated) and the
+// sizes past what the code can hold are usage errors in every command (exit 2, one line naming the option),
+// before any lens, light or file is looked at. `lensfx flare --sensor 1e308` once crashed in the starburst,
+// --sensor 1x1e308 never ended.
+TEST(Hostile, EveryCommandRefusesHostileNumbers) {
+    const auto dir = scratch_dir("hostile-numbers");
+    const std::string d = dir.string(), t = "timeout 20 env " + lensfx_in(dir);
+    const std::string flare = fmt::format(" flare --lens brendel-tessar --angle 5,0 -o {}/f.exr", d);
+    const std::string track = fmt::format(" track -i {0}/missing.exr --tracks-out {0}/t.json", d);
+    const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+        {flare + " --sensor", {"1e308", "1e-10", "1x1e308", "1e308x1"}},
+        {" flare --lens brendel-tessar -o f.exr --angle", {"1e308,0", "0,90", "-90,0", "nan,0"}},
+        {flare + " --seed", {"-1", "99999999999999999999", ""}},
+        {flare + " --dirt-seed", {"-1", "0.5"}},
+        {flare + " --exposure", {"1e308", "nan"}},
+        {flare + " --rays", {"99999999", "0"}},
+        {flare + " --grid", {"100000000", "-5"}},
+        {flare + " --bands", {"100000", "-3", "5"}},
+        {flare + " --starburst-scale", {"inf", "nan"}},
+        {flare + " --iso", {"nan"}},
+        {track + " --hysteresis", {"nan", "inf"}},
+        {track + " --gate", {"nan", ""}},
+        {track + " --visibility", {"nan"}},
+        {track + " --max-lights", {"2000000000", "-1"}},
+        {" lens info brendel-tessar --fstop", {"1e308", "inf"}},
+        {" lens info brendel-tessar --sensor", {"1e308x24", "36x0"}},
+        {" lens trace brendel-tessar --angle 1 --height", {"nan", "inf", ""}},
+        {fmt::format(" farm -i {0}/s.####.exr -o {0}/o.####.exr --engine local --retries", d), {"2000000000", "-1"}},
+        {" bench time-vs-error --quick --rays", {"99999999", ""}}};
+    for (const auto& [command, values] : cases)
+        for (const std::string& value : values) {
+            const RunResult r = run(fmt::format("{}{} '{}'", t, command, value));
+            const std::string option = command.substr(command.rfind(' ') + 1);
+            expect_one_line_refusal(r, option);
+            EXPECT_EQ(r.exit_code, 2) << command << " " << value << ": " << r.stderr_text;
+        }
+    // "010" is ten, not octal eight: the seed a script zero-pads is the seed it means.
+    const std::string dirt = " flare --lens brendel-tessar --angle 5,0 --size 64x48 --dust 200 --parts starburst --dirt-seed ";
+    ASSERT_EQ(run(t + dirt + "010 -o " + d + "/a.exr").exit_code, 0);
+    ASSERT_EQ(run(t + dirt + "10 -o " + d + "/b.exr").exit_code, 0);
+    ASSERT_EQ(run(t + dirt + "8 -o " + d + "/c.exr").exit_code, 0);
+    EXPECT_TRUE(slurp(dir / "a.exr") == slurp(dir / "b.exr"));
+    EXPECT_FALSE(slurp(dir / "a.exr") == slurp(dir / "c.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 9 (full and odd outputs, red-team pass): /dev/full as -o names the device (it once said "unknown output
+// format"); `track --tracks-out -` writes to stdout, as --report - does (it wrote a file named "-" and said
+// nothing of a full stdout); --help and --version to a full stdout fail in one line (they exited 0); a misspelt
+// key in a --config shot file is a usage error (it was ignored).
+TEST(Hostile, FullOutputsAndShotFileTyposAreOneLine) {
+    const auto dir = scratch_dir("hostile-full");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    if (fs::exists("/dev/full")) {
+        expect_one_line_refusal(run(lensfx_cmd() + fmt::format(" -i {}/in.exr -o /dev/full", d)), "-o /dev/full: a device");
+        expect_one_line_refusal(run(fmt::format("cd {} && {} track -i in.exr --tracks-out - > /dev/full", d, lensfx_cmd())), "stdout: write failed");
+        for (const char* printing : {" --help", " --version", " flare --help"}) {
+            const RunResult r = run(lensfx_cmd() + printing + " > /dev/full");
+            expect_one_line_refusal(r, "stdout: write failed");
+            EXPECT_EQ(r.exit_code, 1) << printing;
+        }
+    }
+    const RunResult tracks = run(fmt::format("cd {0} && {1} track -i in.exr --tracks-out - -q > {0}/piped.json", d, lensfx_cmd()));
+    EXPECT_EQ(tracks.exit_code, 0) << tracks.stderr_text;
+    EXPECT_NE(slurp(dir / "piped.json").find("\"lensfx-tracks\""), std::string::npos) << slurp(dir / "piped.json");
+    EXPECT_FALSE(fs::exists(dir / "-"));
+    std::ofstream(dir / "shot.toml") << "input = \"" << d << "/in.exr\"\noutput = \"" << d << "/o.exr\"\nexposre = 2\n";
+    const RunResult shot = run(fmt::format("{} --config {}/shot.toml", lensfx_cmd(), d));
+    expect_one_line_refusal(shot, "exposre");
+    EXPECT_EQ(shot.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    // A subcommand's section: its keys are that command's options, a typo among them refused too.
+    const std::string section = fmt::format("[flare]\nlens = \"brendel-tessar\"\nangle = \"5,0\"\nsize = \"32x24\"\noutput = \"{}/f.exr\"\n", d);
+    std::ofstream(dir / "flare.toml") << section;
+    std::ofstream(dir / "typo.toml") << section << "gian = 2\n";
+    const RunResult typo = run(fmt::format("{} --config {}/typo.toml flare", lensfx_in(dir), d));
+    expect_one_line_refusal(typo, "gian");
+    EXPECT_EQ(typo.exit_code, 2);
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    const RunResult good = run(fmt::format("{} --config {}/flare.toml flare", lensfx_in(dir), d));
+    EXPECT_EQ(good.exit_code, 0) << good.stderr_text;
+    EXPECT_TRUE(fs::exists(dir / "f.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 9 (unreadable files, red-team pass): an input or lens file the user may not read says so; the input's
+// once said "is not an OpenEXR file". Root reads everything, so as root the runs drop to nobody (setpriv).
+TEST(Hostile, UnreadableFilesSayPermissionDenied) {
+    const bool root = ::geteuid() == 0;
+    if (root && run("command -v setpriv").exit_code != 0) GTEST_SKIP() << "root without setpriv: every file is readable";
+    const auto dir = scratch_dir("hostile-unreadable");
+    write_rgb(dir / "in.exr");
+    fs::copy_file(dir / "in.exr", dir / "secret.exr");
+    std::ofstream(dir / "secret.toml") << "not read\n";
+    fs::permissions(dir / "secret.exr", fs::perms::owner_read | fs::perms::owner_write);
+    fs::permissions(dir / "secret.toml", fs::perms::owner_read | fs::perms::owner_write);
+    fs::permissions(dir, fs::perms::all);
+    for (fs::path up = dir.parent_path(); root && up != up.root_path(); up = up.parent_path())
+        ASSERT_TRUE((fs::status(up).permissions() & fs::perms::others_exec) != fs::perms::none) << up << " is closed to nobody";
+    const std::string as_user = root ? "setpriv --reuid=65534 --regid=65534 --clear-groups env " : "env ";
+    const std::string d = dir.string(), lensfx = as_user + "LENSFX_CACHE_DIR=none " + lensfx_cmd();
+    expect_one_line_refusal(run(lensfx + fmt::format(" -i {0}/secret.exr -o {0}/o.exr", d)), "secret.exr: frame 1: cannot read: Permission denied");
+    expect_one_line_refusal(run(lensfx + fmt::format(" -i {0}/in.exr -o {0}/o.exr --lens {0}/secret.toml", d)),
+                            "secret.toml: cannot open the lens file: Permission denied");
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
+// Class 11 (address space): under a low `ulimit -v` a render is refused at once in one line naming the limit,
+// where llvmpipe's JIT aborted ("LLVM ERROR: Unable to allocate section memory"), crashed, or failed in three
+// lines, and a run that ran out in the GL driver left a wrong ghost bounds table in the cache (CandleGlass.exr:
+// 104 ghosts drawn instead of 85 by every later run). What renders nothing (lens info) still runs.
+TEST(Hostile, ALowAddressSpaceLimitIsOneLine) {
+#if defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "AddressSanitizer reserves terabytes of address space at start";
+#endif
+    const auto dir = scratch_dir("hostile-ulimit");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    for (const char* limit : {"ulimit -v 262144; ", "ulimit -v 450000; "}) {
+        const RunResult filter = run(limit + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr", d) + kLens);
+        expect_one_line_refusal(filter, "ulimit -v");
+        EXPECT_EQ(filter.exit_code, 1);
+        const RunResult flare = run(limit + lensfx_in(dir) + fmt::format(" flare --lens brendel-tessar --angle 5,0 --size 64x48 --parts starburst -o {}/f.exr", d));
+        expect_one_line_refusal(flare, "ulimit -v");
+    }
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    EXPECT_FALSE(fs::exists(dir / "cache") && !fs::is_empty(dir / "cache")) << "nothing was computed, so nothing was cached";
+    const RunResult info = run("ulimit -v 262144; " + lensfx_cmd() + " lens info brendel-tessar");
+    EXPECT_EQ(info.exit_code, 0) << info.stderr_text;
     fs::remove_all(dir);
 }
 

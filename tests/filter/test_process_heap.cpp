@@ -2,6 +2,7 @@
 // malloc's settings are the whole process's.
 #include <filter/process_heap.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -163,6 +164,32 @@ int capped_leaves_heap_alone(decltype(RLIMIT_AS) resource, const char* why) {
 }
 
 TEST(ProcessHeap, ALimitedAddressSpaceLeavesTheHeapAlone) { EXPECT_EQ(capped_leaves_heap_alone(RLIMIT_AS, "ulimit -v"), 0); }
+
+// The arenas malloc has (one <heap nr=...> each in malloc_info) after a worker thread allocated a small block.
+int arenas_after_a_worker_allocates() {
+    std::thread([] { std::free(opaque(std::malloc(4096))); }).join();
+    char* text = nullptr;
+    std::size_t size = 0;
+    FILE* out = open_memstream(&text, &size);
+    malloc_info(0, out);
+    std::fclose(out);
+    int arenas = 0;
+    for (const char* at = text; (at = std::strstr(at, "<heap nr=")) != nullptr; ++at) ++arenas;
+    std::free(text);
+    return arenas;
+}
+
+// Under ulimit -v the heap is left alone but for the arenas: a worker thread allocates from the main heap instead
+// of an arena of its own (64 MiB of address space each: CandleGlass.exr's flare needed 1.06 GiB, 0.5 with one).
+TEST(ProcessHeap, ALimitedAddressSpaceKeepsOneArena) {
+    EXPECT_EQ(in_child([] { return arenas_after_a_worker_allocates() == 2 ? 0 : 1; }), 0) << "untuned, a worker thread gets an arena of its own";
+    EXPECT_EQ(in_child([] {
+        const rlimit limit{std::size_t{8} << 30, std::size_t{8} << 30};
+        if (setrlimit(RLIMIT_AS, &limit) != 0) return 3;
+        const HeapTuning t = tune_process_heap();
+        return !t.tuned && t.one_arena && arenas_after_a_worker_allocates() == 1 ? 0 : 1;
+    }), 0);
+}
 
 // A capped data segment is charged the reservation and the top pad: tuned there, a run under `ulimit -d 450000`
 // hung or aborted where the untuned heap ran in 197 MB.

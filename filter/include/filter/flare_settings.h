@@ -82,8 +82,13 @@ void add_lens_options(CLI::App& app, LensChoice& choice, const std::string& grou
 void add_coating_options(CLI::App& app, std::string& coating, double& spread, const std::string& group);
 void apply_coatings(optics::System& system, const std::string& coating, double spread);
 
-// --sensor: "36" (the width, height 0: from the image's aspect) or "36x24" (mm); throws std::invalid_argument
-// naming the option when the text is not that or a size is not positive.
+// A sensor's width and height in mm at least and at most: a phone's to large-format film's (20x24 in, 610 mm),
+// with room. Beyond them the starburst's pixel arithmetic overflowed (lensfx flare --sensor 1e308 and 1e-10
+// crashed, 1x1e308 never ended) and under 0.1 mm a light's ghosts take minutes.
+inline constexpr double kMinSensorMm = 0.1, kMaxSensorMm = 1000.0;
+
+// --sensor: "36" (the width, height 0: from the image's aspect) or "36x24" (mm), each given side within
+// kMinSensorMm..kMaxSensorMm; throws std::invalid_argument naming the option otherwise.
 std::array<double, 2> parse_sensor(const std::string& text);
 
 struct FlareParts {

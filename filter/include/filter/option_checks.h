@@ -61,5 +61,17 @@ CLI::Validator parsed_by(Parse parse, const std::string& option, const char* des
 CLI::Validator sensor_check();
 CLI::Validator threshold_check();
 CLI::Validator zoom_check();
+// --bands: 0 (RGB) or flare::kMinBands..kMaxBands, as flare::spectral_passes takes them.
+CLI::Validator bands_check();
+
+// The largest --fstop: past any pinhole camera's (f/1e308 once ran and said every light lay outside the field).
+inline constexpr double kMaxFNumber = 1000.0;
+
+// Gives every option of `app` and of its subcommands, at any depth, whose value is a number (CLI11's FLOAT,
+// INT, UINT) the check of what CLI11's own conversion lets through: an empty value (read as 0), NaN and
+// infinities (its range checks pass NaN), subnormals, a value beyond 64 bits (strtoull saturates:
+// 99999999999999999999), a negative unsigned one ("-1" wraps to the largest) and octal ("010" is 8).
+// Each is a usage error naming the option. Called once the app is built (build_app).
+void check_every_number(CLI::App& app);
 
 }  // namespace lensfx::filter

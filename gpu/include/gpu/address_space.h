@@ -1,0 +1,24 @@
+// The address space a render needs at the least. Under a lower `ulimit -v` (RLIMIT_AS), Mesa's llvmpipe
+// aborts the process from its JIT ("LLVM ERROR: Unable to allocate section memory"), crashes in the code it
+// generated, or fails to open libGL, and FFTW aborts when its malloc fails: none of them reports an error
+// that could become one `lensfx:` line. So a render checks the limit before it starts.
+#pragma once
+
+#include <cstddef>
+
+namespace lensfx::gpu {
+
+// The least address space, in bytes, of a process that renders with `threads` llvmpipe threads (LP_NUM_THREADS,
+// else one per core) and as many decoding threads. Measured on CandleGlass.exr (1000x810, dgauss 50 mm, 85
+// ghosts; docs/DESIGN.md's Memory section): a base and a part per thread, with a margin; bigger frames need more,
+// which --memory-limit bounds.
+std::size_t address_space_needed(int threads);
+
+// llvmpipe's thread count: LP_NUM_THREADS when set, else the cores (at most Mesa's 32).
+int llvmpipe_threads();
+
+// Throws std::runtime_error naming the limit, the need and `ulimit -v` when the process's address space is
+// limited below address_space_needed(llvmpipe_threads()); returns at once when it is not limited.
+void require_address_space();
+
+}  // namespace lensfx::gpu

@@ -1,0 +1,54 @@
+// The address space a render needs (see gpu/address_space.h).
+#include <gpu/address_space.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/core.h>
+#include <sys/resource.h>
+
+namespace lensfx::gpu {
+
+namespace {
+
+constexpr std::size_t kMiB = std::size_t{1} << 20;
+// CandleGlass.exr's flare with its threads sharing one arena (filter/process_heap.h), `ulimit -v` swept in
+// 32 MiB steps on 2 cores: it ran at 512 MiB and failed at 480; with 16 llvmpipe threads (LP_NUM_THREADS) at
+// 704 and not at 672; with 16 of them and 16 decoding threads (--threads 16, as 16 cores would have) at 832 and
+// not at 768: about 485 MiB and 23 MiB per core. This rounds both up.
+constexpr std::size_t kBaseBytes = 512 * kMiB;
+constexpr std::size_t kPerThreadBytes = 24 * kMiB;  // an llvmpipe thread and a decoding thread
+constexpr int kMesaMaxThreads = 32;                  // LP_MAX_THREADS
+
+}  // namespace
+
+std::size_t address_space_needed(int threads) {
+    return kBaseBytes + kPerThreadBytes * static_cast<std::size_t>(std::max(threads, 0));
+}
+
+int llvmpipe_threads() {
+    if (const char* env = std::getenv("LP_NUM_THREADS"); env && *env) {
+        int n = 0;
+        const auto [end, ec] = std::from_chars(env, env + std::strlen(env), n);
+        if (ec == std::errc{} && *end == '\0' && n >= 0) return std::min(n, kMesaMaxThreads);
+    }
+    return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, kMesaMaxThreads);
+}
+
+void require_address_space() {
+    rlimit limit{};
+    if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return;
+    const int threads = llvmpipe_threads();
+    const std::size_t needed = address_space_needed(threads);
+    if (limit.rlim_cur >= needed) return;
+    throw std::runtime_error(fmt::format(
+        "the address space is limited to {} MiB (ulimit -v {}), under the {} MiB a render needs here ({} GL threads): "
+        "below it the GL driver and FFTW abort instead of failing; raise ulimit -v",
+        limit.rlim_cur / kMiB, limit.rlim_cur / 1024, needed / kMiB, threads));
+}
+
+}  // namespace lensfx::gpu
