@@ -685,6 +685,11 @@ public:
     void draw_band(int band, std::vector<float>& rgb);
     // The reduced targets upsampled into rgb (at 1/image_level of the view), or the per-ghost sums and powers.
     void read_back(std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers);
+    // The bounds tables this render added entries to, saved to the cache once it has drawn without error; after
+    // an error, forgotten (kept neither in memory nor on disk): a render the GL driver failed in (out of memory)
+    // may have traced nothing or garbage, and a saved table would hand that to every later run.
+    void save_tables();
+    void forget_unsaved_tables();
     // Every ghost drawn at 1/level of the view or coarser, and read back into an image of that size.
     void set_image_level(int level) { image_level_ = level; }
     int bands() const { return bands_.count; }
@@ -711,6 +716,7 @@ private:
     std::vector<double> accumulated_;  // per-ghost mode: the image summed on the CPU
     std::vector<LightEstimates> estimates_;  // per light
     std::vector<double> pass_total_;
+    std::vector<std::uint64_t> unsaved_tables_;  // keys of the bounds tables this render added entries to
     LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
     int image_level_ = 1;                    // read back at 1/image_level_ of the view, no ghost drawn finer
 
@@ -983,15 +989,26 @@ BoundsTable& FlareRenderer::Drawing::bounds_table(const FlareView& lit, const Fi
         ++s_.report.stats.table_computed;
         computed = true;
     }
-    if (computed) {
+    if (computed && std::find(unsaved_tables_.begin(), unsaved_tables_.end(), table_key) == unsaved_tables_.end())
+        unsaved_tables_.push_back(table_key);
+    return table;
+}
+
+void FlareRenderer::Drawing::save_tables() {
+    for (const std::uint64_t key : unsaved_tables_) {
         try {
-            table.save();
+            s_.caches.bounds_tables.at(key).save();
         } catch (const std::exception& e) {  // a cache that cannot be written only costs time: said once
             static std::atomic<bool> warned{false};
             if (!warned.exchange(true)) fmt::print(stderr, "lensfx: warning: {} (the cache is not kept this run)\n", e.what());
         }
     }
-    return table;
+    unsaved_tables_.clear();
+}
+
+void FlareRenderer::Drawing::forget_unsaved_tables() {
+    for (const std::uint64_t key : unsaved_tables_) s_.caches.bounds_tables.erase(key);
+    unsaved_tables_.clear();
 }
 
 // One light's estimates per pass: from the bounds table, a coarse pass, or the whole entrance square; power
@@ -1383,11 +1400,17 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
 void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,
                          const GpuFlareOptions& options, std::vector<float>& rgb, std::vector<GhostPower>* ghost_powers, int level) {
     Drawing drawing = start_drawing(system, view, lights, options);
-    drawing.set_image_level(level);
-    drawing.estimate_lights();
-    drawing.cull_scene();
-    for (int band = 0; band < drawing.bands(); ++band) drawing.draw_band(band, rgb);
-    drawing.read_back(rgb, ghost_powers);
+    try {
+        drawing.set_image_level(level);
+        drawing.estimate_lights();
+        drawing.cull_scene();
+        for (int band = 0; band < drawing.bands(); ++band) drawing.draw_band(band, rgb);
+        drawing.read_back(rgb, ghost_powers);
+    } catch (...) {
+        drawing.forget_unsaved_tables();
+        throw;
+    }
+    drawing.save_tables();
 }
 
 // Checks the inputs, fits the ghosts to the memory budget (aperture culling leaves out those crossing the stop

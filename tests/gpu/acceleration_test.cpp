@@ -315,6 +315,33 @@ TEST(Acceleration, ApertureCullingDropsTheThreeCrossingGhosts) {
     RecordProperty("kept_power", fmt::format("{:.4f}", p_culled / p_full));
 }
 
+// A render that fails after its bounds table was computed (here its full-size target is wider than GL allows,
+// found only when it is bound; in the field: the GL driver out of memory, which traced garbage) leaves no table
+// in the cache for later runs: the table is saved only once the render has drawn without error.
+TEST(Acceleration, AFailedRenderSavesNoBoundsTable) {
+    const auto dir = fresh_dir("failed");
+    const Context context(Platform::Surfaceless);
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view;
+    view.width = 17000;  // over llvmpipe's GL_MAX_TEXTURE_SIZE (16384)
+    view.height = 8;
+    view.angle_x_deg = 3.0;
+    view.wavelength_nm = 550.0;
+    GpuFlareOptions options;
+    options.accel.cache_dir = dir.string();
+    FlareRenderer renderer(context);
+    EXPECT_THROW(renderer.render(system, view, options), std::invalid_argument);
+    int tables = 0;
+    for (const auto& f : std::filesystem::directory_iterator(dir)) tables += f.path().filename().string().starts_with("bounds-");
+    EXPECT_EQ(tables, 0);
+    view.width = 160;  // the same renderer draws the next view, and keeps its table
+    view.height = 100;
+    renderer.render(system, view, options);
+    for (const auto& f : std::filesystem::directory_iterator(dir)) tables += f.path().filename().string().starts_with("bounds-");
+    EXPECT_EQ(tables, 1);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(Acceleration, DiskCacheSurvivesRestartAndFollowsTheSystem) {
     const auto dir = fresh_dir("cache");
     const Context context(Platform::Surfaceless);
