@@ -3,30 +3,22 @@
 #   blender -b --factory-startup --python bench/dof/blender_defocus.py -- IN.exr OUT.exr FSTOP FOCAL_MM FOCUS_M MAX_BLUR_PX WxH
 # Prints the compositing time: a render with the Defocus node minus the same render with it muted (the
 # empty scene's render and the image's load and save are in both).
+import os
 import sys
-import time
 
 import bpy
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from blender_peer import compositing_scene, timed_render  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 src, dst = args[0], args[1]
 fstop, focal_mm, focus_m = float(args[2]), float(args[3]), float(args[4])
 max_blur = float(args[5])
 
-scene = bpy.context.scene
-image = bpy.data.images.load(src)
 width, height = (int(v) for v in args[6].split("x"))  # Blender reads R, G, B, Z as a multilayer image: no size
-scene.render.resolution_x, scene.render.resolution_y = width, height
-scene.render.resolution_percentage = 100
-scene.render.engine = "CYCLES"
-scene.cycles.samples = 1
-scene.cycles.device = "CPU"
-scene.render.use_compositing = True
-scene.render.use_sequencer = False
-scene.view_settings.view_transform = "Standard"
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.render.image_settings.exr_codec = "ZIP"
+scene = compositing_scene(width, height, "32", "ZIP")
+image = bpy.data.images.load(src)
 
 camera = bpy.data.cameras.new("lens")
 camera.lens = focal_mm
@@ -38,13 +30,8 @@ camera.dof.aperture_fstop = fstop
 camera_object = bpy.data.objects.new("lens", camera)
 scene.collection.objects.link(camera_object)
 scene.camera = camera_object
-for obj in list(scene.objects):
-    if obj.type != "CAMERA":
-        bpy.data.objects.remove(obj)
 
-scene.use_nodes = True
 tree = scene.node_tree
-tree.nodes.clear()
 source = tree.nodes.new("CompositorNodeImage")
 source.image = image
 print("image outputs:", [o.name for o in source.outputs if o.enabled])
@@ -65,16 +52,8 @@ tree.links.new(colour, defocus.inputs["Image"])
 tree.links.new(depth, defocus.inputs["Z"])
 tree.links.new(defocus.outputs["Image"], out.inputs["Image"])
 
-
-def render(path):
-    scene.render.filepath = path
-    start = time.perf_counter()
-    bpy.ops.render.render(write_still=True)
-    return time.perf_counter() - start
-
-
-with_node = render(dst)
+with_node = timed_render(scene, dst)
 defocus.mute = True
-without = render(dst + ".muted.exr")
+without = timed_render(scene, dst + ".muted.exr")
 print(f"blender defocus: render {with_node:.2f} s, muted {without:.2f} s, node {with_node - without:.2f} s, "
       f"{width}x{height}, f/{fstop} {focal_mm} mm focus {focus_m} m")

@@ -306,14 +306,20 @@ TEST(PassTotals, SumEveryLightsDrawnGhosts) {
     EXPECT_EQ(totals, (std::vector<double>{3.0, 8.0}));
 }
 
-// The trace step alone: the Cooke triplet's 1,7 ghost over its entrance square, traced on the GPU (float),
-// lands where the CPU tracer (double) puts the same rays, with the same transmission and the same rays failing.
-TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
-    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+// The trace and shade steps' tests' light: (3, 2) degrees at 550 nm.
+FlareView step_view() {
     FlareView view;
     view.angle_x_deg = 3.0;
     view.angle_y_deg = 2.0;
     view.wavelength_nm = 550.0;
+    return view;
+}
+
+// The trace step alone: the Cooke triplet's 1,7 ghost over its entrance square, traced on the GPU (float),
+// lands where the CPU tracer (double) puts the same rays, with the same transmission and the same rays failing.
+TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const FlareView view = step_view();
     const optics::TraceSystem traced(system, 550.0);
     const PupilRect square = entrance_square(traced, view);
     const std::vector<Ghost> ghosts = optics::enumerate_ghosts(system);
@@ -357,12 +363,8 @@ TEST(TraceStep, OneGhostMatchesTheCpuTracer) {
 TEST(ShadeStep, InsideIrisMarkOnlyWhereTheTrianglesAreInside) {
     optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
     system.aperture.blades = 6;
-    FlareView view;
-    view.angle_x_deg = 3.0;
-    view.angle_y_deg = 2.0;
-    view.wavelength_nm = 550.0;
-    const optics::TraceSystem traced(system, 550.0);
-    const PupilRect square = entrance_square(traced, view);
+    const FlareView view = step_view();
+    const PupilRect square = entrance_square(optics::TraceSystem(system, 550.0), view);
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
     constexpr int kGrid = 48;
