@@ -35,3 +35,11 @@ def timed_render(scene, path):
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     return time.perf_counter() - start
+
+
+def node_seconds(scene, node, path):
+    """The render with `node` and with it muted (the empty scene's render and the image's load and save are in
+    both), saved to path and path + ".muted.exr": (with, without) seconds."""
+    with_node = timed_render(scene, path)
+    node.mute = True
+    return with_node, timed_render(scene, path + ".muted.exr")

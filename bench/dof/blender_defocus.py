@@ -9,7 +9,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from blender_peer import compositing_scene, timed_render  # noqa: E402
+from blender_peer import compositing_scene, node_seconds  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 src, dst = args[0], args[1]
@@ -52,8 +52,6 @@ tree.links.new(colour, defocus.inputs["Image"])
 tree.links.new(depth, defocus.inputs["Z"])
 tree.links.new(defocus.outputs["Image"], out.inputs["Image"])
 
-with_node = timed_render(scene, dst)
-defocus.mute = True
-without = timed_render(scene, dst + ".muted.exr")
+with_node, without = node_seconds(scene, defocus, dst)
 print(f"blender defocus: render {with_node:.2f} s, muted {without:.2f} s, node {with_node - without:.2f} s, "
       f"{width}x{height}, f/{fstop} {focal_mm} mm focus {focus_m} m")

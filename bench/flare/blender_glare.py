@@ -9,7 +9,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from blender_peer import compositing_scene, timed_render  # noqa: E402
+from blender_peer import compositing_scene, node_seconds  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:]
 src, dst = args[0], args[1]
@@ -31,8 +31,6 @@ out = tree.nodes.new("CompositorNodeComposite")
 tree.links.new(source.outputs["Image"], glare.inputs["Image"])
 tree.links.new(glare.outputs["Image"], out.inputs["Image"])
 
-with_node = timed_render(scene, dst)
-glare.mute = True
-without = timed_render(scene, dst + ".muted.exr")
+with_node, without = node_seconds(scene, glare, dst)
 print(f"blender glare ghosts: render {with_node:.2f} s, muted {without:.2f} s, node {with_node - without:.2f} s, "
       f"{width}x{height}, threshold {threshold}, quality {quality}")
