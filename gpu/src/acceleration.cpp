@@ -234,7 +234,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         plan.splat = !smooth_faint;
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
-        const int outline_level = std::max(spread_level, plan.rim && plan.reduce >= kRimReduce ? plan.reduce / kRimReduce : plan.reduce);
+        const int outline_level = std::max(spread_level, plan.rim_pass() ? plan.reduce / kRimReduce : plan.reduce);
         // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (adaptive_grid)
         const bool sharp_rim = spread_level == 1 && !(accel.lod && share < kFullShare);
         int grid = accel.adaptive ? adaptive_grid(e, base_grid, RimOutline{sharp_rim, pixel_mm * outline_level}) : base_grid;

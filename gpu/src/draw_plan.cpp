@@ -152,6 +152,11 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
     return out;
 }
 
+std::size_t triangle_indices(const GhostPlan& plan) {
+    const auto cells = static_cast<std::size_t>(plan.grid) * static_cast<std::size_t>(plan.grid);
+    return plan.area_coverage ? 0 : 6 * cells;
+}
+
 std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& todo, const std::vector<GhostPlan>& plans,
                                                 std::size_t capacity, bool per_ghost_power) {
     std::vector<std::vector<BatchJob>> batches;
@@ -164,7 +169,7 @@ std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& 
             if (!batch.empty() && (per_ghost_power || used + side * side > capacity)) break;
             batch.push_back({g, used, indices});
             used += side * side;
-            indices += 6 * (side - 1) * (side - 1);
+            indices += triangle_indices(plans[g]);
             ++next;
         }
         batches.push_back(std::move(batch));

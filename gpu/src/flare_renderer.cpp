@@ -728,8 +728,7 @@ private:
     UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
-    void dispatch_shade(int res, std::size_t vertex_offset, std::size_t first_index, int reduce, int stop_crossings,
-                        bool area_coverage);
+    void dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage);
     void dispatch_batched(const Program& program, const FaintRun& run);
@@ -744,7 +743,7 @@ private:
     void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     GhostDrawValues draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const;
-    void ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
+    const Program& ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     void draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd);
     void draw_faint_chunk(const std::vector<FaintRun>& runs, const PassDraw& pd);
     void upload_jobs(const std::vector<FaintRun>& runs, const PassDraw& pd);
@@ -878,12 +877,15 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 
 // Vertex irradiance for Gouraud shading (ghost_shade_comp), once the batch's trace is done, over the
 // triangles that are rasterised at 1/reduce of the image.
-// For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws.
-void FlareRenderer::Drawing::dispatch_shade(int res, std::size_t vertex_offset, std::size_t first_index, int reduce,
-                                            int stop_crossings, bool area_coverage) {
-    shade_uniforms(res, reduce, area_coverage);
-    glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(vertex_offset));
-    glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(first_index));
+// For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws; a point-sampled one
+// gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
+void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings) {
+    const int res = plan.grid, reduce = plan.reduce;
+    shade_uniforms(res, reduce, plan.area_coverage);
+    glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(job.first_vertex));
+    glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(job.first_index));
+    glUniform1i(s_.programs.shade.uniform("write_indices"), triangle_indices(plan) > 0 ? 1 : 0);
+    glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), triangle_indices(plan) > 0 && !plan.rim_pass() ? 1 : 0);
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
@@ -1113,8 +1115,7 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
 // The batch's ray grids traced and shaded into the vertex buffer, their rasterised triangles into the index buffer.
 void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
     const BatchJob& last = batch.back();
-    s_.buffers.reserve_indices((last.first_index + 6 * static_cast<std::size_t>(pd.plans[last.ghost].grid) * pd.plans[last.ghost].grid) *
-                               sizeof(GLuint));
+    s_.buffers.reserve_indices(std::max<std::size_t>(last.first_index + triangle_indices(pd.plans[last.ghost]), 1) * sizeof(GLuint));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
     for (const BatchJob& job : batch) {
@@ -1127,8 +1128,7 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glUseProgram(s_.programs.shade.get());
     for (const BatchJob& job : batch)
-        dispatch_shade(pd.plans[job.ghost].grid, job.first_vertex, job.first_index, pd.plans[job.ghost].reduce,
-                       pd.seq.stop_crossings[job.ghost], pd.plans[job.ghost].area_coverage);
+        dispatch_shade(pd.plans[job.ghost], job, pd.seq.stop_crossings[job.ghost]);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
@@ -1148,7 +1148,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             if (!bound) bind_level(reduce);
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
-            draw_triangles(job, pd, reduce, reduce >= kRimReduce && plan.rim ? 1 : 0);
+            draw_triangles(job, pd, reduce, plan.rim_pass() ? 1 : 0);
             if (plan.splat && !plan.area_coverage) {
                 glUseProgram(s_.programs.splat.get());
                 glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
@@ -1162,7 +1162,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
         bool bound = false;
         for (const BatchJob& job : batch) {
             const GhostPlan& plan = pd.plans[job.ghost];
-            if (!plan.rim || plan.reduce < kRimReduce || plan.reduce / kRimReduce != level) continue;
+            if (!plan.rim_pass() || plan.reduce / kRimReduce != level) continue;
             if (!bound) bind_level(level);
             bound = true;
             draw_triangles(job, pd, plan.reduce, 2);
@@ -1177,12 +1177,12 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
 // the rim's values (ghost_raster_vert's v_bary, v_outer) are the triangle's own.
 void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const GhostPlan& plan = pd.plans[job.ghost];
-    ghost_uniforms(job, pd, reduce, rim_mode);
-    const auto triangle_indices = 6 * plan.grid * plan.grid;
-    if (&s_.programs.triangles(plan, rim_mode) == &s_.programs.indexed)
-        glDrawElements(GL_TRIANGLES, triangle_indices, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
+    const Program& program = ghost_uniforms(job, pd, reduce, rim_mode);
+    const auto corners = 6 * plan.grid * plan.grid;  // two triangles a cell
+    if (&program == &s_.programs.indexed)
+        glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
     else
-        glDrawArrays(GL_TRIANGLES, 0, triangle_indices);
+        glDrawArrays(GL_TRIANGLES, 0, corners);
 }
 
 // Ghost g's own draw values into a target at 1/target_reduce of the image (the full-size one in bands).
@@ -1211,8 +1211,8 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
 
 // One ghost's uniforms in the program that draws its triangles and in the splats'. Its triangles are sorted
 // into rasterised and splatted by the pixels of its level (1/reduce of the image: the shade pass's splat_limit);
-// rim_mode 2 draws the same triangles at kRimReduce times that resolution.
-void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
+// rim_mode 2 draws the same triangles at kRimReduce times that resolution. Returns the triangles' program, bound.
+const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const std::size_t g = job.ghost;
     // The rim pass draws at kRimReduce times the level's resolution; the full-size image in bands.
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
@@ -1237,6 +1237,7 @@ void FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw&
     glUseProgram(triangles.get());
     glUniform1i(triangles.uniform("rim_mode"), rim_mode);
     glUniform1f(triangles.uniform("rim_reduce"), static_cast<float>(reduce / target_reduce));
+    return triangles;
 }
 
 // The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) in chunks that fit the vertex
@@ -1271,6 +1272,8 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
     for (const FaintRun& run : runs) {
         shade_uniforms(run.grid, run.reduce, false);
         glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
+        glUniform1i(s_.programs.shade.uniform("write_indices"), 1);       // drawn by its indices, which
+        glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), 1);    // skip the iris inside it
         glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(run.first_index));
         dispatch_batched(s_.programs.shade, run);
     }

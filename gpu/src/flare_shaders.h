@@ -168,6 +168,8 @@ uniform float iris_extent;
 uniform int stop_crossings;
 uniform bool ringing;
 uniform uint first_index;  // where the dispatch's (first) ghost's triangles go in indices[]
+uniform bool write_indices;     // point-sampled: its rasterised triangles written to indices[] (write_cell_indices)
+uniform bool mark_inside_iris;  // drawn by them without a rim pass: its vertices inside the iris marked (bit 64)
 layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // the rasterised triangles
 uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
 int crossings = 0;
@@ -277,7 +279,7 @@ void main() {
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     first = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
     crossings = batched ? jobs[batch_job()].steps.w : stop_crossings;
-    if (id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
+    if (write_indices && id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
     uint stride = uint(grid + 1);
     float area = 0.0;
     float triangles = 0.0;
@@ -302,7 +304,7 @@ void main() {
     vertices[3u * me + 2u].w = area > 0.0 ? triangles / area : 0.0;
     if (!valid(me)) return;
     int cx = int(id.x), cy = int(id.y);
-    int bits = fan_inside_iris(me, cx, cy) ? 64 : 0;
+    int bits = mark_inside_iris && fan_inside_iris(me, cx, cy) ? 64 : 0;
     // A batched (faint) ghost has no rim pass: no edge bits.
     if (!batched && cx < grid && cy < grid && cell_valid(cx, cy)) {
         int outer = (cell_valid(cx, cy - 1) ? 0 : 1) | (cell_valid(cx + 1, cy) ? 0 : 2) | (cell_valid(cx, cy + 1) ? 0 : 4) |
@@ -370,6 +372,11 @@ bool rasterised(int tri) {
 
 bool corners_valid(ivec3 i) {
     return vertices[3 * i.x + 2].z > 0.5 && vertices[3 * i.y + 2].z > 0.5 && vertices[3 * i.z + 2].z > 0.5;
+}
+
+// Whether a triangle's corners all lie beyond the lens's apertures (r_rel > 1, linear over it): it draws nothing.
+bool beyond_apertures(ivec3 i) {
+    return vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
 }
 
 // Upright photograph: the sensor image turned 180 degrees.
@@ -596,8 +603,7 @@ void main() {
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
 #ifdef AREA_COVERAGE
-    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
-    emit_grown_corner(i, corner, !corners_valid(i) || clipped || (rim_mode == 2 && !in_band));
+    emit_grown_corner(i, corner, !corners_valid(i) || beyond_apertures(i) || (rim_mode == 2 && !in_band));
 #else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     int me = i[corner];
@@ -638,10 +644,8 @@ float iris(vec2 uv) {
 void main() {
     ivec3 i = triangle_corners(gl_VertexID);
     gl_PointSize = 3.0;
-    // Splatted: the triangles not rasterised for their size (one whose corners are all beyond the apertures,
-    // r_rel > 1, linear over it, draws nothing).
-    bool clipped = vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
-    if (!corners_valid(i) || clipped || rasterised(gl_VertexID)) {
+    // Splatted: the triangles not rasterised for their size.
+    if (!corners_valid(i) || beyond_apertures(i) || rasterised(gl_VertexID)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
         v_irradiance = 0.0;
         return;
@@ -727,8 +731,8 @@ uniform int rim_mode;          // 0 plain, 1 reduced interior, 2 full-resolution
 uniform float rim_reduce;      // target pixels per reduced pixel (mode 2)
 out vec4 colour;
 
-// An iris texture at uv (stop radii). It has one level, filtered alike near and far (IrisTextures), so a
-// indexed draw, which takes no derivatives, reads level 0: the same, for less.
+// An iris texture at uv (stop radii). It has one level, filtered alike near and far (IrisTextures), so
+// an indexed draw, which takes no derivatives, reads level 0: the same, for less.
 float iris_texel(sampler2D t, vec2 uv) {
 #ifdef INDEXED
     return textureLod(t, uv / (2.0 * iris_extent) + 0.5, 0.0).r;

@@ -98,6 +98,8 @@ struct GhostPlan {
     // triangle covers, so no splats are needed), because they may come near a pixel (plan_ghosts: caustics, or
     // small triangles); else point-sampled at pixel centres.
     bool area_coverage = false;
+    // Whether it is drawn in two parts: at its level, and its rim at kRimReduce times that resolution.
+    bool rim_pass() const { return rim && reduce >= kRimReduce; }
 };
 // What scene culling decided of one ghost (scene_cull): drawn as the level of detail plans it, left out, or
 // drawn at the coarsest detail because its peak alone is under what the frame can show where it lands: its

@@ -82,8 +82,12 @@ struct PassPlan {
 PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
                    const GhostSelection& selection, const DetailSettings& detail, int band);
 
-// A ghost of a batch, where its grid vertices start in the vertex buffer and its triangles (6 indices a
-// grid cell) in the index buffer.
+// The indices a ghost's rasterised triangles take in the index buffer (ghost_shade_comp's write_cell_indices):
+// 6 a grid cell when point-sampled; none with area coverage, which draws each triangle's corners alone.
+std::size_t triangle_indices(const GhostPlan& plan);
+
+// A ghost of a batch, where its grid vertices start in the vertex buffer and its triangles
+// (triangle_indices) in the index buffer.
 struct BatchJob {
     std::size_t ghost;
     std::size_t first_vertex;
