@@ -358,6 +358,7 @@ private:
 struct FrameTally {
     double direct_ms = 0.0, starburst_ms = 0.0, ghosts_ms = 0.0, extended_ms = 0.0;
     int ghosts_drawn = 0, ghosts_culled = 0;
+    int ghosts_merged = 0;         // faint ghosts drawn once for several passes (gpu::merge_faint_passes)
     int lights_outside_field = 0;  // lights the lens does not image (no flare)
 };
 
@@ -900,6 +901,7 @@ struct FlareStage::State {
     void count_ghosts(FrameTally& tally) const {
         tally.ghosts_drawn += renderer->last_stats().ghosts_drawn;
         tally.ghosts_culled += renderer->last_stats().ghosts_culled;
+        tally.ghosts_merged += renderer->last_stats().ghosts_merged;
     }
 
     // The model's figures and part times for the frame and the run; above 4K the GL targets (over 300 MB) are
@@ -913,6 +915,7 @@ struct FlareStage::State {
             renderer->release_targets();
         report.figures.emplace_back("ghosts drawn", static_cast<double>(tally.ghosts_drawn));
         report.figures.emplace_back("ghosts culled", static_cast<double>(tally.ghosts_culled));
+        report.figures.emplace_back("ghosts merged", static_cast<double>(tally.ghosts_merged));
         summary.ghosts_drawn += tally.ghosts_drawn;
         summary.ghosts_culled += tally.ghosts_culled;
         summary.lights_outside_field += tally.lights_outside_field;

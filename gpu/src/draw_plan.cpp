@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <utility>
 
 #include <gpu/flare_renderer.h>
@@ -149,6 +150,65 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
         out.faint += band == 0 && faint;
         (faint && detail.batch_faint ? out.batched : out.todo).push_back(g);
     }
+    return out;
+}
+
+namespace {
+
+// What estimate_light scaled a pass's powers by: the light over the pass's channels.
+double light_weight(const SpectralPass& pass, const std::array<double, 3>& light_scale) {
+    double weight = 0.0;
+    for (std::size_t c = 0; c < 3; ++c) weight += std::abs(pass.weight[c] * light_scale[c]);
+    return weight;
+}
+
+// Whether two sensor boxes (mm) lie within `tolerance` of each other, edge by edge.
+bool boxes_within(const PupilRect& a, const PupilRect& b, double tolerance) {
+    return std::abs(a.x0 - b.x0) <= tolerance && std::abs(a.x1 - b.x1) <= tolerance && std::abs(a.y0 - b.y0) <= tolerance &&
+           std::abs(a.y1 - b.y1) <= tolerance;
+}
+
+}  // namespace
+
+MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimates& estimates, const std::vector<SpectralPass>& passes,
+                               const std::array<double, 3>& light_scale, double pixel_mm) {
+    MergedFaint out;
+    const std::size_t ghosts = plans.empty() ? 0 : plans.front().plans.size();
+    // Each pass's batched ghosts as a mask, what its powers were scaled by and its own weights for every ghost.
+    std::vector<std::vector<char>> batched(plans.size(), std::vector<char>(ghosts, 0));
+    std::vector<double> scaled_by(plans.size());
+    for (std::size_t p = 0; p < plans.size(); ++p) {
+        for (const std::size_t g : plans[p].batched) batched[p][g] = 1;
+        scaled_by[p] = light_weight(passes[p], light_scale);
+        out.weight.emplace_back(ghosts, passes[p].weight);
+    }
+    // The passes from the middle outwards: a ghost's host is the first that draws it batched.
+    std::vector<std::size_t> order(plans.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    const auto middle = static_cast<std::ptrdiff_t>(plans.size() / 2);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return std::abs(static_cast<std::ptrdiff_t>(a) - middle) < std::abs(static_cast<std::ptrdiff_t>(b) - middle);
+    });
+    for (std::size_t g = 0; g < ghosts; ++g) {
+        const auto host = std::find_if(order.begin(), order.end(), [&](std::size_t p) { return batched[p][g] != 0; });
+        if (host == order.end()) continue;
+        const std::size_t h = *host;
+        const GhostEstimate& at_host = estimates.pass[h][g];
+        const double host_power = at_host.power / scaled_by[h];
+        if (!(host_power > 0.0) || !std::isfinite(host_power)) continue;
+        const double tolerance = kMergeShiftPx * pixel_mm * plans[h].plans[g].reduce;
+        for (auto it = std::next(host); it != order.end(); ++it) {
+            const std::size_t p = *it;
+            const GhostEstimate& e = estimates.pass[p][g];
+            if (!batched[p][g] || !boxes_within(e.sensor, at_host.sensor, tolerance)) continue;
+            const double ratio = e.power / scaled_by[p] / host_power;  // the ghost's power here over the host's
+            if (!std::isfinite(ratio)) continue;
+            for (std::size_t c = 0; c < 3; ++c) out.weight[h][g][c] += passes[p].weight[c] * ratio;
+            batched[p][g] = 0;
+            ++out.merged;
+        }
+    }
+    for (std::size_t p = 0; p < plans.size(); ++p) std::erase_if(plans[p].batched, [&](std::size_t g) { return !batched[p][g]; });
     return out;
 }
 

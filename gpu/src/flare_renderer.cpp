@@ -656,6 +656,7 @@ struct PassDraw {
     double rotation;            // of the ghosts' entrance rectangles (the light's azimuth with a bounds table)
     optics::Vec3 direction;     // of the light
     double cos_angle;
+    const std::vector<std::array<double, 3>>* weights = nullptr;  // per ghost, else the pass's (merge_faint_passes)
 };
 
 // What one ghost's draw sets besides the level's values: its flux per grid triangle, what it adds to R, G, B,
@@ -738,7 +739,9 @@ private:
                             const Aperture& aperture);
     BoundsTable& bounds_table(const FlareView& lit, const FieldDirection& field);
     LightEstimates estimate_light(const ScaledLight& light);
-    void draw_pass(std::size_t l, std::size_t p);
+    PassPlan pass_plan(std::size_t l, std::size_t p) const;
+    void draw_light(std::size_t l);
+    void draw_pass(std::size_t l, std::size_t p, const PassPlan& plan, const std::vector<std::array<double, 3>>* faint_weights);
     void trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
@@ -1067,7 +1070,7 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
     band_ = band;
     if (!ghosts_.empty())
         for (std::size_t l = 0; l < lights_.size(); ++l)
-            for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(l, p);
+            draw_light(l);
     if (options_.per_ghost_power || !drawn_into_[0]) return;
     if (image_level_ > 1) throw std::logic_error(fmt::format("a ghost drawn at full size for an image at 1/{}", image_level_));
     const TexelRect lit = add_full_band(full_target(), rgb, view_.width, bands_, band);
@@ -1079,7 +1082,28 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
 // target: a barrier or a change of target makes a software rasteriser finish everything it has queued, so
 // there is one of each per batch rather than per ghost. Per-ghost power reads the target after every ghost,
 // so there each ghost is a batch.
-void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
+// Light l's passes planned, their faint ghosts merged into the middle pass where their dispersion is under
+// what their level shows (merge_faint_passes; not with ringing, whose iris differs by wavelength), then drawn.
+void FlareRenderer::Drawing::draw_light(std::size_t l) {
+    std::vector<PassPlan> plans;
+    for (std::size_t p = 0; p < passes_.size(); ++p) plans.push_back(pass_plan(l, p));
+    MergedFaint merged;
+    if (!options_.ringing && options_.merge_faint)
+        merged = merge_faint_passes(plans, estimates_[l], passes_, lights_[l].scale, view_.sensor_width_mm / view_.width);
+    s_.report.stats.ghosts_merged += band_ == 0 ? merged.merged : 0;
+    for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(l, p, plans[p], merged.merged > 0 ? &merged.weight[p] : nullptr);
+}
+
+// Light l's plan at pass p (plan_pass), counted in the stats.
+PassPlan FlareRenderer::Drawing::pass_plan(std::size_t l, std::size_t p) const {
+    const DetailSettings detail{options_.accel,        options_.grid,        view_.sensor_width_mm / view_.width,
+                                options_.per_ghost_power, options_.batch_faint,
+                                std::max(spread_level(options_.spread), image_level_)};
+    return plan_pass(estimates_[l].pass[p], pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
+                     selection_, detail, band_);
+}
+
+void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassPlan& plan, const std::vector<std::array<double, 3>>* faint_weights) {
     const ScaledLight& light = lights_[l];
     const SpectralPass& pass = passes_[p];
     const optics::Ray axis = optics::collimated_ray(light.angle_x_deg, light.angle_y_deg, 0.0, 0.0, 0.0);
@@ -1092,11 +1116,6 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
         glBindTextureUnit(1, s_.iris.ringing(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
     const GhostSequences& seq = sequences(p).seq;
     const std::vector<GhostEstimate>& estimates = estimates_[l].pass[p];
-    const DetailSettings detail{options_.accel,        options_.grid,        view_.sensor_width_mm / view_.width,
-                                options_.per_ghost_power, options_.batch_faint,
-                                std::max(spread_level(options_.spread), image_level_)};
-    const PassPlan plan = plan_pass(estimates, pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
-                                    selection_, detail, band_);
     s_.report.stats.ghosts_skipped += plan.skipped;
     s_.report.stats.ghosts_culled += plan.culled;
     s_.report.stats.ghosts_faint += plan.faint;
@@ -1108,6 +1127,15 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p) {
          batch_ghosts(plan.todo, plan.plans, s_.buffers.vertices_bytes / kVertexBytes, options_.per_ghost_power)) {
         trace_batch(batch, pd);
         raster_batch(batch, pd);
+    }
+    if (faint_weights) {  // the faint ghosts add to every channel the passes merged into them give them
+        std::array<bool, 3> written{};
+        for (const std::size_t g : plan.batched)
+            for (std::size_t c = 0; c < 3; ++c) written[c] = written[c] || (*faint_weights)[g][c] != 0.0;
+        glColorMaski(0, written[0], written[1], written[2], GL_FALSE);
+        PassDraw merged = pd;
+        merged.weights = faint_weights;
+        return draw_batched(plan.batched, merged);
     }
     draw_batched(plan.batched, pd);
 }
@@ -1197,7 +1225,8 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
     v.target_h = full ? bands_.rows_drawn(band_) : (view_.height + target_reduce - 1) / target_reduce;
     const optics::GhostStyle* style = selection_.style[g];
     const std::array<double, 3> gain = style ? style->gain : std::array<double, 3>{1.0, 1.0, 1.0};
-    for (std::size_t c = 0; c < 3; ++c) v.channels[c] = pd.pass.weight[c] * gain[c] * pd.light.scale[c];
+    const std::array<double, 3>& weight = pd.weights ? (*pd.weights)[g] : pd.pass.weight;
+    for (std::size_t c = 0; c < 3; ++c) v.channels[c] = weight[c] * gain[c] * pd.light.scale[c];
     v.offset = style ? style->offset_mm : std::array<double, 2>{};
     // A band of the full-size image: its rows' span of clip space stretched over the viewport.
     v.half_height = view_.sensor_height_mm / 2;

@@ -226,6 +226,7 @@ struct RenderStats {
     int ghosts_reduced = 0;     // drawn at reduced resolution
     int ghosts_culled = 0;      // by scene culling (also counted in ghosts_skipped)
     int ghosts_faint = 0;       // drawn at the coarsest detail by scene culling
+    int ghosts_merged = 0;      // faint ghosts of one pass drawn by another's (merge_faint_passes)
     long long rays = 0;         // grid vertices traced for drawing
     int table_computed = 0;     // bounds-table entries computed by this render
     int table_loaded = 0;       // entries read from disk by this render

@@ -82,6 +82,22 @@ struct PassPlan {
 PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_power, const std::vector<SceneVerdict>& verdicts,
                    const GhostSelection& selection, const DetailSettings& detail, int band);
 
+// Faint ghosts drawn once for all passes (issue 17). A faint ghost drawn batched (PassPlan::batched) by
+// several passes is traced and drawn by one of them, its host (the pass nearest the middle of the spectrum
+// that draws it batched), for every other whose sensor box lies within kMergeShiftPx pixels of the host's
+// level of the host's (its dispersion under what its level shows): it adds to R, G, B what that pass would
+// have, the pass's weights times the ghost's power there over its power in the host (its coatings' colour
+// kept as a total), and that pass leaves it out.
+inline constexpr double kMergeShiftPx = 2.0;
+struct MergedFaint {
+    std::vector<std::vector<std::array<double, 3>>> weight;  // per pass and ghost, the R, G, B weights it draws with
+    int merged = 0;                                          // ghosts left out of a pass (drawn by their host)
+};
+// estimates: the light's (power scaled by the light over each pass's channels, estimate_light); light_scale:
+// its R, G, B; pixel_mm: the sensor width of a full-size pixel. Takes merged ghosts out of plans' batched lists.
+MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimates& estimates, const std::vector<SpectralPass>& passes,
+                               const std::array<double, 3>& light_scale, double pixel_mm);
+
 // The indices a ghost's rasterised triangles take in the index buffer (ghost_shade_comp's write_cell_indices):
 // 6 a grid cell when point-sampled; none with area coverage, which draws each triangle's corners alone.
 std::size_t triangle_indices(const GhostPlan& plan);
