@@ -18,6 +18,7 @@
 
 #include <filter/output_files.h>
 #include <filter/process_heap.h>
+#include <gpu/address_space.h>
 
 #include "commands.h"
 
@@ -79,6 +80,7 @@ int main(int argc, char** argv) {
     keep_standard_streams_open();
     report_broken_pipes();
     tune_process_heap();  // before the first frame-sized allocation
+    lensfx::gpu::set_default_llvmpipe_threads();  // before any thread and the GL driver
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
         return flushed(0);

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 #include <fmt/core.h>
@@ -37,6 +38,14 @@ int llvmpipe_threads() {
         if (ec == std::errc{} && *end == '\0' && n >= 0) return std::min(n, kMesaMaxThreads);
     }
     return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, kMesaMaxThreads);
+}
+
+int default_llvmpipe_threads() {
+    return std::clamp(static_cast<int>(std::thread::hardware_concurrency()) + 2, 1, kMesaMaxThreads);
+}
+
+void set_default_llvmpipe_threads() {
+    ::setenv("LP_NUM_THREADS", std::to_string(default_llvmpipe_threads()).c_str(), 0);  // 0: a user's value stays
 }
 
 void require_address_space() {

@@ -2,8 +2,11 @@
 // limit, and lets any limit at or above it, or none, pass. Each case runs in a child: RLIMIT_AS is the process's.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -50,6 +53,24 @@ TEST(AddressSpace, ALimitUnderTheNeedIsRefusedInWords) {
     if (::getrlimit(RLIMIT_AS, &own) == 0 && own.rlim_cur == RLIM_INFINITY) {
         EXPECT_NO_THROW(require_address_space()) << "no limit: nothing to check";
     }
+}
+
+// lensfx's default llvmpipe threads (the cores and two more) are set where the user set none, a user's value
+// kept, and the address-space check counts what is set.
+TEST(AddressSpace, DefaultLlvmpipeThreadsAreSetUnlessTheUserSetThem) {
+    const char* before = std::getenv("LP_NUM_THREADS");
+    const std::string saved = before ? before : "";
+    const int cores = static_cast<int>(std::thread::hardware_concurrency());
+    EXPECT_EQ(default_llvmpipe_threads(), std::clamp(cores + 2, 1, 32));
+    ::unsetenv("LP_NUM_THREADS");
+    set_default_llvmpipe_threads();
+    EXPECT_EQ(llvmpipe_threads(), default_llvmpipe_threads());
+    ::setenv("LP_NUM_THREADS", "3", 1);
+    set_default_llvmpipe_threads();
+    EXPECT_STREQ(std::getenv("LP_NUM_THREADS"), "3");
+    EXPECT_EQ(llvmpipe_threads(), 3);
+    if (before) ::setenv("LP_NUM_THREADS", saved.c_str(), 1);
+    else ::unsetenv("LP_NUM_THREADS");
 }
 
 }  // namespace

@@ -17,6 +17,15 @@ std::size_t address_space_needed(int threads);
 // llvmpipe's thread count: LP_NUM_THREADS when set, else the cores (at most Mesa's 32).
 int llvmpipe_threads();
 
+// The rasteriser and compute threads lensfx gives llvmpipe where the user did not (LP_NUM_THREADS): the cores and
+// two more, at most Mesa's 32. With one a core, a core idles whenever the main thread bins the next scene or
+// waits for a dispatch, and a thread whose tiles are done waits for the slowest (2 cores, hyperfine, 10 runs:
+// canon-70-200 on the 1080p stage frame 1.16 -> 1.10 s, CandleGlass 0.53 -> 0.51 s; --no-scene-cull the same).
+int default_llvmpipe_threads();
+// Sets LP_NUM_THREADS to default_llvmpipe_threads() unless it is set. Call first thing in main, before any other
+// thread runs (setenv) and before the GL driver is loaded (it reads the variable once).
+void set_default_llvmpipe_threads();
+
 // Throws std::runtime_error naming the limit, the need and `ulimit -v` when the process's address space is
 // limited below address_space_needed(llvmpipe_threads()); returns at once when it is not limited.
 void require_address_space();
