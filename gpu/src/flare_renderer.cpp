@@ -141,8 +141,8 @@ struct DrawBuffers {
 
     // Room for `count` traced vertices: grown (never shrunk) to twice what it held, or more where asked, up
     // to a batch's (kBatchBytes) unless one ghost needs more. A render asks for what its pass draws, so a
-    // frame of a few ghosts touches a megabyte or two, not the 16 MB a batch may take (canon-70-200 on the
-    // 1080p stage frame: its first render's set-up 42 -> 8 ms).
+    // frame of a few ghosts touches a megabyte or two, not the 16 MB a batch may take (made and cleared at
+    // the first render, it was 35 ms of canon-70-200's run on the 1080p stage frame, glFinish timers).
     void reserve_vertices(std::size_t count) {
         const std::size_t bytes = count * kVertexBytes;
         if (bytes <= vertices_bytes) return;
