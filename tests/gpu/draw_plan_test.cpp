@@ -435,27 +435,45 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
 // The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
 // image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
 // the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).
+// The cooke triplet at 320 x 200 with every ghost faint (everything_faint): a renderer and its options, and the
+// image render_add makes of some lights with them.
+struct FaintTriplet {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    FlareView view = [] {
+        FlareView v;
+        v.width = 320;
+        v.height = 200;
+        return v;
+    }();
+    const Context context{Platform::Surfaceless};
+    FlareRenderer renderer{context};
+    GpuFlareOptions options = [this] {
+        GpuFlareOptions o;
+        o.visibility = everything_faint(view.width, view.height);
+        return o;
+    }();
+
+    std::vector<float> image(const std::vector<ScaledLight>& lights) {
+        std::vector<float> rgb(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
+        renderer.render_add(system, view, lights, options, rgb);
+        return rgb;
+    }
+};
+
 class BatchedFaintGhosts : public ::testing::TestWithParam<bool> {};
 TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
-    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
-    FlareView view;
-    view.width = 320;
-    view.height = 200;
-    const Context context(Platform::Surfaceless);
-    FlareRenderer renderer(context);
-    GpuFlareOptions options;
-    options.visibility = everything_faint(view.width, view.height);
-    options.full_target_bytes = 16.0 * view.width * view.height / 3.0;  // three bands
+    FaintTriplet t;
+    GpuFlareOptions& options = t.options;
+    options.full_target_bytes = 16.0 * t.view.width * t.view.height / 3.0;  // three bands
     options.styles = {{0, 6, {2.0, 0.5, 1.0}, {1.5, -1.0}}};
     options.ringing = GetParam();
     options.merge_faint = false;  // drawn one by one, no ghost is merged
     const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
-    std::vector<float> batched(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
-    renderer.render_add(system, view, lights, options, batched);
-    const RenderStats stats = renderer.last_stats();
+    const std::vector<float> batched = t.image(lights);
+    const RenderStats stats = t.renderer.last_stats();
     options.batch_faint = false;
-    std::vector<float> alone(batched.size(), 0.0f);
-    renderer.render_add(system, view, lights, options, alone);
+    const std::vector<float> alone = t.image(lights);
+    const FlareRenderer& renderer = t.renderer;
     EXPECT_GT(stats.ghosts_faint, 10);
     EXPECT_EQ(stats.ghosts_drawn, renderer.last_stats().ghosts_drawn);
     EXPECT_EQ(stats.ghosts_reduced, renderer.last_stats().ghosts_reduced);
@@ -512,21 +530,13 @@ TEST(MergeFaintPasses, AGhostDrawnOnceWhereItsPassesLandTogether) {
 // Merged, the faint ghosts of a render add up to the light their passes drawn apart add in each channel, where
 // it lands (the cooke triplet, everything faint), and each merged ghost is one draw fewer.
 TEST(MergeFaintPasses, MergedFaintGhostsKeepEachChannelsLight) {
-    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
-    FlareView view;
-    view.width = 320;
-    view.height = 200;
-    const Context context(Platform::Surfaceless);
-    FlareRenderer renderer(context);
-    GpuFlareOptions options;
-    options.visibility = everything_faint(view.width, view.height);
+    FaintTriplet t;
     const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}};
-    std::vector<float> merged(static_cast<std::size_t>(view.width * view.height * 3), 0.0f);
-    renderer.render_add(system, view, lights, options, merged);
-    const RenderStats stats = renderer.last_stats();
-    options.merge_faint = false;
-    std::vector<float> apart(merged.size(), 0.0f);
-    renderer.render_add(system, view, lights, options, apart);
+    const std::vector<float> merged = t.image(lights);
+    const RenderStats stats = t.renderer.last_stats();
+    t.options.merge_faint = false;
+    const std::vector<float> apart = t.image(lights);
+    const FlareRenderer& renderer = t.renderer;
     EXPECT_GT(stats.ghosts_merged, 10);
     EXPECT_EQ(stats.ghosts_drawn + stats.ghosts_merged, renderer.last_stats().ghosts_drawn);
     EXPECT_EQ(renderer.last_stats().ghosts_merged, 0);
