@@ -38,6 +38,12 @@ bool GhostSelection::dark(std::size_t ghost) const {
     return st && !(st->gain[0] > 0.0 || st->gain[1] > 0.0 || st->gain[2] > 0.0);
 }
 
+double pass_light_weight(const std::array<double, 3>& pass_weight, const std::array<double, 3>& light_scale) {
+    double weight = 0.0;
+    for (std::size_t c = 0; c < 3; ++c) weight += std::abs(pass_weight[c] * light_scale[c]);
+    return weight;
+}
+
 std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::size_t passes, const std::vector<char>& drawn) {
     std::vector<double> total(passes, 0.0);
     for (const LightEstimates& light : lights)
@@ -53,11 +59,8 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     // What each of R, G, B adds the ghost with (the light's irradiance and gains, the pass weight, a look's
     // gain), and what estimate_light scaled its power by (the light over the pass's channels).
     std::array<double, 3> factor{};
-    double light_weight = 0.0;
-    for (std::size_t k = 0; k < 3; ++k) {
-        factor[k] = std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
-        light_weight += std::abs(pass_weight[k] * light_scale[k]);
-    }
+    for (std::size_t k = 0; k < 3; ++k) factor[k] = std::abs(pass_weight[k] * light_scale[k] * (style ? style->gain[k] : 1.0));
+    const double light_weight = pass_light_weight(pass_weight, light_scale);
     // The peak per unit of those factors as drawn, and as the caller's spread leaves it: the kernel's largest
     // share of the ghost's power.
     const double pixel_w = view.sensor_width_mm / view.width, pixel_h = view.sensor_height_mm / view.height;
@@ -155,13 +158,6 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
 
 namespace {
 
-// What estimate_light scaled a pass's powers by: the light over the pass's channels.
-double light_weight(const SpectralPass& pass, const std::array<double, 3>& light_scale) {
-    double weight = 0.0;
-    for (std::size_t c = 0; c < 3; ++c) weight += std::abs(pass.weight[c] * light_scale[c]);
-    return weight;
-}
-
 // Whether two sensor boxes (mm) lie within `tolerance` of each other, edge by edge.
 bool boxes_within(const PupilRect& a, const PupilRect& b, double tolerance) {
     return std::abs(a.x0 - b.x0) <= tolerance && std::abs(a.x1 - b.x1) <= tolerance && std::abs(a.y0 - b.y0) <= tolerance &&
@@ -179,7 +175,7 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
     std::vector<double> scaled_by(plans.size());
     for (std::size_t p = 0; p < plans.size(); ++p) {
         for (const std::size_t g : plans[p].batched) batched[p][g] = 1;
-        scaled_by[p] = light_weight(passes[p], light_scale);
+        scaled_by[p] = pass_light_weight(passes[p].weight, light_scale);
         out.weight.emplace_back(ghosts, passes[p].weight);
     }
     // The passes from the middle outwards: a ghost's host is the first that draws it batched.

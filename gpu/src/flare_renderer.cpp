@@ -802,7 +802,7 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
     if (options.per_ghost_power) accumulated_.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0);
 }
 
-// The vertex buffer (a batch of ghosts, and at least the largest grid any plan can ask for) and the blend state.
+// The vertex array, the blend state and the iris texture (the vertex buffer grows with each pass: draw_pass).
 void FlareRenderer::Drawing::set_up_gl() {
     glBindVertexArray(s_.buffers.vao.get());
     glDisable(GL_DEPTH_TEST);
@@ -1058,8 +1058,7 @@ LightEstimates FlareRenderer::Drawing::estimate_light(const ScaledLight& light) 
             for (GhostEstimate& e : estimates)
                 if (!e.rect.empty()) e.rect = square;
         }
-        double weight = 0.0;
-        for (std::size_t c = 0; c < 3; ++c) weight += std::abs(passes_[p].weight[c] * light.scale[c]);
+        const double weight = pass_light_weight(passes_[p].weight, light.scale);
         for (GhostEstimate& e : estimates) e.power *= weight;
         out.pass.push_back(std::move(estimates));
     }
@@ -1093,12 +1092,9 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
     drawn_into_[0] = false;  // the next band clears it
 }
 
-// Light l's ghosts at pass p: planned, then traced in batches into one vertex buffer and drawn grouped by
-// target: a barrier or a change of target makes a software rasteriser finish everything it has queued, so
-// there is one of each per batch rather than per ghost. Per-ghost power reads the target after every ghost,
-// so there each ghost is a batch.
-// Light l's passes planned, their faint ghosts merged into the middle pass where their dispersion is under
-// what their level shows (merge_faint_passes; not with ringing, whose iris differs by wavelength), then drawn.
+// Light l's passes planned, each faint ghost merged into the pass nearest the middle that draws it where its
+// dispersion is under what its level shows (merge_faint_passes; not with ringing, whose iris differs by
+// wavelength), then drawn.
 void FlareRenderer::Drawing::draw_light(std::size_t l) {
     std::vector<PassPlan> plans;
     for (std::size_t p = 0; p < passes_.size(); ++p) plans.push_back(pass_plan(l, p));
@@ -1118,6 +1114,10 @@ PassPlan FlareRenderer::Drawing::pass_plan(std::size_t l, std::size_t p) const {
                      selection_, detail, band_);
 }
 
+// Light l's ghosts at pass p as planned: traced in batches into one vertex buffer and drawn grouped by
+// target: a barrier or a change of target makes a software rasteriser finish everything it has queued, so
+// there is one of each per batch rather than per ghost. Per-ghost power reads the target after every ghost,
+// so there each ghost is a batch. faint_weights: the batched ghosts' R, G, B weights (merged), else the pass's.
 void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassPlan& plan, const std::vector<std::array<double, 3>>* faint_weights) {
     const ScaledLight& light = lights_[l];
     const SpectralPass& pass = passes_[p];
@@ -1144,16 +1144,15 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassP
         trace_batch(batch, pd);
         raster_batch(batch, pd);
     }
+    PassDraw faint = pd;
     if (faint_weights) {  // the faint ghosts add to every channel the passes merged into them give them
         std::array<bool, 3> written{};
         for (const std::size_t g : plan.batched)
             for (std::size_t c = 0; c < 3; ++c) written[c] = written[c] || (*faint_weights)[g][c] != 0.0;
         glColorMaski(0, written[0], written[1], written[2], GL_FALSE);
-        PassDraw merged = pd;
-        merged.weights = faint_weights;
-        return draw_batched(plan.batched, merged);
+        faint.weights = faint_weights;
     }
-    draw_batched(plan.batched, pd);
+    draw_batched(plan.batched, faint);
 }
 
 // The batch's ray grids traced and shaded into the vertex buffer, their rasterised triangles into the index buffer.

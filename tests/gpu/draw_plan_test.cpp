@@ -432,9 +432,6 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
 }
 
-// The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
-// image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
-// the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).
 // The cooke triplet at 320 x 200 with every ghost faint (everything_faint): a renderer and its options, and the
 // image render_add makes of some lights with them.
 struct FaintTriplet {
@@ -460,6 +457,9 @@ struct FaintTriplet {
     }
 };
 
+// The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
+// image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
+// the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).
 class BatchedFaintGhosts : public ::testing::TestWithParam<bool> {};
 TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     FaintTriplet t;

@@ -39,6 +39,10 @@ struct LightEstimates {
     double rotation = 0.0;  // bounds-table rectangles turned to the light's azimuth
 };
 
+// What estimate_light scales a pass's ghost powers by: the light over the pass's channels (the sum of
+// |pass weight x light| over R, G, B).
+double pass_light_weight(const std::array<double, 3>& pass_weight, const std::array<double, 3>& light_scale);
+
 // The level of detail's total per pass: the drawn ghosts' estimated power summed over every light.
 std::vector<double> pass_totals(const std::vector<LightEstimates>& lights, std::size_t passes, const std::vector<char>& drawn);
 

@@ -45,8 +45,8 @@ struct GpuFlareOptions {
     // The faint ghosts of a pass (scene culling) traced and drawn together, by grid and level; false: one
     // draw each, as every other ghost (the same image; for tests).
     bool batch_faint = true;
-    // A faint ghost whose passes land within half a pixel of its level of each other drawn once for all of
-    // them (merge_faint_passes); false: once per pass (for tests and measurements).
+    // A faint ghost whose passes land within kMergeShiftPx (2) pixels of its level of each other drawn once
+    // for all of them (merge_faint_passes); false: once per pass (for tests and measurements).
     bool merge_faint = true;
 };
 
