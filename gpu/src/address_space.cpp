@@ -24,6 +24,9 @@ constexpr std::size_t kMiB = std::size_t{1} << 20;
 constexpr std::size_t kBaseBytes = 512 * kMiB;
 constexpr std::size_t kPerThreadBytes = 24 * kMiB;  // an llvmpipe thread and a decoding thread
 constexpr int kMesaMaxThreads = 32;                  // LP_MAX_THREADS
+// Names the LP_NUM_THREADS value lensfx set itself (set_default_llvmpipe_threads), so that a child does not take
+// it for the user's.
+constexpr const char* kDefaultThreadsMark = "LENSFX_DEFAULT_LP_NUM_THREADS";
 
 }  // namespace
 
@@ -45,7 +48,14 @@ int default_llvmpipe_threads() {
 }
 
 void set_default_llvmpipe_threads() {
-    ::setenv("LP_NUM_THREADS", std::to_string(default_llvmpipe_threads()).c_str(), 0);  // 0: a user's value stays
+    const char* set = std::getenv("LP_NUM_THREADS");
+    const char* ours = std::getenv(kDefaultThreadsMark);
+    // A value the user gave stays; one a parent lensfx set for its own machine and its children inherited (a
+    // farm job through sbatch, which exports the environment) is replaced by this machine's.
+    if (set && !(ours && std::strcmp(set, ours) == 0)) return;
+    const std::string threads = std::to_string(default_llvmpipe_threads());
+    ::setenv("LP_NUM_THREADS", threads.c_str(), 1);
+    ::setenv(kDefaultThreadsMark, threads.c_str(), 1);
 }
 
 void require_address_space() {

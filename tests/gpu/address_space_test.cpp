@@ -60,6 +60,8 @@ TEST(AddressSpace, ALimitUnderTheNeedIsRefusedInWords) {
 TEST(AddressSpace, DefaultLlvmpipeThreadsAreSetUnlessTheUserSetThem) {
     const char* before = std::getenv("LP_NUM_THREADS");
     const std::string saved = before ? before : "";
+    const char* mark_before = std::getenv("LENSFX_DEFAULT_LP_NUM_THREADS");
+    const std::string mark_saved = mark_before ? mark_before : "";
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
     EXPECT_EQ(default_llvmpipe_threads(), std::clamp(cores + 2, 1, 32));
     ::unsetenv("LP_NUM_THREADS");
@@ -69,8 +71,15 @@ TEST(AddressSpace, DefaultLlvmpipeThreadsAreSetUnlessTheUserSetThem) {
     set_default_llvmpipe_threads();
     EXPECT_STREQ(std::getenv("LP_NUM_THREADS"), "3");
     EXPECT_EQ(llvmpipe_threads(), 3);
+    // What a parent lensfx on a machine of 33 cores set, inherited by a farm job here: this machine's default.
+    ::setenv("LP_NUM_THREADS", "35", 1);
+    ::setenv("LENSFX_DEFAULT_LP_NUM_THREADS", "35", 1);
+    set_default_llvmpipe_threads();
+    EXPECT_EQ(llvmpipe_threads(), default_llvmpipe_threads());
     if (before) ::setenv("LP_NUM_THREADS", saved.c_str(), 1);
     else ::unsetenv("LP_NUM_THREADS");
+    if (mark_before) ::setenv("LENSFX_DEFAULT_LP_NUM_THREADS", mark_saved.c_str(), 1);
+    else ::unsetenv("LENSFX_DEFAULT_LP_NUM_THREADS");
 }
 
 }  // namespace

@@ -22,8 +22,10 @@ int llvmpipe_threads();
 // waits for a dispatch, and a thread whose tiles are done waits for the slowest (2 cores, hyperfine, 10 runs:
 // canon-70-200 on the 1080p stage frame 1.16 -> 1.10 s, CandleGlass 0.53 -> 0.51 s; --no-scene-cull the same).
 int default_llvmpipe_threads();
-// Sets LP_NUM_THREADS to default_llvmpipe_threads() unless it is set. Call first thing in main, before any other
-// thread runs (setenv) and before the GL driver is loaded (it reads the variable once).
+// Sets LP_NUM_THREADS to default_llvmpipe_threads() unless the user set it (a value a parent lensfx set, marked
+// in LENSFX_DEFAULT_LP_NUM_THREADS and inherited, e.g. by a farm job through sbatch, is this machine's default
+// again). Call first thing in main, before any other thread runs (setenv) and before the GL driver is loaded (it
+// reads the variable once).
 void set_default_llvmpipe_threads();
 
 // Throws std::runtime_error naming the limit, the need and `ulimit -v` when the process's address space is
