@@ -110,7 +110,7 @@ bool failed_outline(const GhostEstimate& e) { return e.failed_edge > 0.0; }
 // its level, and every ghost whose sensor box is not known (a render without accelerations, e.g. the dense
 // reference). Point sampling (a pixel takes its centre's value) gives the same where triangles are well over a
 // pixel, at less than half the cost; at about a pixel it samples the mesh's shading unevenly and hands
-// sub-pixel triangles over to splats, and both show (rings beating against the pixels, a dotted seam). A
+// sub-pixel triangles over to their own draw, and both show (rings beating against the pixels, a seam). A
 // caustic ghost on the default grid keeps point sampling: its triangles are large but at the caustic, and
 // area coverage there cost canon-70-200's 49 caustic ghosts some 40% of a 1080p frame for a structure error
 // 0.005 lower (docs/benchmarks.md, look7).
@@ -226,12 +226,12 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         if (verdict == SceneVerdict::Cull) continue;
         const bool faint = verdict == SceneVerdict::Faint || verdict == SceneVerdict::Spiky;
         // A faint ghost with caustics (cells too uneven to draw reduced) may peak far above its coarse cells'
-        // estimate in a pixel or two: where that spike could show (Spiky) it keeps its splats and the level a
+        // estimate in a pixel or two: where that spike could show (Spiky) it keeps its small triangles and the level a
         // sharp ghost gets (nikon-80-200, pan1080, --gain 20: a 7-code spike otherwise).
         const bool smooth_faint = verdict == SceneVerdict::Faint;
         plan.draw = true;
         plan.rim = !faint;
-        plan.splat = !smooth_faint;
+        plan.small_apart = !smooth_faint;
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
         const int outline_level = std::max(spread_level, plan.rim_pass() ? plan.reduce / kRimReduce : plan.reduce);
@@ -247,7 +247,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         plan.grid = grid;
         const double level_pixel_mm = pixel_mm * plan.reduce;
         plan.area_coverage =
-            plan.splat && !(mean_triangle_mm2(e, grid) >= kAreaCoveragePx * level_pixel_mm * level_pixel_mm);
+            plan.small_apart && !(mean_triangle_mm2(e, grid) >= kAreaCoveragePx * level_pixel_mm * level_pixel_mm);
     }
     return plans;
 }

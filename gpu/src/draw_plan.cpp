@@ -81,7 +81,7 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
             const double py = (0.5 * view.sensor_height_mm - up_y) / pixel_h;
             item = {std::min(item.x0, px), std::min(item.y0, py), std::max(item.x1, px), std::max(item.y1, py), {}};
         }
-    constexpr double kSpreadPx = 20.0;  // 3x3 splats, a 1/16 level's bilinear upsampling, the rim band
+    constexpr double kSpreadPx = 20.0;  // small triangles' area coverage, a 1/16 level's bilinear upsampling, the rim band
     const double spread_px = kSpreadPx + spread.px;
     item.x0 -= spread_px;
     item.y0 -= spread_px;
@@ -149,7 +149,7 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
         }
         // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
         if (band > 0 && plan.reduce != 1 && !(plan.rim && plan.reduce == kRimReduce)) continue;
-        const bool faint = verdict == SceneVerdict::Faint && !plan.rim && !plan.splat;  // coarsened (plan_ghosts)
+        const bool faint = verdict == SceneVerdict::Faint && !plan.rim && !plan.small_apart;  // coarsened (plan_ghosts)
         out.faint += band == 0 && faint;
         (faint && detail.batch_faint ? out.batched : out.todo).push_back(g);
     }

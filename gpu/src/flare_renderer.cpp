@@ -38,7 +38,12 @@ namespace {
 
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
-constexpr double kSplatArea = 1.0;     // grid triangles under this many pixels are drawn as point splats
+// A point-sampled ghost's triangles under kSmallAreaPx pixels of its level, or thinner than kSliverPx pixels
+// across their longest edge, are small: drawn apart with area coverage (shaders::ghost_raster_vert).
+// kSliverPx 2, not 1: at 1 a rim's bright line still stepped where its slivers were rasterised (CandleGlass.exr,
+// dgauss.50mm, the large ghost's rim against a 256-cell grid).
+constexpr double kSmallAreaPx = 1.0;
+constexpr double kSliverPx = 2.0;
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
 
@@ -110,19 +115,17 @@ std::size_t vertices_to_draw(const PassPlan& plan) {
     return std::max(largest, std::min(total, kBatchBytes / kVertexBytes));
 }
 
-// The renderer's shader programs: the trace and shade compute passes and the raster (point-sampled or with
-// area coverage) and splat draws.
+// The renderer's shader programs: the trace and shade compute passes and the raster draws (point-sampled, with
+// area coverage, or a point-sampled ghost's small triangles with area coverage).
 struct GhostPrograms {
     Program trace{"ghost_trace.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_trace_comp)}}};
     Program shade{"ghost_shade.comp", {{ShaderStage::Type::Compute, compute_with_jobs(shaders::ghost_shade_comp)}}};
     Program raster{"ghost_raster", raster_stages("")};
     Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
     Program indexed{"ghost_raster_indexed", raster_stages("#define INDEXED\n")};  // no rim pass: a vertex shaded once
-    Program splat{"ghost_splat",
-                  {{ShaderStage::Type::Vertex, with_jobs(shaders::ghost_grid_glsl) + shaders::ghost_splat_vert},
-                   {ShaderStage::Type::Fragment, shaders::ghost_splat_frag}}};
+    Program small{"ghost_raster_small", raster_stages("#define AREA_COVERAGE\n#define SMALL_TRIANGLES\n")};
     // Those that draw a ghost's triangles and share its uniforms.
-    std::array<const Program*, 4> drawing() const { return {&raster, &area, &indexed, &splat}; }
+    std::array<const Program*, 4> drawing() const { return {&raster, &area, &indexed, &small}; }
     // The one that draws a ghost's triangles as planned, in ghost_raster_frag's rim_mode (0: no rim pass).
     const Program& triangles(const GhostPlan& plan, int rim_mode) const {
         return plan.area_coverage ? area : rim_mode == 0 ? indexed : raster;
@@ -749,7 +752,7 @@ private:
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
-    void shade_uniforms(int res, int reduce, bool area_coverage);
+    void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
     void dispatch_batched(const Program& program, const FaintRun& run);
     void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -829,8 +832,8 @@ void FlareRenderer::Drawing::bind_level(int reduce) {
     drawn_into_[slot] = true;
 }
 
-// A pixel's sensor area (mm^2) at 1/reduce of the image: the ghost's triangles under kSplatArea of them are
-// splatted, the others rasterised.
+// A pixel's sensor area (mm^2) at 1/reduce of the image, by which a ghost's triangles are sorted into
+// rasterised and small (kSmallAreaPx, kSliverPx).
 double FlareRenderer::Drawing::level_pixel_area(int reduce) const {
     const int level_w = (view_.width + reduce - 1) / reduce;
     const int level_h = (view_.height + reduce - 1) / reduce;
@@ -870,12 +873,16 @@ void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const opti
 }
 
 // The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
-// the grid, the splat limit of the level's pixels (none with area coverage: every triangle is drawn), and the iris.
-void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage) {
+// the grid, which triangles are small at the level's pixels (none with area coverage: every triangle is drawn;
+// slivers only where they are drawn apart, plan.small_apart: a faint ghost loses what is small), and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart) {
     const Program& shade = s_.programs.shade;
     glUseProgram(shade.get());
     glUniform1i(shade.uniform("grid"), res);
-    glUniform1f(shade.uniform("splat_limit"), area_coverage ? 0.0f : static_cast<float>(kSplatArea * level_pixel_area(reduce)));
+    const double pixel_area = level_pixel_area(reduce);
+    glUniform1f(shade.uniform("small_area"), area_coverage ? 0.0f : static_cast<float>(kSmallAreaPx * pixel_area));
+    const bool slivers = small_apart && !area_coverage;
+    glUniform1f(shade.uniform("sliver_height"), slivers ? static_cast<float>(kSliverPx * std::sqrt(pixel_area)) : 0.0f);
     glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
     glUniform1i(shade.uniform("iris_sdf"), 0);
     glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
@@ -899,7 +906,7 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
 void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings) {
     const int res = plan.grid, reduce = plan.reduce;
-    shade_uniforms(res, reduce, plan.area_coverage);
+    shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart);
     glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(job.first_vertex));
     glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(job.first_index));
     glUniform1i(s_.programs.shade.uniform("write_indices"), triangle_indices(plan) > 0 ? 1 : 0);
@@ -1126,6 +1133,7 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassP
         glUseProgram(program->get());
         glUniform1i(program->uniform("ringing"), options_.ringing ? 1 : 0);
         glUniform1i(program->uniform("iris_ringing"), 1);
+        glUniform1i(program->uniform("rim_mode"), 0);  // the small triangles' for good; ghost_uniforms sets the others'
     }
     if (options_.ringing)
         glBindTextureUnit(1, s_.iris.ringing(system_.aperture, optics::ringing_order(pass.wavelength_nm, f_number_)));
@@ -1176,7 +1184,7 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
 
-// The batch's traced grids rasterised (and splatted) level by level, then the reduced ghosts' rims at
+// The batch's traced grids rasterised (their small triangles apart) level by level, then the reduced ghosts' rims at
 // kRimReduce times their level's resolution (ghost_raster_frag's rim_mode 2), grouped by target. Later bands
 // draw only into the full-size target.
 void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
@@ -1192,9 +1200,9 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
             draw_triangles(job, pd, reduce, plan.rim_pass() ? 1 : 0);
-            if (plan.splat && !plan.area_coverage) {
-                glUseProgram(s_.programs.splat.get());
-                glDrawArrays(GL_POINTS, 0, 2 * plan.grid * plan.grid);
+            if (plan.small_apart && !plan.area_coverage) {
+                glUseProgram(s_.programs.small.get());
+                glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
             }
             check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
             if (options_.per_ghost_power) add_ghost_power(g);
@@ -1253,8 +1261,8 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
     return v;
 }
 
-// One ghost's uniforms in the program that draws its triangles and in the splats'. Its triangles are sorted
-// into rasterised and splatted by the pixels of its level (1/reduce of the image: the shade pass's splat_limit);
+// One ghost's uniforms in the program that draws its triangles and in the small triangles'. Its triangles are
+// sorted into rasterised and small by the pixels of its level (1/reduce of the image: the shade pass's);
 // rim_mode 2 draws the same triangles at kRimReduce times that resolution. Returns the triangles' program, bound.
 const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
     const std::size_t g = job.ghost;
@@ -1262,7 +1270,7 @@ const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
     const Program& triangles = s_.programs.triangles(pd.plans[g], rim_mode);
-    for (const Program* program : std::array<const Program*, 2>{&triangles, &s_.programs.splat}) {
+    for (const Program* program : std::array<const Program*, 2>{&triangles, &s_.programs.small}) {
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
@@ -1284,7 +1292,7 @@ const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const
     return triangles;
 }
 
-// The faint ghosts of a pass (PassPlan::batched: no rim pass, no splats) in chunks that fit the vertex
+// The faint ghosts of a pass (PassPlan::batched: no rim pass, small triangles left out) in chunks that fit the vertex
 // buffer (batch_faint), each chunk's runs of one grid and level traced, then shaded, then drawn: per run one
 // trace and one shade dispatch and one indexed draw, where drawn alone each ghost cost two dispatches, a draw
 // and its uniforms (on llvmpipe some 2 ms of CPU), and two barriers a chunk, not a run.
@@ -1314,7 +1322,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     for (const FaintRun& run : runs) {
-        shade_uniforms(run.grid, run.reduce, false);
+        shade_uniforms(run.grid, run.reduce, false, false);
         glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
         glUniform1i(s_.programs.shade.uniform("write_indices"), 1);       // drawn by its indices, which
         glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), 1);    // skip the iris inside it

@@ -1,5 +1,5 @@
-// GLSL sources of the ghost renderer: the bundle tracer (compute), the grid rasteriser (vertex +
-// fragment) and the point splats of its sub-pixel triangles. Data layouts match flare_renderer.cpp.
+// GLSL sources of the ghost renderer: the bundle tracer (compute) and the grid rasteriser (vertex +
+// fragment), which draws a ghost's small triangles apart. Data layouts match flare_renderer.cpp.
 #pragma once
 
 namespace lensfx::gpu::shaders {
@@ -145,9 +145,9 @@ void main() {
 
 // One invocation per grid vertex, after the trace: the vertex's irradiance for Gouraud shading (flare paper
 // 4.3, "Smooth shading"), the average over the rasterised triangles around it (of the six, those whose rays
-// got through and that are not splatted), weighted by their sensor areas: (triangles) / (their summed
-// sensor area), per unit triangle flux. Since each triangle's Gouraud integral is its area x the mean of
-// its corners, the rasterised triangles' drawn power sums to exactly their flux (a splatted neighbour,
+// got through and that are not small: rasterisable), weighted by their sensor areas: (triangles) / (their
+// summed sensor area), per unit triangle flux. Since each triangle's Gouraud integral is its area x the mean
+// of its corners, the rasterised triangles' drawn power sums to exactly their flux (a small neighbour,
 // counted in, lent its tiny area to the vertex and so raised its rasterised neighbours' light). Written
 // into the vertex's spare fourth float; 0 where no triangle touches it. Also, for the cell whose first
 // corner this vertex is, which of its four neighbours is dropped (a corner's ray failed): bits 1 below,
@@ -160,7 +160,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };
 uniform int grid;
 uniform uint vertex_offset;
-uniform float splat_limit;  // mm^2: triangles smaller than this are splatted (ghost_splat_vert), not shaded here
+uniform float small_area;     // mm^2: triangles under this (a pixel of the level) are small: not rasterised
+uniform float sliver_height;  // mm: nor those thinner than this across their longest edge (0: any)
 uniform vec2 pixels_per_mm;  // of the rim pass's target (a ghost drawn reduced); 0: no rim pass
 uniform float rim_band;      // pixels of that target: the band along the rim the rim pass draws
 uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, extent]^2
@@ -252,11 +253,22 @@ float triangle_area(uint a, uint b, uint c) {
     return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
 }
 
+// Whether pixel centres sample a triangle well enough to rasterise it: at least small_area, and at least
+// sliver_height across its longest edge. The others, sub-pixel or slivers (where the grid crowds along a rim
+// or a caustic), are drawn apart with area coverage (ghost_raster_vert's SMALL_TRIANGLES), or for a faint ghost
+// left out.
+bool rasterisable(uint a, uint b, uint c) {
+    float area = triangle_area(a, b, c);
+    vec2 pa = vertices[3u * a].xy, pb = vertices[3u * b].xy, pc = vertices[3u * c].xy;
+    float longest = max(max(distance(pa, pb), distance(pb, pc)), distance(pc, pa));
+    return area >= small_area && 2.0 * area >= sliver_height * longest;
+}
+
 // The rasterised triangles of the cell at id: each of the cell's two, split as ghost_grid_glsl's, where it is
-// rasterised (corners valid, not all beyond the apertures, at least splat_limit), else a point (a, a, a), which
+// rasterised (corners valid, not all beyond the apertures, rasterisable), else a point (a, a, a), which
 // draws nothing. ghost_raster_vert's INDEXED draw draws them, shading each grid vertex once; the per-triangle
-// draws (the rim passes, the splats) read here which triangles are rasterised (ghost_grid_glsl's rasterised),
-// so that a triangle is rasterised or splatted by one decision.
+// draws (the rim passes, the small triangles) read here which triangles are rasterised (ghost_grid_glsl's
+// rasterised), so that a triangle is rasterised or drawn as small by one decision.
 void write_cell_indices(uvec2 id) {
     uint stride = uint(grid + 1);
     uint a = first + id.y * stride + id.x;
@@ -266,7 +278,7 @@ void write_cell_indices(uvec2 id) {
     for (int t = 0; t < 2; ++t) {
         uvec3 i = tri[t];
         bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
-        bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && triangle_area(i.x, i.y, i.z) >= splat_limit;
+        bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && rasterisable(i.x, i.y, i.z);
         uvec3 drawn = kept ? i : uvec3(a);
         indices[at + 3u * uint(t)] = drawn.x;
         indices[at + 3u * uint(t) + 1u] = drawn.y;
@@ -284,7 +296,7 @@ void main() {
     float area = 0.0;
     float triangles = 0.0;
     // The triangles with this corner (ghost_grid_glsl's split): of the cell at (x, y) both, of (x-1, y) the
-    // lower, of (x-1, y-1) both, of (x, y-1) the upper. Left out: those whose rays failed and those splatted.
+    // lower, of (x-1, y-1) both, of (x, y-1) the upper. Left out: those whose rays failed and the small ones.
     const ivec3 around[6] = ivec3[6](ivec3(0, 0, 0), ivec3(0, 0, 1), ivec3(-1, 0, 0), ivec3(-1, -1, 0), ivec3(-1, -1, 1),
                                      ivec3(0, -1, 1));
     for (int k = 0; k < 6; ++k) {
@@ -295,8 +307,8 @@ void main() {
         uint b = around[k].z == 0 ? a + 1u : a + stride + 1u;
         uint c = around[k].z == 0 ? a + stride + 1u : a + stride;
         if (!(valid(a) && valid(b) && valid(c))) continue;
+        if (!rasterisable(a, b, c)) continue;
         float t = triangle_area(a, b, c);
-        if (!(t >= splat_limit)) continue;
         area += t;
         triangles += 1.0;
     }
@@ -326,8 +338,8 @@ void main() {
 )GLSL";
 
 // Shared by the grid draws: the grid vertices and the corners of triangle `tri` (two per grid cell), and
-// whether a triangle is rasterised or, its sensor footprint too small for pixel-centre rasterisation (under
-// ghost_shade_comp's splat_limit), drawn as a point splat instead.
+// whether a triangle is rasterised or, its sensor footprint too small or thin for pixel-centre rasterisation
+// (ghost_shade_comp's rasterisable), drawn apart (ghost_raster_vert's SMALL_TRIANGLES).
 inline constexpr const char* ghost_grid_glsl = R"GLSL(
 #version 430
 layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
@@ -364,7 +376,7 @@ ivec3 triangle_corners(int tri) {
     return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
 }
 
-// Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not splatted or dropped.
+// Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not small or dropped.
 bool rasterised(int tri) {
     uint at = first_index + 3u * uint(tri);
     return indices[at] != indices[at + 1u];
@@ -492,14 +504,19 @@ vec3 covered_moments(vec2 p0, vec2 p1, vec2 p2) {
 
 // Triangles fetched by gl_VertexID, Gouraud-shaded: each corner carries the irradiance ghost_shade_comp
 // averaged over its cells, interpolated across the triangle, so a coarse grid shows no flat cells. Triangles
-// with a lost corner (missed surface, total internal reflection) are dropped. Compiled two ways:
-// - point sampling: a pixel takes the value at its centre. Triangles under ghost_shade_comp's splat_limit are
-//   dropped (ghost_splat_vert draws those, each with its own flux).
+// with a lost corner (missed surface, total internal reflection) are dropped. Compiled three ways:
+// - point sampling: a pixel takes the value at its centre. Triangles too small or thin for that
+//   (ghost_shade_comp's rasterisable) are dropped; SMALL_TRIANGLES draws them.
 // - AREA_COVERAGE: every triangle is drawn, grown by half a pixel's extent across each edge so that it
 //   reaches every pixel it touches, and each of those pixels takes the integral of the triangle's light over
 //   the part of it the triangle covers (ghost_raster_frag): a box filter of the Gouraud-shaded mesh.
 //   Sub-pixel triangles keep their light, a caustic's dense grid adds up smooth, and nothing changes where
-//   triangles get small, where point sampling beat against the pixels and handed over to splats.
+//   triangles get small.
+// - AREA_COVERAGE with SMALL_TRIANGLES: a point-sampled ghost's other triangles, with area coverage, each
+//   with its own flux spread flat over it. A pixel centre would catch a sub-pixel triangle (and its flux) or
+//   miss it by chance, and where the grid crowds (a caustic, the thin bright line along a rim) the catches
+//   and misses are correlated: the ghost's power came out wrong, and a rim's line came out as dots. Point
+//   splats of them (3 x 3 pixels at the centroid) kept the power but still drew the line as dots.
 inline constexpr const char* ghost_raster_vert = R"GLSL(
 out float v_r_rel;
 out float v_transmission;
@@ -558,6 +575,13 @@ vec2 grown_corner(vec2 p[3], int corner) {
     return lo + (corner == 1 ? vec2(2.0 * size.x, 0.0) : corner == 2 ? vec2(0.0, 2.0 * size.y) : vec2(0.0));
 }
 
+// Triangle i's area on the sensor (mm^2).
+float sensor_area(ivec3 i) {
+    vec2 e1 = vertices[3 * i.y].xy - vertices[3 * i.x].xy;
+    vec2 e2 = vertices[3 * i.z].xy - vertices[3 * i.x].xy;
+    return 0.5 * abs(cross2(e1, e2));
+}
+
 // This corner of triangle i moved (grown_corner), with the triangle's values carried on to where it went, and
 // the triangle's corners.
 void emit_grown_corner(ivec3 i, int corner, bool drop) {
@@ -602,7 +626,16 @@ void main() {
                              : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
-#ifdef AREA_COVERAGE
+#ifdef SMALL_TRIANGLES
+    // Only the triangles too small to rasterise by their pixel centres, each with its own flux spread flat
+    // over its sensor area (the grid vertices' irradiance averages its larger neighbours in).
+    if (!corners_valid(i) || beyond_apertures(i) || rasterised(tri)) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // most triangles: left before the corner's work
+        return;
+    }
+    emit_grown_corner(i, corner, false);
+    v_irradiance = ghost_triangle_flux() / max(sensor_area(i), 1e-30);
+#elif defined(AREA_COVERAGE)
     emit_grown_corner(i, corner, !corners_valid(i) || beyond_apertures(i) || (rim_mode == 2 && !in_band));
 #else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
@@ -619,85 +652,6 @@ void main() {
 #endif
 }
 #endif
-)GLSL";
-
-// One 3 x 3-pixel point per triangle smaller than ghost_shade_comp's splat_limit, at its centroid, its flux shared
-// over the nine pixels (ghost_splat_frag): a pixel centre
-// would catch such a triangle (and its flux) or miss it by chance, and along a caustic's rim, where the
-// grid's triangles crowd, the catches and misses are correlated, so the ghost's power came out wrong and
-// depended on the image size. The point carries the triangle's flux shaded as a rasterised triangle would
-// be on average: r_rel clip, iris and Fresnel factor interpolated to four points of the triangle.
-inline constexpr const char* ghost_splat_vert = R"GLSL(
-uniform sampler2D iris_sdf;   // signed distance in stop radii over [-extent, extent]^2
-uniform float iris_extent;
-uniform bool ringing;         // shade by iris_ringing (transmission with fringes) instead of the sharp SDF
-uniform sampler2D iris_ringing;
-flat out float v_irradiance;
-flat out vec2 v_centre;       // window coordinates (pixels)
-
-float iris(vec2 uv) {
-    vec2 t = uv / (2.0 * iris_extent) + 0.5;
-    if (ringing) return textureLod(iris_ringing, t, 0.0).r;
-    return textureLod(iris_sdf, t, 0.0).r <= 0.0 ? 1.0 : 0.0;
-}
-
-void main() {
-    ivec3 i = triangle_corners(gl_VertexID);
-    gl_PointSize = 3.0;
-    // Splatted: the triangles not rasterised for their size.
-    if (!corners_valid(i) || beyond_apertures(i) || rasterised(gl_VertexID)) {
-        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
-        v_irradiance = 0.0;
-        return;
-    }
-    mat3x4 q = mat3x4(vertices[3 * i.x], vertices[3 * i.y], vertices[3 * i.z]);
-    mat3x4 s = mat3x4(vertices[3 * i.x + 1], vertices[3 * i.y + 1], vertices[3 * i.z + 1]);
-    mat3x2 w = mat3x2(vertices[3 * i.x + 2].xy, vertices[3 * i.y + 2].xy, vertices[3 * i.z + 2].xy);
-    const vec3 samples[4] = vec3[4](vec3(1.0 / 3.0), vec3(0.6, 0.2, 0.2), vec3(0.2, 0.6, 0.2), vec3(0.2, 0.2, 0.6));
-    float shade = 0.0;
-    int crossings = ghost_stop_crossings();
-    for (int k = 0; k < 4; ++k) {
-        vec4 at_q = q * samples[k];
-        vec4 at_s = s * samples[k];
-        if (at_q.z > 1.0) continue;
-        float through = 1.0;
-        if (crossings > 0) through *= iris(at_s.xy);
-        if (crossings > 1) through *= iris(at_s.zw);
-        if (crossings > 2) through *= iris(w * samples[k]);
-        shade += 0.25 * at_q.w * through;
-    }
-    // GL drops a point whose centre is outside the viewport, also its share of the pixels inside: a point
-    // centred within a pixel of the frame is drawn from just inside it, its weights from the true centre.
-    v_centre = (clip_position((q * vec3(1.0 / 3.0)).xy).xy * 0.5 + 0.5) * viewport;
-    if (any(lessThanEqual(v_centre, vec2(-1.0))) || any(greaterThanEqual(v_centre, viewport + 1.0))) {
-        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
-        v_irradiance = 0.0;
-        return;
-    }
-    gl_Position = vec4(clamp(v_centre, vec2(0.01), viewport - 0.01) / viewport * 2.0 - 1.0, 0.0, 1.0);
-    v_irradiance = ghost_triangle_flux() * shade / pixel_area;
-}
-)GLSL";
-
-// Quadratic B-spline weights over the 3 x 3 pixels the point covers: they sum to one, and a dense regular
-// lattice of splats adds up flat to within a percent (a tent rippled by some 5% where the lattice's pitch
-// beat against the pixels, rings across a caustic; a box far more).
-inline constexpr const char* ghost_splat_frag = R"GLSL(
-#version 430
-flat in float v_irradiance;
-flat in vec2 v_centre;
-uniform vec4 channels;
-out vec4 colour;
-
-vec2 bspline(vec2 d) {
-    vec2 a = abs(d);
-    return mix(0.5 * (1.5 - a) * (1.5 - a), 0.75 - a * a, vec2(lessThan(a, vec2(0.5)))) * vec2(lessThan(a, vec2(1.5)));
-}
-
-void main() {
-    vec2 w = bspline(gl_FragCoord.xy - v_centre);
-    colour = channels * (v_irradiance * w.x * w.y);
-}
 )GLSL";
 
 // A ghost drawn at reduced resolution loses its sharp rim in the upsampling, so it is drawn in two

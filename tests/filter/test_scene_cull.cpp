@@ -65,7 +65,7 @@ TEST(SceneCull, CulledGhostsTogetherStayWithinTheBudget) {
 }
 
 // A ghost with caustics (spike 16) is Faint only when its peak times its spike is under a code; between that
-// and its peak alone under a code it is Spiky (drawn coarsened but with its splats); a smooth one is Faint.
+// and its peak alone under a code it is Spiky (drawn coarsened but with its small triangles); a smooth one is Faint.
 TEST(SceneCull, ACausticGhostIsFaintOnlyWhenItsSpikeIsUnderACode) {
     auto map = lensfx::filter::plate_visibility(split_plate(0.5f, 0.5f), 1.0);
     map->budget = 0.0;  // nothing culled: only the Faint or Spiky verdict is weighed

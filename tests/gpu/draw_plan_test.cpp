@@ -112,18 +112,18 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Spiky, SceneVerdict::Draw,
                                           SceneVerdict::Cull, SceneVerdict::Cull};
     // Ghost 1 sharp and Spiky (caustics: a spike far above the coarse estimate could show): coarsened, but it
-    // keeps its splats and a sharp ghost's level, so it is drawn alone.
+    // keeps its small triangles and a sharp ghost's level, so it is drawn alone.
     const PassPlan sharp = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(sharp.todo, (std::vector<std::size_t>{0, 1}));
     EXPECT_LE(sharp.plans[1].grid, 16);
     EXPECT_EQ(sharp.plans[1].reduce, 1);
-    EXPECT_TRUE(!sharp.plans[1].rim && sharp.plans[1].splat);
+    EXPECT_TRUE(!sharp.plans[1].rim && sharp.plans[1].small_apart);
     EXPECT_EQ(sharp.faint, 0);
     // Ghost 1 sharp but Faint (even its spikes under what the frame shows): the coarsest detail, batched.
     verdicts[1] = SceneVerdict::Faint;
     const PassPlan caustic = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(caustic.batched, (std::vector<std::size_t>{1}));
-    EXPECT_FALSE(caustic.plans[1].rim || caustic.plans[1].splat);
+    EXPECT_FALSE(caustic.plans[1].rim || caustic.plans[1].small_apart);
     // A sliver ghost (no whole coarse cell: extent 0, its sensor box from the finer pass) 600 pixels across:
     // drawn at the level its box allows (600 / 8 >= 2 x 64 cells), not at full size.
     e[1].extent_mm = 0.0;
@@ -136,7 +136,7 @@ TEST(PlanPass, SceneVerdictsCullAndCoarsen) {
     const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
     EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0}));
     EXPECT_EQ(plan.batched, (std::vector<std::size_t>{1}));  // faint: drawn with the pass's other faint ghosts
-    EXPECT_FALSE(plan.plans[1].rim || plan.plans[1].splat);
+    EXPECT_FALSE(plan.plans[1].rim || plan.plans[1].small_apart);
     EXPECT_EQ(plan.culled, 1);  // ghost 4; ghost 3 had no light to cull
     EXPECT_EQ(plan.faint, 1);
     EXPECT_EQ(plan.skipped, 3);
@@ -219,11 +219,11 @@ TEST(PlanPass, FaintGhostsWithAnOpenOutlineGetACoarserGrid) {
     const PassPlan drawn = plan_pass(e, 0.0, {}, selection, detail, 0);
     EXPECT_EQ(drawn.plans[0].grid, 16);
     // A faint ghost with failed rays along its outline keeps the grid the outline rule gives it (its cells
-    // dropped whole there lose light its peak does not bound), no rim and no splats all the same.
+    // dropped whole there lose light its peak does not bound), no rim and no small triangles all the same.
     EXPECT_GT(drawn.plans[4].grid, 16);
     EXPECT_EQ(plan.plans[4].grid, drawn.plans[4].grid);
     EXPECT_FALSE(plan.plans[4].rim);
-    EXPECT_FALSE(plan.plans[4].splat);
+    EXPECT_FALSE(plan.plans[4].small_apart);
 }
 
 TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {

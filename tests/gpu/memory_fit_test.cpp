@@ -32,7 +32,7 @@ double channel_sum(const FlareImage& image, int c) {
     return sum;
 }
 
-// Bands of a few rows (splats and triangles crossing their edges, the last band shorter) give the image
+// Bands of a few rows (small and rasterised triangles crossing their edges, the last band shorter) give the image
 // of one whole target: every pixel within float rounding of the sums' order.
 TEST(MemoryFit, BandedFullTargetEqualsTheWholeOne) {
     const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));

@@ -47,7 +47,7 @@ struct Acceleration {
 // Issue 16 (Gouraud shading) moved adaptive power to 0.0102 (Tessar): a coarse grid's Gouraud triangles
 // share their power with their neighbours (every triangle scaled to its own flux gives 0.0010, but shows
 // the cells again); that bound stays 0.012. With reduced ghosts' rims drawn at 4x their level and the
-// vertex irradiance taken over the rasterised triangles only (not their splatted neighbours), reduced
+// vertex irradiance taken over the rasterised triangles only (not their sub-pixel neighbours), reduced
 // drawing measured 0.0006 L1 and 0.00002 power (the 1080p frame-filling test): back within the old bounds.
 inline constexpr double kTableL1 = 0.006, kTablePower = 0.001;
 inline constexpr double kAdaptiveL1 = 0.012, kAdaptivePower = 0.012;
@@ -93,9 +93,11 @@ struct GhostPlan {
     int grid = 0;    // cells per side
     int reduce = 1;  // 1 full resolution, 2, 4, 8 or 16: drawn at 1/reduce of the image size and upsampled
     bool rim = true;    // a ghost drawn at 1/4 or less: its rim drawn sharp at 4x its level (the renderer's rim pass)
-    bool splat = true;  // its sub-pixel triangles drawn: splatted, or with area coverage (else only the rasterised ones)
-    // With splat: its triangles drawn with area coverage (each pixel takes the light of the part of it a
-    // triangle covers, so no splats are needed), because they may come near a pixel (plan_ghosts: caustics, or
+    // Its small triangles (under a pixel, or slivers) drawn apart with area coverage, else left out (only the
+    // rasterised ones drawn).
+    bool small_apart = true;
+    // With small_apart: all its triangles drawn with area coverage (each pixel takes the light of the part of
+    // it a triangle covers, so none is small), because they may come near a pixel (plan_ghosts: caustics, or
     // small triangles); else point-sampled at pixel centres.
     bool area_coverage = false;
     // Whether it is drawn in two parts: at its level, and its rim at kRimReduce times that resolution.
@@ -105,9 +107,9 @@ struct GhostPlan {
 // drawn at the coarsest detail because its peak alone is under what the frame can show where it lands: its
 // total light matters there, not its shape (kMinGrid cells, or 8 when its outline has no failed rays and it
 // is smooth, and the level of detail's grid when it has failed rays; the most reduced level its size allows,
-// no rim pass, no splats).
+// no rim pass, small triangles left out).
 // Spiky: a ghost with caustics whose coarse peak is under what the frame shows, but whose peak times
-// caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its splats and the level a
+// caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its small triangles and the level a
 // sharp ghost gets, so a caustic's spike stays where it is.
 enum class SceneVerdict : unsigned char { Draw, Cull, Faint, Spiky };
 // How far above its coarse cells' peak a ghost may reach in a pixel or two: kCausticSpike for a ghost with

@@ -54,7 +54,7 @@ LightVerdicts cull_lights(const std::vector<LightEstimates>& estimates, std::spa
                           const FlareView& view, const GhostSpread& spread, VisibilityMap& map);
 
 // One ghost of one light and pass as scene culling sees it (its sensor box turned to the light's azimuth,
-// moved by its style, grown by the splats' and reduced levels' spread and the caller's; its peak, or for a
+// moved by its style, grown by the small triangles' and reduced levels' spread and the caller's; its peak, or for a
 // spread ghost the least of that and what the spread leaves of its power (kSpreadPowerMargin times it), times
 // the factor each channel adds it with).
 inline constexpr double kSpreadPowerMargin = 2.0;
@@ -74,7 +74,7 @@ struct DetailSettings {
 
 // One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,
 // in ghost order (later bands only those with a full-size part: the ghost or its rim), with what band 0
-// counts for RenderStats. Faint ghosts (scene culling; no rim pass, no splats) are drawn together, grouped
+// counts for RenderStats. Faint ghosts (scene culling; no rim pass, no small triangles) are drawn together, grouped
 // by grid and level (the renderer's batched draw), the others one draw each.
 struct PassPlan {
     std::vector<GhostPlan> plans;     // per ghost
@@ -134,7 +134,8 @@ std::vector<std::vector<FaintRun>> batch_faint(const std::vector<std::size_t>& b
 
 // The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
 // as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
-// with kMargin rows more on either side, which the 3 x 3 splats of points just outside it reach into.
+// with kMargin rows more on either side, which small triangles just outside it reach into (grown by half a
+// pixel for area coverage).
 struct FullBands {
     static constexpr int kMargin = 2;
     int count = 1, image_rows = 0, rows_per_band = 0;
