@@ -45,6 +45,7 @@ constexpr int kPeakGrid = 32;          // cells per side of the finer pass over 
 constexpr double kSmallAreaPx = 1.0;
 constexpr double kSliverPx = 2.0;
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
+constexpr std::size_t kDrawCommandBytes = 4 * sizeof(GLuint);  // DrawArraysIndirectCommand
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
 
 struct StepData {
@@ -141,6 +142,11 @@ struct DrawBuffers {
     GlObject jobs = GlObject::buffer();
     GlObject indices = GlObject::buffer();  // the rasterised triangles (ghost_shade_comp's write_cell_indices)
     std::size_t indices_bytes = 0;
+    // A batch's small triangles and the commands that draw them (ghost_shade_comp's list_small_triangles)
+    GlObject small_list = GlObject::buffer();
+    std::size_t small_list_bytes = 0;
+    GlObject small_commands = GlObject::buffer();
+    std::size_t small_commands_bytes = 0;
 
     // Room for `count` traced vertices: grown (never shrunk) to twice what it held, or more where asked, up
     // to a batch's (kBatchBytes) unless one ghost needs more. A render asks for what its pass draws, so a
@@ -153,13 +159,50 @@ struct DrawBuffers {
         vertices = GlObject::buffer();
         glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(vertices_bytes), nullptr, 0);
     }
-    void reserve_indices(std::size_t bytes) {
-        if (bytes <= indices_bytes) return;
-        indices = GlObject::buffer();
-        glNamedBufferStorage(indices.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
-        indices_bytes = bytes;
+    void reserve_indices(std::size_t bytes) { reserve(indices, indices_bytes, bytes); }
+    void reserve_small(std::size_t slots, std::size_t commands) {
+        reserve(small_list, small_list_bytes, slots * sizeof(GLuint));
+        reserve(small_commands, small_commands_bytes, commands * kDrawCommandBytes);
+    }
+
+private:
+    // `buffer` made anew with `bytes` where it holds less (its contents are not kept).
+    static void reserve(GlObject& buffer, std::size_t& held, std::size_t bytes) {
+        bytes = std::max<std::size_t>(bytes, 1);
+        if (bytes <= held) return;
+        buffer = GlObject::buffer();
+        glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
+        held = bytes;
     }
 };
+
+// Where a batch's ghost lists its small triangles (ghost_shade_comp's list_small_triangles): 128 slots and one
+// draw command per work group of its shade dispatch, from these on.
+struct SmallList {
+    std::size_t first_slot = 0;
+    std::size_t first_command = 0;
+    GLuint groups = 0;  // 0: the ghost draws none apart
+};
+
+// A batch's SmallList per job (those of ghosts drawn point-sampled with their small triangles apart, one after
+// another) and the slots and commands they take together.
+struct SmallLists {
+    std::vector<SmallList> jobs;
+    std::size_t slots = 0, commands = 0;
+};
+SmallLists small_lists(const std::vector<BatchJob>& batch, const std::vector<GhostPlan>& plans) {
+    SmallLists out;
+    out.jobs.resize(batch.size());
+    for (std::size_t j = 0; j < batch.size(); ++j) {
+        const GhostPlan& plan = plans[batch[j].ghost];
+        if (!plan.small_apart || plan.area_coverage) continue;
+        out.jobs[j] = {out.slots, out.commands, vertex_groups(plan.grid)};
+        out.slots += 128 * std::size_t{out.jobs[j].groups};
+        out.commands += out.jobs[j].groups;
+    }
+    return out;
+}
+
 
 // A pass's ghost sequences on the CPU and in the GL buffers the trace shader reads.
 struct UploadedSequences {
@@ -740,6 +783,7 @@ private:
     std::vector<double> pass_total_;
     std::vector<std::uint64_t> unsaved_tables_;  // keys of the bounds tables this render added entries to
     LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
+    std::vector<SmallList> small_lists_;     // the batch being drawn's, per job
     int image_level_ = 1;                    // read back at 1/image_level_ of the view, no ghost drawn finer
 
     void set_up_gl();
@@ -750,7 +794,7 @@ private:
     UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
-    void dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings);
+    void dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
     void dispatch_batched(const Program& program, const FaintRun& run);
@@ -766,6 +810,7 @@ private:
     void trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void raster_batch(const std::vector<BatchJob>& batch, const PassDraw& pd);
     void draw_triangles(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
+    void draw_small_triangles(const SmallList& small);
     GhostDrawValues draw_values(std::size_t g, const PassDraw& pd, int target_reduce) const;
     const Program& ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode);
     void draw_batched(const std::vector<std::size_t>& ghosts, const PassDraw& pd);
@@ -904,9 +949,12 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // triangles that are rasterised at 1/reduce of the image.
 // For a ghost drawn at 1/kRimReduce or less it also marks the triangles its rim pass draws; a point-sampled one
 // gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
-void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, int stop_crossings) {
+void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings) {
     const int res = plan.grid, reduce = plan.reduce;
     shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart);
+    glUniform1i(s_.programs.shade.uniform("list_small"), small.groups > 0 ? 1 : 0);
+    glUniform1ui(s_.programs.shade.uniform("small_first"), static_cast<GLuint>(small.first_slot));
+    glUniform1ui(s_.programs.shade.uniform("command_first"), static_cast<GLuint>(small.first_command));
     glUniform1ui(s_.programs.shade.uniform("vertex_offset"), static_cast<GLuint>(job.first_vertex));
     glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(job.first_index));
     glUniform1i(s_.programs.shade.uniform("write_indices"), triangle_indices(plan) > 0 ? 1 : 0);
@@ -1166,9 +1214,14 @@ void FlareRenderer::Drawing::draw_pass(std::size_t l, std::size_t p, const PassP
 // The batch's ray grids traced and shaded into the vertex buffer, their rasterised triangles into the index buffer.
 void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, const PassDraw& pd) {
     const BatchJob& last = batch.back();
-    s_.buffers.reserve_indices(std::max<std::size_t>(last.first_index + triangle_indices(pd.plans[last.ghost]), 1) * sizeof(GLuint));
+    s_.buffers.reserve_indices((last.first_index + triangle_indices(pd.plans[last.ghost])) * sizeof(GLuint));
+    SmallLists small = small_lists(batch, pd.plans);
+    s_.buffers.reserve_small(small.slots, small.commands);
+    small_lists_ = std::move(small.jobs);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, s_.buffers.small_list.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, s_.buffers.small_commands.get());
     for (const BatchJob& job : batch) {
         const std::size_t g = job.ghost;
         const int grid = pd.plans[g].grid;
@@ -1178,9 +1231,9 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glUseProgram(s_.programs.shade.get());
-    for (const BatchJob& job : batch)
-        dispatch_shade(pd.plans[job.ghost], job, pd.seq.stop_crossings[job.ghost]);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);
+    for (std::size_t j = 0; j < batch.size(); ++j)
+        dispatch_shade(pd.plans[batch[j].ghost], batch[j], small_lists_[j], pd.seq.stop_crossings[batch[j].ghost]);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
 
@@ -1192,7 +1245,8 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
     for (const int reduce : {32, 16, 8, 4, 2, 1}) {
         if (band_ > 0 && reduce > 1) continue;  // the reduced targets are drawn with the first band
         bool bound = false;
-        for (const BatchJob& job : batch) {
+        for (std::size_t j = 0; j < batch.size(); ++j) {
+            const BatchJob& job = batch[j];
             const std::size_t g = job.ghost;
             const GhostPlan& plan = pd.plans[g];
             if (plan.reduce != reduce) continue;
@@ -1200,10 +1254,7 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
             draw_triangles(job, pd, reduce, plan.rim_pass() ? 1 : 0);
-            if (plan.small_apart && !plan.area_coverage) {
-                glUseProgram(s_.programs.small.get());
-                glDrawArrays(GL_TRIANGLES, 0, 6 * plan.grid * plan.grid);
-            }
+            draw_small_triangles(small_lists_[j]);
             check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
             if (options_.per_ghost_power) add_ghost_power(g);
         }
@@ -1221,6 +1272,19 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
         }
     }
     glVertexArrayElementBuffer(s_.buffers.vao.get(), 0);
+}
+
+// A ghost's small triangles (those its shade pass listed), with area coverage: one command per work group of
+// that pass, most of them empty. Its uniforms are ghost_uniforms'.
+void FlareRenderer::Drawing::draw_small_triangles(const SmallList& small) {
+    if (small.groups == 0) return;
+    const Program& program = s_.programs.small;
+    glUseProgram(program.get());
+    glUniform1ui(program.uniform("small_first"), static_cast<GLuint>(small.first_slot));
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, s_.buffers.small_commands.get());
+    glMultiDrawArraysIndirect(GL_TRIANGLES, reinterpret_cast<const void*>(small.first_command * kDrawCommandBytes),
+                              static_cast<GLsizei>(small.groups), 0);
+    glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
 }
 
 // A ghost's triangles drawn at 1/reduce of the image in ghost_raster_frag's rim_mode: without a rim pass (0) by
@@ -1326,6 +1390,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
         glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
         glUniform1i(s_.programs.shade.uniform("write_indices"), 1);       // drawn by its indices, which
         glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), 1);    // skip the iris inside it
+        glUniform1i(s_.programs.shade.uniform("list_small"), 0);          // small triangles left out
         glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(run.first_index));
         dispatch_batched(s_.programs.shade, run);
     }

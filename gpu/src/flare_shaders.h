@@ -172,6 +172,20 @@ uniform uint first_index;  // where the dispatch's (first) ghost's triangles go 
 uniform bool write_indices;     // point-sampled: its rasterised triangles written to indices[] (write_cell_indices)
 uniform bool mark_inside_iris;  // drawn by them without a rim pass: its vertices inside the iris marked (bit 64)
 layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // the rasterised triangles
+// A ghost drawn with its small triangles apart (list_small) lists them, work group by work group: group k's
+// in small_list[small_first + 128 k...] and the draw command commands[command_first + k] that draws them
+// (glMultiDrawArraysIndirect; ghost_raster_vert's SMALL_TRIANGLES reads the list), so that draw shades only
+// them, not every triangle of the grid (a vertex is shaded on one thread on llvmpipe).
+uniform bool list_small;
+uniform uint small_first;
+uniform uint command_first;
+layout(std430, binding = 5) writeonly buffer SmallList { uint small_list[]; };
+struct DrawCommand {
+    uint count, instances, first, base_instance;
+};
+layout(std430, binding = 6) writeonly buffer Commands { DrawCommand commands[]; };
+const uint kNoTriangle = 0xffffffffu;
+shared uint group_small[128];  // the work group's triangles, two per invocation's cell: small, or kNoTriangle
 uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
 int crossings = 0;
 
@@ -286,11 +300,39 @@ void write_cell_indices(uvec2 id) {
     }
 }
 
+// Whether triangle i is small: drawn apart (corners valid, not all beyond the apertures, not rasterisable).
+bool small_triangle(uvec3 i) {
+    bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
+    return valid(i.x) && valid(i.y) && valid(i.z) && !clipped && !rasterisable(i.x, i.y, i.z);
+}
+
+// The work group's small triangles listed in order (triangle 2 cell + 0 lower, + 1 upper: ghost_grid_glsl's
+// triangle_corners) and its draw command written, by its first invocation once every invocation has said
+// which of its cell's two are small. Called by every invocation (the barrier).
+void list_small_triangles(uvec2 id) {
+    uint local = gl_LocalInvocationIndex;
+    bool cell = id.x < uint(grid) && id.y < uint(grid);
+    uint stride = uint(grid + 1);
+    uint a = first + id.y * stride + id.x;
+    uint number = 2u * (id.y * uint(grid) + id.x);
+    group_small[2u * local] = cell && small_triangle(uvec3(a, a + 1u, a + stride + 1u)) ? number : kNoTriangle;
+    group_small[2u * local + 1u] = cell && small_triangle(uvec3(a, a + stride + 1u, a + stride)) ? number + 1u : kNoTriangle;
+    memoryBarrierShared();
+    barrier();
+    if (local != 0u) return;
+    uint slot = 128u * gl_WorkGroupID.x;
+    uint n = 0u;
+    for (uint k = 0u; k < 128u; ++k)
+        if (group_small[k] != kNoTriangle) small_list[small_first + slot + n++] = group_small[k];
+    commands[command_first + gl_WorkGroupID.x] = DrawCommand(3u * n, 1u, 3u * slot, 0u);
+}
+
 void main() {
     uvec2 id = grid_vertex(grid);
-    if (id.x > uint(grid) || id.y > uint(grid)) return;
     first = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
     crossings = batched ? jobs[batch_job()].steps.w : stop_crossings;
+    if (list_small) list_small_triangles(id);  // before any invocation leaves: it waits for them all
+    if (id.x > uint(grid) || id.y > uint(grid)) return;
     if (write_indices && id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
     uint stride = uint(grid + 1);
     float area = 0.0;
@@ -598,7 +640,24 @@ void emit_grown_corner(ivec3 i, int corner, bool drop) {
 }
 #endif
 
-#ifdef INDEXED
+#ifdef SMALL_TRIANGLES
+layout(std430, binding = 5) readonly buffer SmallList { uint small_list[]; };
+uniform uint small_first;  // the ghost's list (ghost_shade_comp's list_small_triangles)
+
+// A corner of one of a ghost's small triangles, listed by its shade pass and drawn by the work groups'
+// commands (each from 3 x 128 x its group on: gl_VertexID / 3 is the triangle's slot), with area coverage,
+// its own flux spread flat over its sensor area (a grid vertex's irradiance averages its larger neighbours
+// in, which would take a sliver's light away from it).
+void main() {
+    int corner = gl_VertexID % 3;
+    ivec3 i = triangle_corners(int(small_list[small_first + uint(gl_VertexID / 3)]));
+    v_outer = 0;
+    v_channels = ghost_channels();
+    v_stop_crossings = ghost_stop_crossings();
+    emit_grown_corner(i, corner, false);
+    v_irradiance = ghost_triangle_flux() / max(sensor_area(i), 1e-30);
+}
+#elif defined(INDEXED)
 // A grid vertex of an indexed draw (point sampling, no rim pass: a ghost drawn alone at its level, or a batch
 // of faint ghosts), drawn by the indices ghost_shade_comp wrote (write_cell_indices: the rasterised triangles),
 // so shaded once however many triangles share it rather than once per triangle corner; without the rim's values
@@ -626,16 +685,7 @@ void main() {
                              : (((cell_outer & 4) != 0 ? 1 : 0) | ((cell_outer & 8) != 0 ? 2 : 0));
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
-#ifdef SMALL_TRIANGLES
-    // Only the triangles too small to rasterise by their pixel centres, each with its own flux spread flat
-    // over its sensor area (the grid vertices' irradiance averages its larger neighbours in).
-    if (!corners_valid(i) || beyond_apertures(i) || rasterised(tri)) {
-        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // most triangles: left before the corner's work
-        return;
-    }
-    emit_grown_corner(i, corner, false);
-    v_irradiance = ghost_triangle_flux() / max(sensor_area(i), 1e-30);
-#elif defined(AREA_COVERAGE)
+#ifdef AREA_COVERAGE
     emit_grown_corner(i, corner, !corners_valid(i) || beyond_apertures(i) || (rim_mode == 2 && !in_band));
 #else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
