@@ -5,6 +5,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -13,6 +14,8 @@
 namespace lensfx::detect {
 
 namespace {
+
+constexpr double kMaxStops = 64.0;  // a relative threshold's reach from the median
 
 std::string lower(std::string_view s) {
     std::string out(s);
@@ -38,11 +41,19 @@ Threshold Threshold::parse(std::string_view text) {
     if (s.size() > 2 && s.ends_with("ev")) {
         t.kind = Kind::RelativeEv;
         t.value = parse_number(std::string_view(s).substr(0, s.size() - 2), text);
+        if (std::abs(t.value) > kMaxStops)  // as --exposure: beyond, every pixel or none
+            throw std::invalid_argument(fmt::format("threshold '{}': more than {} stops from the median", text, kMaxStops));
     } else {
         t.kind = Kind::Absolute;
         t.value = parse_number(s, text);
         if (!(t.value > 0.0))
             throw std::invalid_argument(fmt::format("threshold '{}': an absolute threshold must be positive", text));
+        // A pixel's luminance is a float: below its smallest normal value every lit pixel is a light, above
+        // its largest none ever is.
+        constexpr auto lowest = static_cast<double>(std::numeric_limits<float>::min());
+        constexpr auto highest = static_cast<double>(std::numeric_limits<float>::max());
+        if (t.value < lowest || t.value > highest)
+            throw std::invalid_argument(fmt::format("threshold '{}': outside the luminances a float pixel holds ({:g} to {:g})", text, lowest, highest));
     }
     return t;
 }

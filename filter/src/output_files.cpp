@@ -235,6 +235,14 @@ std::size_t remove_stale_temporaries(const std::string& dir) {
 void refuse_special_output(const std::string& path, std::string_view option) {
     if (path.empty() || path == "-") return;
     require_regular_file(path, option);
+    require_output_directory(path);
+}
+
+void require_output_directory(const std::string& path) {
+    fs::path dir = fs::path(path).parent_path();
+    if (dir.empty()) dir = ".";
+    if (!fs::is_directory(dir)) throw std::runtime_error(fmt::format("{}: output directory {} does not exist", path, dir.string()));
+    if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(fmt::format("{}: output directory {} is not writable", path, dir.string()));
 }
 
 void refuse_overwrite(const std::string& path, std::string_view option, const std::string& input, const std::string& other_output) {

@@ -275,10 +275,7 @@ Plan make_plan(const PipelineOptions& o) {
     check_stream_options(o, plan);
     if (!plan.stream_out) {
         plan.out_pattern = parse_pattern(o.output);
-        fs::path dir = fs::path(plan.out_pattern.prefix).parent_path();
-        if (dir.empty()) dir = ".";
-        if (!fs::is_directory(dir)) throw std::runtime_error(fmt::format("{}: output directory {} does not exist", o.output, dir.string()));
-        if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(fmt::format("{}: output directory {} is not writable", o.output, dir.string()));
+        require_output_directory(o.output);
         refuse_special_outputs(plan.out_pattern);  // before its format: -o /dev/full is a device, whatever its name
         if (!is_known_output_format(o.output)) {
             throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", o.output, fs::path(o.output).extension().string()));

@@ -16,7 +16,7 @@ TEST(Threshold, ParsesAbsoluteAndRelative) {
 }
 
 TEST(Threshold, RejectsNonsenseNamingTheText) {
-    for (const char* bad : {"", "ev", "abc", "-3", "0", "nan", "inf", "6 stops", "1e999", "+6evx"}) {
+    for (const char* bad : {"", "ev", "abc", "-3", "0", "nan", "inf", "6 stops", "1e999", "+6evx", "1e-310", "1e-39", "1e39", "+65ev", "-100ev"}) {
         try {
             (void)Threshold::parse(bad);
             ADD_FAILURE() << "accepted '" << bad << "'";

@@ -259,6 +259,18 @@ TEST(Hostile, SideOutputsNeverOverwriteInputs) {
     fs::remove_all(dir);
 }
 
+// Class 6: a side output into a folder that does not exist is refused before the work, not at its end.
+TEST(Hostile, SideOutputsIntoMissingFoldersRefusedFirst) {
+    const auto dir = scratch_dir("hostile-side-dir");
+    write_rgb(dir / "s.0001.exr");
+    const std::string d = dir.string();
+    expect_one_line_refusal(run(fmt::format("{0} track -i {1}/s.####.exr --tracks-out {1}/none/t.json", lensfx_cmd(), d)), "does not exist");
+    expect_one_line_refusal(run(fmt::format("{0} -i {1}/s.0001.exr -o {1}/o.exr --report {1}/none/r.json", lensfx_cmd(), d)), "does not exist");
+    expect_one_line_refusal(run(fmt::format("{0} -i {1}/s.0001.exr -o {1}/none/o.exr", lensfx_cmd(), d)), "does not exist");
+    EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    fs::remove_all(dir);
+}
+
 // Class 7: SIGTERM or SIGINT in the middle of a sequence leaves no temporary; a later run removes those
 // of processes that no longer exist (and keeps those of live ones).
 TEST(Hostile, SignalsLeaveNoTemporaries) {

@@ -53,8 +53,14 @@ void refuse_overwrite(const std::string& path, std::string_view option, const st
                       const std::string& other_output = "");
 
 // Refuses an output path (`option` names it in the message) that is a device, named pipe or directory, or a
-// link to one: a file written there would replace it (as root, even /dev/null). "" and "-" pass.
+// link to one: a file written there would replace it (as root, even /dev/null); and one whose directory does
+// not exist or cannot be written (require_output_directory), before the work that would end in it. "" and
+// "-" pass.
 void refuse_special_output(const std::string& path, std::string_view option);
+
+// Throws std::runtime_error naming `path` where the directory it would be written in does not exist or is
+// not writable.
+void require_output_directory(const std::string& path);
 
 // A path that names something other than a regular file (a device such as /dev/zero, a FIFO, a
 // directory) is refused where a file is needed: throws std::runtime_error naming `what` and the path
