@@ -796,7 +796,7 @@ private:
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
-    void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
+    void shade_uniforms(int res, int reduce, bool area_coverage, bool slivers);
     void dispatch_batched(const Program& program, const FaintRun& run);
     void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -919,15 +919,14 @@ void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const opti
 
 // The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
 // the grid, which triangles are small at the level's pixels (none with area coverage: every triangle is drawn;
-// slivers only where they are drawn apart, plan.small_apart: a faint ghost loses what is small), and the iris.
-void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart) {
+// slivers only with `slivers`), and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, bool slivers) {
     const Program& shade = s_.programs.shade;
     glUseProgram(shade.get());
     glUniform1i(shade.uniform("grid"), res);
     const double pixel_area = level_pixel_area(reduce);
     glUniform1f(shade.uniform("small_area"), area_coverage ? 0.0f : static_cast<float>(kSmallAreaPx * pixel_area));
-    const bool slivers = small_apart && !area_coverage;
-    glUniform1f(shade.uniform("sliver_height"), slivers ? static_cast<float>(kSliverPx * std::sqrt(pixel_area)) : 0.0f);
+    glUniform1f(shade.uniform("sliver_height"), slivers && !area_coverage ? static_cast<float>(kSliverPx * std::sqrt(pixel_area)) : 0.0f);
     glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
     glUniform1i(shade.uniform("iris_sdf"), 0);
     glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
@@ -951,7 +950,10 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
 void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings) {
     const int res = plan.grid, reduce = plan.reduce;
-    shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart);
+    // Slivers are small only in a ghost drawn sharp (rim): its grid follows its outline and caustics. A coarsened
+    // (Spiky) ghost's slivers span folds its grid does not resolve, and flat they drew lines 4x too bright
+    // (StillLife.exr, itoh-zoom, --gain 20: 6 codes against --no-scene-cull); a faint one loses what is small.
+    shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart && plan.rim);
     glUniform1i(s_.programs.shade.uniform("list_small"), small.groups > 0 ? 1 : 0);
     glUniform1ui(s_.programs.shade.uniform("small_first"), static_cast<GLuint>(small.first_slot));
     glUniform1ui(s_.programs.shade.uniform("command_first"), static_cast<GLuint>(small.first_command));
