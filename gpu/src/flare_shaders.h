@@ -162,6 +162,7 @@ uniform int grid;
 uniform uint vertex_offset;
 uniform float small_area;     // mm^2: triangles under this (a pixel of the level) are small: not rasterised
 uniform float sliver_height;  // mm: nor those thinner than this across their longest edge (0: any)
+uniform float sliver_area;    // mm^2: ... and under this in area
 uniform vec2 pixels_per_mm;  // of the rim pass's target (a ghost drawn reduced); 0: no rim pass
 uniform float rim_band;      // pixels of that target: the band along the rim the rim pass draws
 uniform sampler2D iris_sdf;  // signed distance in stop radii over [-extent, extent]^2
@@ -275,7 +276,7 @@ bool rasterisable(uint a, uint b, uint c) {
     float area = triangle_area(a, b, c);
     vec2 pa = vertices[3u * a].xy, pb = vertices[3u * b].xy, pc = vertices[3u * c].xy;
     float longest = max(max(distance(pa, pb), distance(pb, pc)), distance(pc, pa));
-    return area >= small_area && 2.0 * area >= sliver_height * longest;
+    return area >= small_area && (2.0 * area >= sliver_height * longest || area >= sliver_area);
 }
 
 // The rasterised triangles of the cell at id: each of the cell's two, split as ghost_grid_glsl's, where it is
