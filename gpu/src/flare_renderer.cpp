@@ -38,17 +38,18 @@ namespace {
 
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
-// A point-sampled ghost's triangles under kSmallAreaPx pixels of its level, or thinner than kSliverPx pixels
-// across their longest edge, are small: drawn apart with area coverage (shaders::ghost_raster_vert).
-// kSliverPx 2, not 1: at 1 a rim's bright line still stepped where its slivers were rasterised (CandleGlass.exr,
-// dgauss.50mm, the large ghost's rim against a 256-cell grid).
-// A coarsened (Spiky) ghost's slivers are small only under kSpikySliverAreaPx pixels: its 8-cell grid spans
-// folds it does not resolve, and its long slivers drawn flat made lines 4x too bright (StillLife.exr,
-// itoh-zoom, --gain 20: 6 codes against --no-scene-cull); with no slivers at all it lacked the lines the
-// sharp ghost draws (nikon-80-200 there and on the 1080p stage frame: 5 codes). Under 16: 4, 3 and 3.
+// A point-sampled ghost's triangles under kSmallAreaPx pixels of its level, or under kSliverAreaPx pixels and
+// thinner than kSliverPx pixels across their longest edge, are small: drawn apart with area coverage
+// (shaders::ghost_raster_vert). Measured on CandleGlass.exr (dgauss.50mm, the large ghost's rim against a
+// 256-cell grid, and its run time):
+// - kSliverPx 2, not 1: at 1 the rim's bright line still stepped where its slivers were rasterised;
+// - kSliverAreaPx 16: as smooth as any area (8 broke the line in places, 4 stepped it), for 8% more CPU than
+//   point splats rather than 23%. Long slivers also span folds a coarsened (Spiky) ghost's 8-cell grid does not
+//   resolve: drawn flat they made lines 4x too bright (StillLife.exr, itoh-zoom, --gain 20: 6 codes against
+//   --no-scene-cull); with none small it lacked the sharp ghost's lines (nikon-80-200 at --gain 20: 5 codes).
 constexpr double kSmallAreaPx = 1.0;
 constexpr double kSliverPx = 2.0;
-constexpr double kSpikySliverAreaPx = 16.0;
+constexpr double kSliverAreaPx = 16.0;
 constexpr std::size_t kVertexBytes = 12 * sizeof(float);  // a traced grid vertex (ghost_trace_comp)
 constexpr std::size_t kDrawCommandBytes = 4 * sizeof(GLuint);  // DrawArraysIndirectCommand
 constexpr std::size_t kBatchBytes = std::size_t{16} << 20;  // vertices traced before a batch is drawn
@@ -801,7 +802,7 @@ private:
                         int step_count, std::size_t vertex_offset);
     void dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
-    void shade_uniforms(int res, int reduce, bool area_coverage, double sliver_area_px);
+    void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
     void dispatch_batched(const Program& program, const FaintRun& run);
     void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -924,16 +925,16 @@ void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const opti
 
 // The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
 // the grid, which triangles are small at the level's pixels (none with area coverage: every triangle is drawn;
-// slivers under `sliver_area_px` pixels in area: 0 none, infinity all), and the iris.
-void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, double sliver_area_px) {
+// slivers only where small triangles are drawn apart, `small_apart`: a faint ghost loses what is small), and the iris.
+void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart) {
     const Program& shade = s_.programs.shade;
     glUseProgram(shade.get());
     glUniform1i(shade.uniform("grid"), res);
     const double pixel_area = level_pixel_area(reduce);
     glUniform1f(shade.uniform("small_area"), area_coverage ? 0.0f : static_cast<float>(kSmallAreaPx * pixel_area));
-    const bool slivers = sliver_area_px > 0.0 && !area_coverage;
+    const bool slivers = small_apart && !area_coverage;
     glUniform1f(shade.uniform("sliver_height"), slivers ? static_cast<float>(kSliverPx * std::sqrt(pixel_area)) : 0.0f);
-    glUniform1f(shade.uniform("sliver_area"), static_cast<float>(std::min(sliver_area_px * pixel_area, 1e30)));
+    glUniform1f(shade.uniform("sliver_area"), static_cast<float>(kSliverAreaPx * pixel_area));
     glUniform1i(shade.uniform("ringing"), options_.ringing ? 1 : 0);
     glUniform1i(shade.uniform("iris_sdf"), 0);
     glUniform1f(shade.uniform("iris_extent"), static_cast<float>(IrisTextures::kExtent));
@@ -957,10 +958,7 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
 void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings) {
     const int res = plan.grid, reduce = plan.reduce;
-    // Slivers of any size in a ghost drawn sharp (rim), whose grid follows its outline and caustics; short ones
-    // in a coarsened one (kSpikySliverAreaPx); none where small triangles are left out.
-    const double sliver_area_px = !plan.small_apart ? 0.0 : plan.rim ? std::numeric_limits<double>::infinity() : kSpikySliverAreaPx;
-    shade_uniforms(res, reduce, plan.area_coverage, sliver_area_px);
+    shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart);
     glUniform1i(s_.programs.shade.uniform("list_small"), small.groups > 0 ? 1 : 0);
     glUniform1ui(s_.programs.shade.uniform("small_first"), static_cast<GLuint>(small.first_slot));
     glUniform1ui(s_.programs.shade.uniform("command_first"), static_cast<GLuint>(small.first_command));
@@ -1395,7 +1393,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     for (const FaintRun& run : runs) {
-        shade_uniforms(run.grid, run.reduce, false, 0.0);
+        shade_uniforms(run.grid, run.reduce, false, false);
         glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
         glUniform1i(s_.programs.shade.uniform("write_indices"), 1);       // drawn by its indices, which
         glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), 1);    // skip the iris inside it

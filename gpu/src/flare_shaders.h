@@ -269,7 +269,7 @@ float triangle_area(uint a, uint b, uint c) {
 }
 
 // Whether pixel centres sample a triangle well enough to rasterise it: at least small_area, and at least
-// sliver_height across its longest edge. The others, sub-pixel or slivers (where the grid crowds along a rim
+// sliver_height across its longest edge or at least sliver_area. The others, sub-pixel or slivers (where the grid crowds along a rim
 // or a caustic), are drawn apart with area coverage (ghost_raster_vert's SMALL_TRIANGLES), or for a faint ghost
 // left out.
 bool rasterisable(uint a, uint b, uint c) {
