@@ -480,18 +480,23 @@ std::shared_ptr<VisibilityMap> uniform_visibility(int width, int height, float v
     return map;
 }
 
-// The Cooke triplet's caustic ghost (surfaces 1 and 7 at (14, 9) degrees), Spiky under a plate that shows its
-// spikes but not its coarse peak: its body drawn reduced and its small triangles at full size keep the power and
-// the caustic's peak of the whole ghost drawn at full size, and the image differs little from it.
+// The ghost of pbrt's double Gauss whose rim is a thin bright line (surfaces 5 and 7, CandleGlass.exr's large
+// ghost; FlareRenderer.ThinBrightRimIsALineNotDots), Spiky under a plate that shows its spikes but not its coarse
+// peak: its body drawn reduced and its small triangles (the rim's slivers) at full size keep the power and the
+// line's peak of the whole ghost drawn at full size (0.98 of it; without its small triangles 0.67; sorted by the
+// level's pixels, 3.3x). Its body's softer edge at its level is what moves the image (relative L1 0.051; 0.17
+// sorted by the level's pixels). In three bands of the full-size target, each tracing it again for its small
+// triangles, the same image (a band left out: 0.23 of the peak off).
 TEST(FlareRenderer, ASpikyGhostsReducedBodyKeepsItsPowerAndPeak) {
-    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const optics::System system = optics::realize(optics::load_lens("pbrt-dgauss-50"));
     FlareView view;
-    view.angle_x_deg = 14.0;
-    view.angle_y_deg = 9.0;
-    view.width = 960;
-    view.height = 640;
+    view.angle_x_deg = -5.5;
+    view.angle_y_deg = 0.1;
+    view.width = 1000;
+    view.height = 810;
+    view.sensor_height_mm = 36.0 * 810 / 1000;
     view.wavelength_nm = 550.0;
-    view.only_ghosts = {{6, 0}};
+    view.only_ghosts = {{6, 4}};
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
     const FlareImage drawn = renderer.render(system, view);
@@ -514,18 +519,25 @@ TEST(FlareRenderer, ASpikyGhostsReducedBodyKeepsItsPowerAndPeak) {
     const double power = whole.total_power(view)[1];
     ASSERT_GT(power, 0.0);
     EXPECT_NEAR(reduced->total_power(view)[1] / power, 1.0, 0.01);
-    const float peak = *std::max_element(whole.rgb.begin(), whole.rgb.end());
-    const float reduced_peak = *std::max_element(reduced->rgb.begin(), reduced->rgb.end());
-    RecordProperty("peak_ratio", std::to_string(static_cast<double>(reduced_peak / peak)));
-    EXPECT_GT(reduced_peak, 0.8f * peak);
-    EXPECT_LT(reduced_peak, 1.15f * peak);  // small at its level (up to 8 x 8 pixels), drawn flat: 1.28
+    auto peak_of = [](const FlareImage& f) { return static_cast<double>(*std::max_element(f.rgb.begin(), f.rgb.end())); };
+    const double peak = peak_of(whole), reduced_peak = peak_of(*reduced);
+    RecordProperty("peak_ratio", std::to_string(reduced_peak / peak));
+    EXPECT_GT(reduced_peak, 0.85 * peak);
+    EXPECT_LT(reduced_peak, 1.15 * peak);
     double l1 = 0.0, sum = 0.0;
     for (std::size_t i = 0; i < whole.rgb.size(); ++i) {
         l1 += std::abs(static_cast<double>(reduced->rgb[i]) - static_cast<double>(whole.rgb[i]));
         sum += static_cast<double>(whole.rgb[i]);
     }
     RecordProperty("relative_l1", std::to_string(l1 / sum));
-    EXPECT_LT(l1 / sum, 0.02);  // 0.027 so
+    EXPECT_LT(l1 / sum, 0.08);
+    options.reduce_spiky = true;
+    options.full_target_bytes = 16.0 * view.width * view.height / 3.0;
+    const FlareImage banded = renderer.render(system, view, options);
+    double largest = 0.0;
+    for (std::size_t i = 0; i < banded.rgb.size(); ++i)
+        largest = std::max(largest, std::abs(static_cast<double>(banded.rgb[i]) - static_cast<double>(reduced->rgb[i])));
+    EXPECT_LE(largest, 1e-3 * reduced_peak);  // a band's clip space rounds the corners differently: 1.7e-4
 }
 
 // The cooke triplet at 320 x 200 with every ghost faint (everything_faint): a renderer and its options, and the
