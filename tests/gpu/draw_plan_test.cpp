@@ -21,6 +21,8 @@
 #include <optics/lens_file.h>
 #include <optics/system.h>
 
+#include "thin_rim_ghost.h"
+
 namespace lensfx::gpu {
 namespace {
 
@@ -488,15 +490,8 @@ std::shared_ptr<VisibilityMap> uniform_visibility(int width, int height, float v
 // sorted by the level's pixels). In three bands of the full-size target, each tracing it again for its small
 // triangles, the same image (a band left out: 0.23 of the peak off).
 TEST(FlareRenderer, ASpikyGhostsReducedBodyKeepsItsPowerAndPeak) {
-    const optics::System system = optics::realize(optics::load_lens("pbrt-dgauss-50"));
-    FlareView view;
-    view.angle_x_deg = -5.5;
-    view.angle_y_deg = 0.1;
-    view.width = 1000;
-    view.height = 810;
-    view.sensor_height_mm = 36.0 * 810 / 1000;
-    view.wavelength_nm = 550.0;
-    view.only_ghosts = {{6, 4}};
+    const optics::System system = optics::realize(optics::load_lens(test::kThinRimLens));
+    const FlareView view = test::thin_rim_view();
     const Context context(Platform::Surfaceless);
     FlareRenderer renderer(context);
     const FlareImage drawn = renderer.render(system, view);
