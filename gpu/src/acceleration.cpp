@@ -116,12 +116,6 @@ bool failed_outline(const GhostEstimate& e) { return e.failed_edge > 0.0; }
 // 0.005 lower (docs/benchmarks.md, look7).
 constexpr double kAreaCoveragePx = 16.0;
 
-// The most reduced level a Spiky ghost's body is drawn at (reduce_spiky_body). Its triangles that are not small
-// at full size are point-sampled there, and near a fold of its caustic they are thin: at 1/16 and 1/32 the
-// level's pixel centres caught them by chance, a line 6 codes bright (StillLife.exr, itoh-zoom, --gain 20,
-// against --no-scene-cull); at 1/8 and finer, 2 codes, as when the ghost was drawn at full size.
-constexpr int kSpikyMaxReduce = 8;
-
 // A ghost's mean triangle on the sensor (mm^2) at `grid` cells a side: its sensor box over the triangles of
 // the passing part of its rectangle. 0 when the box is not known.
 double mean_triangle_mm2(const GhostEstimate& e, int grid) {
@@ -256,17 +250,6 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
             plan.small_apart && !(mean_triangle_mm2(e, grid) >= kAreaCoveragePx * level_pixel_mm * level_pixel_mm);
     }
     return plans;
-}
-
-void reduce_spiky_body(GhostPlan& plan, const GhostEstimate& e, double pixel_mm) {
-    const double mean_triangle_px = mean_triangle_mm2(e, plan.grid) / (pixel_mm * pixel_mm);
-    for (int level = std::min(kSpikyMaxReduce, faint_reduce(sensor_size_mm(e) / pixel_mm)); level > plan.reduce; level /= 2) {
-        if (mean_triangle_px >= kAreaCoveragePx * level * level) {
-            plan.reduce = level;
-            plan.small_full = true;
-            return;
-        }
-    }
 }
 
 namespace {

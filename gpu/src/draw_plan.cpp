@@ -136,9 +136,6 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
     out.plans = plan_ghosts(estimates, detail.accel, detail.base_grid, detail.pixel_mm, detail.per_ghost_power, total_power, verdicts,
                             detail.spread_level);
     if (detail.spread_level > 1) coarsen_to_spread(out.plans, detail.spread_level);
-    else if (detail.reduce_spiky && detail.accel.reduced && !detail.per_ghost_power && detail.pixel_mm > 0.0)
-        for (std::size_t g = 0; g < estimates.size() && g < verdicts.size(); ++g)
-            if (verdicts[g] == SceneVerdict::Spiky && out.plans[g].draw) reduce_spiky_body(out.plans[g], estimates[g], detail.pixel_mm);
     for (std::size_t g = 0; g < estimates.size(); ++g) {
         if (!selection.drawn[g] || selection.dark(g)) continue;
         const SceneVerdict verdict = verdicts.empty() ? SceneVerdict::Draw : verdicts[g];
@@ -150,8 +147,8 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
             }
             continue;
         }
-        // no full-size part: neither the ghost, its rim (drawn at 1/(reduce/kRimReduce)) nor its small triangles
-        if (band > 0 && plan.reduce != 1 && !(plan.rim && plan.reduce == kRimReduce) && !plan.small_full) continue;
+        // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
+        if (band > 0 && plan.reduce != 1 && !(plan.rim && plan.reduce == kRimReduce)) continue;
         const bool faint = verdict == SceneVerdict::Faint && !plan.rim && !plan.small_apart;  // coarsened (plan_ghosts)
         out.faint += band == 0 && faint;
         (faint && detail.batch_faint ? out.batched : out.todo).push_back(g);

@@ -803,7 +803,6 @@ private:
     void dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
-    void draw_small_at_full_size(const std::vector<BatchJob>& batch, const PassDraw& pd, bool bound);
     void dispatch_batched(const Program& program, const FaintRun& run);
     void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -924,9 +923,8 @@ void FlareRenderer::Drawing::trace_uniforms(int res, double rotation, const opti
     glUniform1i(trace.uniform("table_size"), kTableSize);
 }
 
-// The shade program bound with what every dispatch over a (res+1)^2 grid sets: the grid, which triangles are small
-// at the pixels of 1/reduce of the image (the ghost's level, or full size where its small triangles are drawn
-// there: GhostPlan::small_full) and so not rasterised (none with area coverage: every triangle is drawn;
+// The shade program bound with what every dispatch over a (res+1)^2 grid drawn at 1/reduce of the image sets:
+// the grid, which triangles are small at the level's pixels (none with area coverage: every triangle is drawn;
 // slivers only where small triangles are drawn apart, `small_apart`: a faint ghost loses what is small), and the iris.
 void FlareRenderer::Drawing::shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart) {
     const Program& shade = s_.programs.shade;
@@ -960,7 +958,7 @@ void FlareRenderer::Drawing::dispatch_trace(int res, const PupilRect& rect, doub
 // gets its rasterised triangles written as indices, and one drawn by them (no rim pass) its vertices inside the iris marked.
 void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings) {
     const int res = plan.grid, reduce = plan.reduce;
-    shade_uniforms(res, plan.small_full ? 1 : reduce, plan.area_coverage, plan.small_apart);  // small at the pixels they are drawn at
+    shade_uniforms(res, reduce, plan.area_coverage, plan.small_apart);
     glUniform1i(s_.programs.shade.uniform("list_small"), small.groups > 0 ? 1 : 0);
     glUniform1ui(s_.programs.shade.uniform("small_first"), static_cast<GLuint>(small.first_slot));
     glUniform1ui(s_.programs.shade.uniform("command_first"), static_cast<GLuint>(small.first_command));
@@ -1173,7 +1171,7 @@ void FlareRenderer::Drawing::draw_light(std::size_t l) {
 PassPlan FlareRenderer::Drawing::pass_plan(std::size_t l, std::size_t p) const {
     const DetailSettings detail{options_.accel,        options_.grid,        view_.sensor_width_mm / view_.width,
                                 options_.per_ghost_power, options_.batch_faint,
-                                std::max(spread_level(options_.spread), image_level_), options_.reduce_spiky};
+                                std::max(spread_level(options_.spread), image_level_)};
     return plan_pass(estimates_[l].pass[p], pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
                      selection_, detail, band_);
 }
@@ -1263,11 +1261,10 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
             bound = true;
             if (reduce > 1) ++s_.report.stats.ghosts_reduced;
             draw_triangles(job, pd, reduce, plan.rim_pass() ? 1 : 0);
-            if (!plan.small_full) draw_small_triangles(small_lists_[j]);
+            draw_small_triangles(small_lists_[j]);
             check_gl(fmt::format("rasterising ghost {},{}", ghosts_[g].second, ghosts_[g].first));
             if (options_.per_ghost_power) add_ghost_power(g);
         }
-        if (reduce == 1) draw_small_at_full_size(batch, pd, bound);
     }
     for (const int level : {1, 2, 4}) {
         if (band_ > 0 && level > 1) continue;  // only the full-size rims have rows in later bands
@@ -1282,20 +1279,6 @@ void FlareRenderer::Drawing::raster_batch(const std::vector<BatchJob>& batch, co
         }
     }
     glVertexArrayElementBuffer(s_.buffers.vao.get(), 0);
-}
-
-// The small triangles of the batch's reduced ghosts that draw them at full size (GhostPlan::small_full), into
-// the full-size target (bound already when `bound`).
-void FlareRenderer::Drawing::draw_small_at_full_size(const std::vector<BatchJob>& batch, const PassDraw& pd, bool bound) {
-    for (std::size_t j = 0; j < batch.size(); ++j) {
-        const GhostPlan& plan = pd.plans[batch[j].ghost];
-        if (!plan.small_full || small_lists_[j].groups == 0) continue;
-        if (!bound) bind_level(1);
-        bound = true;
-        ghost_uniforms(batch[j], pd, 1, 0);
-        draw_small_triangles(small_lists_[j]);
-        check_gl(fmt::format("the small triangles of ghost {},{}", ghosts_[batch[j].ghost].second, ghosts_[batch[j].ghost].first));
-    }
 }
 
 // A ghost's small triangles (those its shade pass listed), with area coverage: one command per work group of

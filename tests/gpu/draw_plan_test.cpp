@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstddef>
 #include <memory>
-#include <optional>
 #include <span>
 #include <vector>
 
@@ -20,8 +19,6 @@
 #include <optics/ghosts.h>
 #include <optics/lens_file.h>
 #include <optics/system.h>
-
-#include "thin_rim_ghost.h"
 
 namespace lensfx::gpu {
 namespace {
@@ -433,106 +430,6 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 16);
     e[0].extent_mm = 1000 * pixel_mm;
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
-}
-
-// A Spiky ghost (caustics, its spikes visible but its coarse peak not) large enough: its body drawn at the most
-// reduced level, up to a faint ghost's, at which its grid's mean triangle stays over kAreaCoveragePx of that
-// level's pixels, and its small triangles at full size (small_full), so later bands of the full-size target
-// trace it too. One whose triangles would be small there, and one spread by the caller, keep full size.
-TEST(PlanPass, ALargeSpikyGhostsBodyIsReducedAndItsSmallTrianglesStayFullSize) {
-    const double pixel_mm = 0.01;
-    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
-    const GhostSelection selection = five_ghosts();
-    DetailSettings detail = detail_32(pixel_mm);
-    const std::vector<SceneVerdict> verdicts = {SceneVerdict::Draw, SceneVerdict::Spiky, SceneVerdict::Draw,
-                                                SceneVerdict::Cull, SceneVerdict::Cull};
-    // 1200 pixels square, filled: a faint ghost's level is 1/16 (75 of its pixels across); on the Spiky ghost's
-    // 16-cell grid a triangle is 2812 pixels, under 16 x 16^2 but over 16 x 8^2: 1/8.
-    e[1].extent_mm = 1200 * pixel_mm;
-    e[1].sensor = {-600 * pixel_mm, -600 * pixel_mm, 600 * pixel_mm, 600 * pixel_mm};
-    const PassPlan plan = plan_pass(e, 0.0, verdicts, selection, detail, 0);
-    ASSERT_EQ(plan.plans[1].grid, 16);
-    EXPECT_EQ(plan.plans[1].reduce, 8);
-    EXPECT_TRUE(plan.plans[1].small_full && plan.plans[1].small_apart && !plan.plans[1].area_coverage);
-    EXPECT_EQ(plan.todo, (std::vector<std::size_t>{0, 1}));  // drawn alone, not batched
-    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 1).todo, (std::vector<std::size_t>{1}));  // its small triangles
-    // Drawn (not Spiky), the same ghost is a sharp caustic one: full size, nothing apart from its level.
-    EXPECT_FALSE(plan_pass(e, 0.0, {}, selection, detail, 0).plans[1].small_full);
-    // Landing on a strip 200 pixels high: triangles of 469 pixels, 1/4 (over 16 x 4^2).
-    e[1].sensor = {-600 * pixel_mm, -100 * pixel_mm, 600 * pixel_mm, 100 * pixel_mm};
-    EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[1].reduce, 4);
-    // Landing on 60 pixels square: small at every reduced level; a sharp caustic ghost's level (1/2 at 1200
-    // pixels across) as before.
-    e[1].sensor = {-30 * pixel_mm, -30 * pixel_mm, 30 * pixel_mm, 30 * pixel_mm};
-    const GhostPlan small = plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[1];
-    EXPECT_EQ(small.reduce, 2);
-    EXPECT_FALSE(small.small_full);
-    // Spread over an extended light's disc: drawn at the spread's level with no part at full size.
-    e[1].sensor = {-600 * pixel_mm, -600 * pixel_mm, 600 * pixel_mm, 600 * pixel_mm};
-    detail.spread_level = 2;
-    const GhostPlan spread = plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[1];
-    EXPECT_FALSE(spread.small_full);
-    EXPECT_GE(spread.reduce, 2);
-}
-
-// A visibility map over a width x height frame showing additions of `visible` and more everywhere, culling none.
-std::shared_ptr<VisibilityMap> uniform_visibility(int width, int height, float visible) {
-    std::shared_ptr<VisibilityMap> map = everything_faint(width, height);
-    std::fill(map->visible.begin(), map->visible.end(), visible);
-    return map;
-}
-
-// The ghost of pbrt's double Gauss whose rim is a thin bright line (surfaces 5 and 7, CandleGlass.exr's large
-// ghost; FlareRenderer.ThinBrightRimIsALineNotDots), Spiky under a plate that shows its spikes but not its coarse
-// peak: its body drawn reduced and its small triangles (the rim's slivers) at full size keep the power and the
-// line's peak of the whole ghost drawn at full size (0.98 of it; without its small triangles 0.67; sorted by the
-// level's pixels, 3.3x). Its body's softer edge at its level is what moves the image (relative L1 0.051; 0.17
-// sorted by the level's pixels). In three bands of the full-size target, each tracing it again for its small
-// triangles, the same image (a band left out: 0.23 of the peak off).
-TEST(FlareRenderer, ASpikyGhostsReducedBodyKeepsItsPowerAndPeak) {
-    const optics::System system = optics::realize(optics::load_lens(test::kThinRimLens));
-    const FlareView view = test::thin_rim_view();
-    const Context context(Platform::Surfaceless);
-    FlareRenderer renderer(context);
-    const FlareImage drawn = renderer.render(system, view);
-    ASSERT_EQ(renderer.last_stats().ghosts_reduced, 0);  // a caustic ghost: drawn at full size
-    const float drawn_peak = *std::max_element(drawn.rgb.begin(), drawn.rgb.end());
-    ASSERT_GT(drawn_peak, 0.0f);
-    // The plate's level at which the ghost is Spiky (drawn, not faint) and its body reduced.
-    GpuFlareOptions options;
-    std::optional<FlareImage> reduced;
-    for (int k = -4; k <= 10 && !reduced; ++k) {
-        options.visibility = uniform_visibility(view.width, view.height, drawn_peak * std::ldexp(1.0f, k));
-        FlareImage image = renderer.render(system, view, options);
-        const RenderStats stats = renderer.last_stats();
-        if (stats.ghosts_drawn == 1 && stats.ghosts_faint == 0 && stats.ghosts_reduced == 1) reduced = std::move(image);
-    }
-    ASSERT_TRUE(reduced.has_value());
-    options.reduce_spiky = false;
-    const FlareImage whole = renderer.render(system, view, options);
-    ASSERT_EQ(renderer.last_stats().ghosts_reduced, 0);
-    const double power = whole.total_power(view)[1];
-    ASSERT_GT(power, 0.0);
-    EXPECT_NEAR(reduced->total_power(view)[1] / power, 1.0, 0.01);
-    auto peak_of = [](const FlareImage& f) { return static_cast<double>(*std::max_element(f.rgb.begin(), f.rgb.end())); };
-    const double peak = peak_of(whole), reduced_peak = peak_of(*reduced);
-    RecordProperty("peak_ratio", std::to_string(reduced_peak / peak));
-    EXPECT_GT(reduced_peak, 0.85 * peak);
-    EXPECT_LT(reduced_peak, 1.15 * peak);
-    double l1 = 0.0, sum = 0.0;
-    for (std::size_t i = 0; i < whole.rgb.size(); ++i) {
-        l1 += std::abs(static_cast<double>(reduced->rgb[i]) - static_cast<double>(whole.rgb[i]));
-        sum += static_cast<double>(whole.rgb[i]);
-    }
-    RecordProperty("relative_l1", std::to_string(l1 / sum));
-    EXPECT_LT(l1 / sum, 0.08);
-    options.reduce_spiky = true;
-    options.full_target_bytes = 16.0 * view.width * view.height / 3.0;
-    const FlareImage banded = renderer.render(system, view, options);
-    double largest = 0.0;
-    for (std::size_t i = 0; i < banded.rgb.size(); ++i)
-        largest = std::max(largest, std::abs(static_cast<double>(banded.rgb[i]) - static_cast<double>(reduced->rgb[i])));
-    EXPECT_LE(largest, 1e-3 * reduced_peak);  // a band's clip space rounds the corners differently: 1.7e-4
 }
 
 // The cooke triplet at 320 x 200 with every ghost faint (everything_faint): a renderer and its options, and the

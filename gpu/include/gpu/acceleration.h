@@ -100,10 +100,6 @@ struct GhostPlan {
     // it a triangle covers, so none is small), because they may come near a pixel (plan_ghosts: caustics, or
     // small triangles); else point-sampled at pixel centres.
     bool area_coverage = false;
-    // With small_apart and reduce > 1: its small triangles sorted by full-size pixels and drawn into the full-size
-    // target, not its level's, so the bright compressed cells of a coarsened caustic ghost (Spiky) stay sharp
-    // while its dim body is drawn reduced (reduce_spiky_body).
-    bool small_full = false;
     // Whether it is drawn in two parts: at its level, and its rim at kRimReduce times that resolution.
     bool rim_pass() const { return rim && reduce >= kRimReduce; }
 };
@@ -113,9 +109,8 @@ struct GhostPlan {
 // is smooth, and the level of detail's grid when it has failed rays; the most reduced level its size allows,
 // no rim pass, small triangles left out).
 // Spiky: a ghost with caustics whose coarse peak is under what the frame shows, but whose peak times
-// caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its small triangles, drawn at
-// full size, so a caustic's spike stays where it is; its body is drawn reduced where its grid's triangles stay
-// rasterised there (reduce_spiky_body), else at the level a sharp ghost gets.
+// caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its small triangles and the level a
+// sharp ghost gets, so a caustic's spike stays where it is.
 enum class SceneVerdict : unsigned char { Draw, Cull, Faint, Spiky };
 // How far above its coarse cells' peak a ghost may reach in a pixel or two: kCausticSpike for a ghost with
 // caustics (cells too uneven to draw reduced), 1 for a smooth one. Measured: nikon-80-200 on pan1080 at
@@ -132,12 +127,6 @@ double caustic_spike(const GhostEstimate& e);
 std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, const Acceleration& accel,
                                    int base_grid, double pixel_mm, bool per_ghost_power, double total_power = 0.0,
                                    const std::vector<SceneVerdict>& verdicts = {}, int spread_level = 1);
-// A Spiky ghost's plan (plan_ghosts') with its body drawn reduced and its small triangles, small at full size's
-// pixels (where its cells crowd into a caustic's spike), drawn at full size (GhostPlan::small_full): at the most
-// reduced level, up to the one a faint ghost of its size gets and at most 1/8, at which its grid's mean triangle
-// stays over kAreaCoveragePx of the level's pixels, so that its body is still rasterised there; else unchanged.
-// pixel_mm: the sensor width of a full-size pixel.
-void reduce_spiky_body(GhostPlan& plan, const GhostEstimate& e, double pixel_mm);
 
 // What a frame can show of a flare added to it, cell by cell and channel by channel (scene culling, issue 17):
 // in each cell of `cell` x `cell` pixels, the smallest addition to R, G and B (in the frame's units) that

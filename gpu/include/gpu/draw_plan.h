@@ -70,7 +70,6 @@ struct DetailSettings {
     bool per_ghost_power = false;
     bool batch_faint = true;     // GpuFlareOptions::batch_faint
     int spread_level = 1;        // no ghost drawn finer (spread_level of GpuFlareOptions::spread)
-    bool reduce_spiky = true;    // GpuFlareOptions::reduce_spiky
 };
 
 // One light's ghosts in one pass: each ghost's plan and the ghosts drawn in a band of the full-size target,

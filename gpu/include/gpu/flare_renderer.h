@@ -48,9 +48,6 @@ struct GpuFlareOptions {
     // A faint ghost whose passes land within kMergeShiftPx (2) pixels of its level of each other drawn once
     // for all of them (merge_faint_passes); false: once per pass (for tests and measurements).
     bool merge_faint = true;
-    // Spiky ghosts (scene culling) drawn with their bodies reduced and their small triangles at full size
-    // (reduce_spiky_body); false: wholly at a sharp ghost's level (for tests and measurements).
-    bool reduce_spiky = true;
 };
 
 // Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
