@@ -232,6 +232,7 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         plan.draw = true;
         plan.rim = !faint;
         plan.small_apart = !smooth_faint;
+        plan.faint = smooth_faint;
         if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
         const int outline_level = std::max(spread_level, plan.rim_pass() ? plan.reduce / kRimReduce : plan.reduce);

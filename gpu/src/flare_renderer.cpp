@@ -130,12 +130,14 @@ struct GhostPrograms {
     Program raster{"ghost_raster", raster_stages("")};
     Program area{"ghost_raster_area", raster_stages("#define AREA_COVERAGE\n")};
     Program indexed{"ghost_raster_indexed", raster_stages("#define INDEXED\n")};  // no rim pass: a vertex shaded once
+    // A faint ghost's (GhostPlan::faint), its cuts taken at pixel centres.
+    Program faint{"ghost_raster_faint", raster_stages("#define INDEXED\n#define SHARP_CUTS\n")};
     Program small{"ghost_raster_small", raster_stages("#define AREA_COVERAGE\n#define SMALL_TRIANGLES\n")};
     // Those that draw a ghost's triangles and share its uniforms.
-    std::array<const Program*, 4> drawing() const { return {&raster, &area, &indexed, &small}; }
+    std::array<const Program*, 5> drawing() const { return {&raster, &area, &indexed, &faint, &small}; }
     // The one that draws a ghost's triangles as planned, in ghost_raster_frag's rim_mode (0: no rim pass).
     const Program& triangles(const GhostPlan& plan, int rim_mode) const {
-        return plan.area_coverage ? area : rim_mode == 0 ? indexed : raster;
+        return plan.area_coverage ? area : rim_mode != 0 ? raster : plan.faint ? faint : indexed;
     }
 };
 
@@ -1301,7 +1303,7 @@ void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw&
     const GhostPlan& plan = pd.plans[job.ghost];
     const Program& program = ghost_uniforms(job, pd, reduce, rim_mode);
     const auto corners = 6 * plan.grid * plan.grid;  // two triangles a cell
-    if (&program == &s_.programs.indexed)
+    if (&program == &s_.programs.indexed || &program == &s_.programs.faint)
         glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
     else
         glDrawArrays(GL_TRIANGLES, 0, corners);
@@ -1422,7 +1424,7 @@ void FlareRenderer::Drawing::dispatch_batched(const Program& program, const Fain
 void FlareRenderer::Drawing::raster_faint(const FaintRun& run, const PassDraw& pd) {
     bind_level(run.reduce);
     const GhostDrawValues v = draw_values(run.ghosts.front(), pd, run.reduce);
-    const Program& raster = s_.programs.indexed;
+    const Program& raster = s_.programs.faint;
     glUseProgram(raster.get());
     glUniform1i(raster.uniform("batched"), 1);
     glUniform1i(raster.uniform("first_job"), static_cast<GLint>(run.first_job));

@@ -755,6 +755,16 @@ float pixels_inside(float f) {
     return -f / max(length(vec2(dFdx(f), dFdy(f))), 1e-20);
 }
 
+// The share of the pixel on the side of a cut where f < 0 (f linear across the pixel, 0 on the cut: a lens's rim
+// at r_rel - 1, the iris's edge at its signed distance): its distance from the pixel's centre through a ramp one
+// pixel wide, a straight edge's box-filtered coverage. A cut taken at the pixel's centre alone is a hard,
+// stair-stepped edge; the dense reference's rays cover the pixel. Where f does not change across the pixel, the
+// pixel is wholly on one side.
+float inside_share(float f) { return clamp(0.5 + pixels_inside(f), 0.0, 1.0); }
+// The same over a part of the pixel `width` pixels across (area coverage: the part a small triangle covers, f
+// taken at its centroid): a part far smaller than the pixel is cut where its centroid is.
+float inside_share(float f, float width) { return clamp(0.5 + pixels_inside(f) / width, 0.0, 1.0); }
+
 #ifndef INDEXED
 // The rim pass's share of the pixel (rim_mode 1 or 2), from its distance to the rim at its centre: to r_rel = 1,
 // to the iris (s: its signed distances at the stop crossings) and to the edges along dropped cells.
@@ -811,17 +821,26 @@ void main() {
     vec2 uv1 = at_offset(v_uv1, o);
     vec2 uv2 = at_offset(v_uv2, o);
     float light = max(at_offset(v_irradiance, o), 0.0) * max(at_offset(v_transmission, o), 0.0);
-    if (!(m.x > 0.0) || weight <= 0.0 || r_rel > 1.0) discard;
-    float iris = iris_at(uv0, uv1, uv2, ringing ? vec3(-1.0) : iris_distances(uv0, uv1, uv2, stop_crossings), stop_crossings);
-    if (iris <= 0.0 && !ringing) discard;
+    // The iris's cut by the share of the covered part inside it (inside_share over the part's width, its area's
+    // square root), before any pixel of the quad is discarded; the rim's at the part's centroid (a ramp as wide as
+    // the part let a sliver's light past the rim: canon-70-200's ghost 12,19, docs/benchmarks.md).
+    float width = max(sqrt(m.x), 1e-3);
+    vec3 s = iris_distances(uv0, uv1, uv2, stop_crossings);
+    float iris = ringing ? iris_at(uv0, uv1, uv2, vec3(-1.0), stop_crossings)
+                         : inside_share(s.x, width) * inside_share(s.y, width) * inside_share(s.z, width);
+    if (!(m.x > 0.0) || weight <= 0.0 || r_rel > 1.0 || (iris <= 0.0 && !ringing)) discard;
     colour = v_channels * (light * iris * weight * m.x);
 }
 #elif defined(INDEXED)
-// An indexed draw (ghost_raster_vert's INDEXED): no rim pass, so no derivatives: the iris read at level 0, and
-// only at the ghost's own stop crossings (a loop over them, which llvmpipe leaves when every pixel of its
-// block has, in place of three conditional reads), and not at all in a triangle known to lie inside it.
+// An indexed draw (ghost_raster_vert's INDEXED): no rim pass: the iris read at level 0, and only at the ghost's
+// own stop crossings (a loop over them, in place of three conditional reads), and not at all in a triangle known
+// to lie inside it; the rim's and the iris's cuts by the share of the pixel inside them (inside_share), or for a
+// faint ghost (SHARP_CUTS) at the pixel's centre.
 void main() {
+#ifdef SHARP_CUTS
+    // A faint ghost (under what the plate shows): its cuts at the pixel's centre, the cheapest.
     if (v_r_rel > 1.0) discard;
+    float rim = 1.0;
     float iris = 1.0;
     int crossings = v_inside_iris != 0 ? 0 : v_stop_crossings;
     for (int c = 0; c < crossings; ++c) {
@@ -829,17 +848,31 @@ void main() {
         iris *= ringing ? ringing_at(uv) : sdf(uv) > 0.0 ? 0.0 : 1.0;
     }
     if (iris <= 0.0 && !ringing) discard;
-    colour = v_channels * (v_irradiance * v_transmission * iris);
+#else
+    // Derivatives before any pixel of the quad is discarded (the crossings and the mark are the triangle's, the same
+    // in the quad).
+    float rim = inside_share(v_r_rel - 1.0);
+    int crossings = v_inside_iris != 0 ? 0 : v_stop_crossings;
+    float iris = 1.0;
+    for (int c = 0; c < crossings; ++c) {
+        vec2 uv = c == 0 ? v_uv0 : c == 1 ? v_uv1 : v_uv2;
+        iris *= ringing ? ringing_at(uv) : inside_share(sdf(uv));
+    }
+    if (rim <= 0.0 || (iris <= 0.0 && !ringing)) discard;
+#endif
+    colour = v_channels * (v_irradiance * v_transmission * iris * rim);
 }
 #else
 void main() {
     int stop_crossings = v_stop_crossings;
     vec3 s = iris_distances(v_uv0, v_uv1, v_uv2, stop_crossings);
-    float weight = rim_mode != 0 ? rim_weight(s, stop_crossings) : 1.0;  // derivatives first: the whole 2 x 2 quad runs
-    if (v_r_rel > 1.0 || weight <= 0.0) discard;
-    float iris = iris_at(v_uv0, v_uv1, v_uv2, s, stop_crossings);
-    if (iris <= 0.0 && !ringing) discard;
-    colour = v_channels * (v_irradiance * v_transmission * iris * weight);
+    // Derivatives first: the whole 2 x 2 quad runs.
+    float weight = rim_mode != 0 ? rim_weight(s, stop_crossings) : 1.0;
+    float rim = inside_share(v_r_rel - 1.0);
+    float iris = ringing ? iris_at(v_uv0, v_uv1, v_uv2, s, stop_crossings)
+                         : inside_share(s.x) * inside_share(s.y) * inside_share(s.z);
+    if (rim <= 0.0 || weight <= 0.0 || (iris <= 0.0 && !ringing)) discard;
+    colour = v_channels * (v_irradiance * v_transmission * iris * weight * rim);
 }
 #endif
 )GLSL";

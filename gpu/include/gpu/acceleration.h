@@ -100,6 +100,9 @@ struct GhostPlan {
     // it a triangle covers, so none is small), because they may come near a pixel (plan_ghosts: caustics, or
     // small triangles); else point-sampled at pixel centres.
     bool area_coverage = false;
+    // Drawn at the coarsest detail because it is under what the plate shows (SceneVerdict::Faint): its rim's and
+    // iris's cuts taken at pixel centres, not by the share of each pixel inside them.
+    bool faint = false;
     // Whether it is drawn in two parts: at its level, and its rim at kRimReduce times that resolution.
     bool rim_pass() const { return rim && reduce >= kRimReduce; }
 };

@@ -135,16 +135,22 @@ std::vector<std::vector<FaintRun>> batch_faint(const std::vector<std::size_t>& b
 // The full-size target's horizontal bands: one when the image's RGBA32F target is at most `max_bytes`, else
 // as few as keep each band under it. Band b holds the image's rows [first(b), end(b)) (top down), drawn
 // with kMargin rows more on either side, which small triangles just outside it reach into (grown by half a
-// pixel for area coverage).
+// pixel for area coverage), and below them one more where needed so that its lowest drawn row has the parity of
+// the image's lowest: GL's rows count up from the target's bottom, so the band's 2 x 2 pixel quads, over which the
+// raster shaders take derivatives (the cuts' shares of a pixel), are then the whole target's.
 struct FullBands {
     static constexpr int kMargin = 2;
     int count = 1, image_rows = 0, rows_per_band = 0;
     int first(int b) const { return b * rows_per_band; }
     int end(int b) const { return std::min(image_rows, first(b) + rows_per_band); }
     int drawn_first(int b) const { return count == 1 ? 0 : std::max(0, first(b) - kMargin); }
-    int drawn_end(int b) const { return count == 1 ? image_rows : std::min(image_rows, end(b) + kMargin); }
+    int drawn_end(int b) const {
+        if (count == 1) return image_rows;
+        const int below = std::min(image_rows, end(b) + kMargin);
+        return std::min(image_rows, below + ((image_rows - below) & 1));
+    }
     int rows_drawn(int b) const { return drawn_end(b) - drawn_first(b); }
-    int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin); }
+    int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin + 1); }
 };
 // whole: one band whatever the size (per-ghost power reads the whole target back).
 FullBands full_target_bands(int width, int height, double max_bytes, bool whole);
