@@ -563,12 +563,35 @@ std::size_t remove_stale_temporaries(const FarmPlan& plan) {
 
 std::string failure_text(const TaskResult& r, int attempt) { return fmt::format("try {} {} (log {})", attempt, r.state, r.log); }
 
+// Refuses text bound for the job script that holds a control character: a line break in an #SBATCH line, a
+// comment or the unquoted #SBATCH --output path would start a line of shell of its own (text after it run by
+// bash on every node), and a NUL would cut it short. `what` names where it came from.
+void check_script_text(const std::string& what, const std::string& text) {
+    const auto control = [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; };
+    if (std::none_of(text.begin(), text.end(), control)) return;
+    std::string shown;  // control characters as \xNN, so the message stays one line
+    for (char c : text) shown += control(c) ? fmt::format("\\x{:02x}", static_cast<int>(static_cast<unsigned char>(c))) : std::string(1, c);
+    throw std::runtime_error(fmt::format("farm: {} \"{}\" holds a control character, which the job script cannot carry", what, shown));
+}
+
+// Everything the job script writes outside single quotes, or inside its comments: the paths, the shot's name,
+// the program's path and the extra #SBATCH lines.
+void check_job_script_text(const FarmPlan& plan, const FarmSettings& s) {
+    check_script_text("the input pattern", fs::absolute(s.input).string());
+    check_script_text("the output pattern", fs::absolute(s.output).string());
+    check_script_text("the track file's path", plan.tracks.string());
+    check_script_text("the farm folder", plan.dir.string());
+    check_script_text("the program's path", self_executable().string());
+    for (const auto& o : s.sbatch_options) check_script_text("--sbatch", o);
+}
+
 // Runs the missing chunks, then the failed ones again, up to `retries` more times.
 void run_farm(FarmSettings& s) {
     if (s.chunk < 1) throw std::runtime_error("farm: --chunk must be at least 1");
     check_filter_options(s.filter_options);
     const auto start = Clock::now();
     const FarmPlan plan = make_plan(s);
+    check_job_script_text(plan, s);
     if (plan.complete > 0 && !s.resume)
         throw std::runtime_error(fmt::format("farm: {}: {} of {} frames are complete already; --resume renders the rest (finished frames are never rewritten)",
                                              s.output, plan.complete, plan.frames.size()));

@@ -228,4 +228,27 @@ TEST(FarmErrors, NoSchedulerIsOneClearLine) {
     fs::remove_all(dir);
 }
 
+// A line break in text the job script carries outside quotes (an #SBATCH line, the output folder in its comments and
+// #SBATCH --output) would start a shell line of its own that every task runs: refused before anything is written.
+TEST(FarmErrors, ControlCharactersNeverReachTheJobScript) {
+    const fs::path dir = lensfx::test::scratch_dir("farm-inject");
+    const fs::path marker = dir / "injected";
+    const fs::path folder = dir / ("out\ntouch " + marker.string() + " #");
+    fs::create_directories(folder);
+    const std::string sbatch = "$'--partition=x\ntouch " + marker.string() + "'";
+    const auto via_sbatch = run(fmt::format("{} farm -i {} -o {}/pan.####.exr --frames 1-2 --chunk 1 --engine local --tracks /dev/null --sbatch {} {} 1>&2",
+                                            lensfx_cmd(), kInput, dir.string(), sbatch, kFilterOptions));
+    EXPECT_NE(via_sbatch.exit_code, 0);
+    EXPECT_TRUE(last_line(via_sbatch.stderr_text).starts_with("lensfx: farm: --sbatch ")) << via_sbatch.stderr_text;
+    const auto via_folder = run(fmt::format("{} farm -i {} -o $'{}/pan.####.exr' --frames 1-2 --chunk 1 --engine local --tracks /dev/null {} 1>&2",
+                                            lensfx_cmd(), kInput, folder.string(), kFilterOptions));
+    EXPECT_NE(via_folder.exit_code, 0);
+    EXPECT_TRUE(last_line(via_folder.stderr_text).starts_with("lensfx: farm: the output pattern ")) << via_folder.stderr_text;
+    EXPECT_NE(last_line(via_folder.stderr_text).find("\\x0a"), std::string::npos) << via_folder.stderr_text;  // shown, on one line
+    EXPECT_FALSE(fs::exists(marker));
+    EXPECT_FALSE(fs::exists(dir / "lensfx-farm"));
+    EXPECT_FALSE(fs::exists(folder / "lensfx-farm"));
+    fs::remove_all(dir);
+}
+
 }  // namespace
