@@ -605,6 +605,27 @@ StarburstTail starburst_tail_share(const Starburst& sb, const Aperture& aperture
     return tail;
 }
 
+namespace {
+
+// The span [lo, hi] of r in [r0, r1] for which c + r s lies within [a, b] (empty: lo > hi).
+std::pair<double, double> ray_span(double c, double s, double a, double b, double r0, double r1) {
+    if (s == 0.0) return c >= a && c <= b ? std::pair{r0, r1} : std::pair{1.0, 0.0};
+    const double t0 = (a - c) / s, t1 = (b - c) / s;
+    return {std::max(r0, std::min(t0, t1)), std::min(r1, std::max(t0, t1))};
+}
+
+// The steps n (r = r0 + n step, r < the spans' end) of a walk from r0 that fall within both spans, a step
+// either side kept: [first, end).
+std::pair<long long, long long> steps_within(std::pair<double, double> a, std::pair<double, double> b, double r0, double step) {
+    const double lo = std::max(a.first, b.first), hi = std::min(a.second, b.second);
+    if (!(lo <= hi)) return {0, 0};
+    const auto first = static_cast<long long>(std::max(0.0, std::floor((lo - r0) / step) - 1.0));
+    const auto end = static_cast<long long>(std::ceil((hi - r0) / step) + 1.0);
+    return {first, end};
+}
+
+}  // namespace
+
 void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double length_scale, const StarburstPlacement& at,
                          const std::array<double, 3>& power, const SensorImage& image) {
     const double f_number = at.f_number, cx = at.cx, cy = at.cy;
@@ -637,7 +658,15 @@ void draw_starburst_tail(const Starburst& sb, const Aperture& aperture, double l
             // Pixels per mm along and across the spike (the image's y runs down).
             const double sx = ux / pixel_w_mm, sy = -uy / pixel_h_mm;
             const double tx = -uy / pixel_w_mm, ty = -ux / pixel_h_mm;
-            for (double r = ramp.fade_begin_mm; r < reach; r += step) {
+            // Only the stretch of the spike whose taps can reach the image (a frame far wider than tall, or a light far
+            // outside it, would otherwise walk the whole length past the image).
+            const double across_x = across.taps * step * std::abs(tx) + 1.0, across_y = across.taps * step * std::abs(ty) + 1.0;
+            const auto [first, end] = steps_within(ray_span(cx, sx, -across_x, width + across_x, ramp.fade_begin_mm, reach),
+                                                   ray_span(cy, sy, -across_y, height + across_y, ramp.fade_begin_mm, reach),
+                                                   ramp.fade_begin_mm, step);
+            for (long long n = first; n < end; ++n) {
+                const double r = ramp.fade_begin_mm + static_cast<double>(n) * step;
+                if (r >= reach) break;
                 const double mid = r + 0.5 * step;
                 const double x = cx + mid * sx, y = cy + mid * sy;
                 const double fraction = 0.5 * edge.share * ramp(mid) * (1.0 / r - 1.0 / (r + step));

@@ -324,3 +324,27 @@ TEST(StarburstTail, CoreAloneIsWhatThePatternLeavesOut) {
         EXPECT_LT(beyond_disc, 1e-3 * in_core) << c;
     }
 }
+
+// A frame far wider than tall (a crafted EXR's display window, 2 million pixels by 2): each spike is walked only
+// where its taps reach the frame, so the strip takes what a 1920 x 2 one does, in about its time, not the time of
+// walking two million pixels along every spike (it did, and a 1 million px window took minutes).
+TEST(StarburstTail, WideStripWalksOnlyWhatReachesIt) {
+    const Starburst& texture = hexagon_texture();
+    const auto strip = [&](int width) {
+        std::vector<float> rgb(static_cast<std::size_t>(width) * 2 * 3, 0.0f);
+        draw_starburst(texture, kHexagon, 1.0, {960.0, 1.0, kFNumber}, {1.0, 1.0, 1.0}, {rgb.data(), width, 2, kPixelMm, kPixelMm});
+        return rgb;
+    };
+    const std::vector<float> narrow = strip(kWidth);
+    const std::vector<float> wide = strip(2'000'000);
+    double largest = 0.0, worst = 0.0;
+    for (int y = 0; y < 2; ++y)
+        for (std::size_t i = 0; i < static_cast<std::size_t>(kWidth) * 3; ++i) {
+            const float a = narrow[static_cast<std::size_t>(y) * kWidth * 3 + i];
+            const float b = wide[static_cast<std::size_t>(y) * 2'000'000 * 3 + i];
+            largest = std::max(largest, static_cast<double>(a));
+            worst = std::max(worst, std::abs(static_cast<double>(a) - static_cast<double>(b)));
+        }
+    EXPECT_GT(largest, 0.0);
+    EXPECT_LE(worst, 1e-6 * largest);
+}
