@@ -39,7 +39,7 @@ std::size_t RunReport::written() const {
     return n;
 }
 
-std::size_t RunReport::skipped() const { return frames.size() - written(); }
+std::size_t RunReport::skipped() const { return frames.size() - written() + skipped_unlisted; }
 
 namespace {
 
@@ -450,12 +450,18 @@ void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame,
 void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress, BoundedQueue<Item>& queue, RunReport& report,
                   const std::function<void(std::string)>& fail) {
     ProgressLine progress(show_progress, plan.stream_in ? 0 : plan.numbers.size());
-    std::size_t done = 0;
+    std::size_t done = 0, listed_skips = 0;
     while (auto item = queue.pop()) {
         FrameRecord& rec = item->record;
         if (!item->frame) {
-            if (!o.quiet) fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error);
-            report.frames.push_back(std::move(rec));
+            const bool listed = listed_skips++ < RunReport::kListedSkips;
+            if (!o.quiet && (listed || report.skipped_unlisted == 0))
+                fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}{}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error,
+                           listed ? "" : fmt::format(" (and any later skipped frames: counted, not listed past the first {})", RunReport::kListedSkips));
+            if (listed)
+                report.frames.push_back(std::move(rec));
+            else
+                ++report.skipped_unlisted;
             continue;
         }
         const auto t0 = Clock::now();
@@ -663,6 +669,7 @@ void write_report(const RunReport& report, const std::string& path) {
                         {"threads", report.threads},
                         {"frames_written", report.written()},
                         {"frames_skipped", report.skipped()},
+                        {"frames_skipped_unlisted", report.skipped_unlisted},
                         {"wall_seconds", report.wall_seconds},
                         {"frames_per_second", fps},
                         {"peak_held_bytes", report.peak_held_bytes},

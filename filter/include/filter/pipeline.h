@@ -66,7 +66,11 @@ struct FrameRecord {
 struct RunReport {
     std::string input, output;
     int threads = 0;
-    std::vector<FrameRecord> frames;  // in frame order
+    std::vector<FrameRecord> frames;  // in frame order; skipped frames only the first kListedSkips
+    // Skipped frames beyond the first kListedSkips, counted but not kept or printed: --skip-bad-frames over a
+    // range of a billion missing files would otherwise hold a record (and print a line) for each.
+    static constexpr std::size_t kListedSkips = 1000;
+    std::size_t skipped_unlisted = 0;
     double wall_seconds = 0;
     std::string error;  // the failure that stopped the run, if one did
     std::string options_toml;  // the options of the run as a TOML shot file: `--config` repeats it
