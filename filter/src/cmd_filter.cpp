@@ -194,6 +194,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     if (args.memory_limit.empty()) o.in_flight_limit = kDefaultInFlightBytes;
     args.flare.memory = o.memory;
     check_output_options(args, app);
+    if (!args.flare.layer.empty()) o.adds_channels = "--layer " + args.flare.layer;
     warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);
     if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");

@@ -294,6 +294,7 @@ void run_flare(const FlareArgs& args) {
     // A directory (or device, pipe) under an output's name is refused before the render, not after it.
     refuse_special_output(args.output, "-o");
     refuse_special_output(args.preview, "--preview");
+    refuse_overwrite(args.preview, "--preview", "", args.output);  // the preview would replace the physical EXR
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
     const optics::System system = realize_lens(args).system;

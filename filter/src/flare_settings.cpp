@@ -108,7 +108,9 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_flag("--band-filter", s.band_filter, "With --bands: blur each ghost between neighbouring bands so few bands look continuous (slower)")->group(group);
     app.add_option("--min-light", s.min_light, "Skip lights dimmer than this fraction of the brightest (fading in up to twice that)")
         ->capture_default_str()->group(group)->check(CLI::Range(0.0, 1.0))->check(finite_number());
-    app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group);
+    app.add_option("--layer", s.layer, "Write the flare as extra channels LAYER.R/G/B, leaving R, G, B as they were")->group(group)
+        ->check(CLI::Validator([](const std::string& v) { return v.empty() ? std::string("the layer needs a name (its channels are NAME.R, .G, .B)") : std::string(); },
+                               "NAME"));
     app.add_option("--visibility", s.visibility,
                    "Scene culling: leave out ghosts that together change no 32-pixel cell's 8-bit sRGB view by more than V codes")
         ->capture_default_str()->group(group)->check(CLI::NonNegativeNumber)->check(finite_number());

@@ -519,6 +519,9 @@ Plan prepared_plan(const PipelineOptions& o) {
         throw std::runtime_error(fmt::format("stdin: frame 1: {}", e.what()));
     }
     plan.out_format = output_stream_format(o, plan);
+    if (plan.stream_out && plan.out_format != StreamFormat::exr && !o.adds_channels.empty())
+        throw std::runtime_error(fmt::format("{} adds channels, which a {} stream cannot carry: give --stream-format exr", o.adds_channels,
+                                             to_string(plan.out_format)));
     return plan;
 }
 

@@ -404,6 +404,9 @@ TEST(Hostile, DirectoryOutputsAreRefusedBeforeRendering) {
     expect_one_line_refusal(run(t + flare + fmt::format(" -o {}/out.exr", d)), "-o " + d + "/out.exr: a directory");
     expect_one_line_refusal(run(t + flare + fmt::format(" -o {0}/f.exr --preview {0}/preview.png", d)), "--preview " + d + "/preview.png: a directory");
     EXPECT_FALSE(fs::exists(dir / "f.exr"));
+    // The preview under the EXR's own name would replace the physical image with the tone-mapped one.
+    expect_one_line_refusal(run(t + flare + fmt::format(" -o {0}/f.exr --preview {0}/f.exr", d)), "--preview " + d + "/f.exr: refusing to overwrite the output");
+    EXPECT_FALSE(fs::exists(dir / "f.exr"));
     const RunResult single = run("cat /dev/zero | " + t + lensfx_in(dir) + fmt::format(" -i - -o {}/out.exr", d) + kLens);
     expect_one_line_refusal(single, "-o " + d + "/out.exr: a directory");
     EXPECT_EQ(single.exit_code, 1);
@@ -432,7 +435,8 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
         {"--dust", {"nan"}},                                  {"--dust-size", {"nan"}},
         {"--dust-opacity", {"nan"}},                          {"--scratch-length", {"nan"}},
         {"--scratch-width", {"nan"}},                         {"--scratch-angle", {"nan", "inf"}},
-        {"--scratch-spread", {"nan"}},                        {"--ghost-threshold", {"nan"}}};
+        {"--scratch-spread", {"nan"}},                        {"--ghost-threshold", {"nan"}},
+        {"--layer", {"''"}}};
     for (const auto& [option, values] : cases)
         for (const std::string& value : values) {
             const RunResult r = run(filter + " " + option + " " + value);
@@ -451,6 +455,12 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     expect_one_line_refusal(track, "--threshold");
     EXPECT_EQ(track.exit_code, 2);
     EXPECT_FALSE(fs::exists(dir / "o.exr"));
+    // --layer on a PFM stream in and out: the layer's channels have nowhere to go (they were dropped, and with them the
+    // flare); refused once the stream's first bytes say PFM, before a frame is read.
+    const RunResult layer = run(fmt::format("{{ printf 'PF\\n4 2\\n-1.0\\n'; head -c 96 /dev/zero; }} | {} -i - -o - --layer flare --lens brendel-tessar > {}/o.pfm",
+                                            lensfx_cmd(), d));
+    expect_one_line_refusal(layer, "--layer flare adds channels, which a pfm stream cannot carry");
+    EXPECT_EQ(layer.exit_code, 1);
     // 0 is --memory-limit's documented "no limit" (as `none`), and is kept.
     EXPECT_EQ(run(filter + " --memory-limit 0").exit_code, 0);
     fs::remove_all(dir);

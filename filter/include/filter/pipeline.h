@@ -49,6 +49,9 @@ struct PipelineOptions {
     // until stored) and the stages' buffers (the flare's GL targets), with the next frame, would exceed it.
     // The filter command sets kDefaultInFlightBytes when no --memory-limit is given.
     std::size_t in_flight_limit = 0;
+    // The option that adds channels to every frame ("--layer flare"; empty: none). An output stream that cannot carry
+    // them (PFM or raw, known only once a stream input's first bytes are read) is refused before any frame is read.
+    std::string adds_channels;
 };
 
 // What happened to one frame. Times are wall-clock milliseconds spent in each stage on this frame.
