@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <condition_variable>
 #include <mutex>
 #include <new>
@@ -266,6 +267,18 @@ StreamFormat output_stream_format(const PipelineOptions& o, const Plan& plan) {
     return plan.stream_in ? plan.in_format : StreamFormat::exr;
 }
 
+// Every frame a frame list names (--frames, or frames in the pattern) exists, or the run is refused before it
+// writes anything: a missing frame found by the reader stopped the run after the frames before it had replaced
+// their outputs. Stops at the first missing one, so a range of billions costs what its frames on disk do.
+void require_listed_frames(const Plan& plan) {
+    if (!plan.in_pattern.is_sequence) return;
+    for (std::uint64_t i = 0; i < plan.numbers.size(); ++i) {
+        const std::string path = plan.in_pattern.path(plan.numbers[i]);
+        std::error_code ec;
+        if (!fs::exists(path, ec)) throw std::runtime_error(fmt::format("{}: frame {}: file does not exist", path, plan.numbers[i]));
+    }
+}
+
 Plan make_plan(const PipelineOptions& o) {
     Plan plan;
     plan.stream_in = o.input == "-";
@@ -287,6 +300,7 @@ Plan make_plan(const PipelineOptions& o) {
     }
     plan.in_pattern = parse_pattern(o.input);
     plan.numbers = frames_to_read(o.input, o.frames, o.quiet);
+    if (!o.skip_bad_frames) require_listed_frames(plan);
     if (!plan.stream_out && !plan.out_pattern.is_sequence && plan.numbers.size() > 1) {
         throw std::runtime_error(fmt::format("{}: the output has no frame-number token but the input has {} frames", o.output, plan.numbers.size()));
     }
@@ -421,7 +435,9 @@ void read_frames(const FrameSource& source, ReadBudget& budget, BoundedQueue<Ite
 }
 
 // One frame to stdout (the plan's stream format) or to its file; throws on failure.
-void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame, const FrameRecord& rec, std::size_t done) {
+// `staged`: where the frame goes instead of rec.output (empty: rec.output itself).
+void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame, const FrameRecord& rec, std::size_t done,
+                 const std::string& staged = "") {
     if (plan.stream_out) {
         if (plan.out_format == StreamFormat::raw) {
             write_raw(stdout, frame, *o.pix_fmt, o.memory);
@@ -442,39 +458,56 @@ void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame,
     WriteOptions w = o.write;
     w.pfm_order = plan.out_order;
     w.memory = o.memory;
-    write_image(frame, rec.output, w);
+    write_image(frame, staged.empty() ? rec.output : staged, w);
+}
+
+// A skipped frame reported: its line (the first RunReport::kListedSkips, then one saying the rest are counted) and
+// its record, or past those only its count.
+void report_skipped(const PipelineOptions& o, bool show_progress, FrameRecord& rec, std::size_t& listed_skips, RunReport& report) {
+    const bool listed = listed_skips++ < RunReport::kListedSkips;
+    if (!o.quiet && (listed || report.skipped_unlisted == 0))
+        fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}{}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error,
+                   listed ? "" : fmt::format(" (and any later skipped frames: counted, not listed past the first {})", RunReport::kListedSkips));
+    if (listed)
+        report.frames.push_back(std::move(rec));
+    else
+        ++report.skipped_unlisted;
 }
 
 // The writer thread: each processed frame written in order, a skipped one reported; the first failure
-// to write stops the run (`fail`).
+// to write stops the run (`fail`). A stream into one file (no frame-number token) writes its frame beside the
+// file and renames it into place once the stream has ended: a second frame, or any other failure, leaves the
+// file as it was.
 void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress, BoundedQueue<Item>& queue, RunReport& report,
                   const std::function<void(std::string)>& fail) {
     ProgressLine progress(show_progress, plan.stream_in ? 0 : plan.numbers.size());
     std::size_t done = 0, listed_skips = 0;
+    const bool one_file_from_stream = plan.stream_in && !plan.stream_out && !plan.out_pattern.is_sequence;
+    std::unique_ptr<TempFile> staged;  // that file's frame, until the stream ends
     while (auto item = queue.pop()) {
         FrameRecord& rec = item->record;
         if (!item->frame) {
-            const bool listed = listed_skips++ < RunReport::kListedSkips;
-            if (!o.quiet && (listed || report.skipped_unlisted == 0))
-                fmt::print(stderr, "{}lensfx: skipped {}: frame {}: {}{}\n", show_progress ? "\n" : "", rec.input, rec.number, rec.error,
-                           listed ? "" : fmt::format(" (and any later skipped frames: counted, not listed past the first {})", RunReport::kListedSkips));
-            if (listed)
-                report.frames.push_back(std::move(rec));
-            else
-                ++report.skipped_unlisted;
+            report_skipped(o, show_progress, rec, listed_skips, report);
             continue;
         }
         const auto t0 = Clock::now();
         try {
-            write_frame(o, plan, *item->frame, rec, done);
+            if (one_file_from_stream && done == 0) staged = std::make_unique<TempFile>(rec.output);
+            write_frame(o, plan, *item->frame, rec, done, staged ? staged->path() : "");
         } catch (const std::exception& e) {
             fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, error_text(e)));
+            staged.reset();
             break;
         }
         rec.write_ms = ms_since(t0);
         rec.written = true;
         report.frames.push_back(std::move(rec));
         progress.update(++done);
+    }
+    try {
+        if (staged && !queue.cancelled()) staged->commit();
+    } catch (const std::exception& e) {
+        fail(fmt::format("{}: {}", o.output, error_text(e)));
     }
     progress.finish();
 }

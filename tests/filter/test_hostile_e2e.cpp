@@ -221,6 +221,31 @@ TEST(Hostile, HugeFrameRangesAreNotListed) {
     fs::remove_all(dir);
 }
 
+// Class 5 (nothing lost on failure): a run that fails leaves the outputs that were there as they were. A stream of
+// two frames into one file once replaced it with frame 1 before failing on frame 2; a frame list naming a
+// missing file once failed there after the frames before it had replaced theirs.
+TEST(Hostile, FailedRunsLeaveExistingOutputs) {
+    const auto dir = scratch_dir("hostile-keep");
+    const std::string d = dir.string();
+    std::ofstream(dir / "single.exr") << "keep";
+    const std::string pfm = "{ printf 'PF\\n4 2\\n-1.0\\n'; head -c 96 /dev/zero; }";
+    const RunResult two = run(fmt::format("{{ {0}; {0}; }} | {1} -i - -o {2}/single.exr -q", pfm, lensfx_cmd(), d));
+    expect_one_line_refusal(two, "frame 2: the output has no frame-number token");
+    EXPECT_EQ(slurp(dir / "single.exr"), "keep");
+    const RunResult one = run(fmt::format("{} | {} -i - -o {}/single.exr -q", pfm, lensfx_cmd(), d));
+    EXPECT_EQ(one.exit_code, 0) << one.stderr_text;
+    EXPECT_NE(slurp(dir / "single.exr"), "keep");  // a stream of one frame still writes it
+    write_rgb(dir / "s.0001.exr");
+    write_rgb(dir / "s.0002.exr");
+    std::ofstream(dir / "o.0001.exr") << "keep";
+    const RunResult gap = run(fmt::format("{0} -i {1}/s.#.exr -o {1}/o.#.exr --frames 1-3 -q", lensfx_cmd(), d));
+    expect_one_line_refusal(gap, "s.0003.exr: frame 3: file does not exist");
+    EXPECT_EQ(slurp(dir / "o.0001.exr"), "keep");
+    EXPECT_FALSE(fs::exists(dir / "o.0002.exr"));
+    for (const auto& e : fs::directory_iterator(dir)) EXPECT_NE(e.path().filename().string()[0], '.') << e.path();  // no temporaries left
+    fs::remove_all(dir);
+}
+
 // Class 5: failed writes. On a full disk every output format fails in one line, non-zero, and leaves
 // neither a truncated file nor a temporary. A 64 KiB tmpfs (root only; skipped otherwise) and /dev/full.
 TEST(Hostile, FullDiskFailsCleanly) {

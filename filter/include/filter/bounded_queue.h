@@ -42,6 +42,12 @@ public:
         not_empty_.notify_all();
     }
 
+    // Whether cancel() was called: the stream ended in a failure, not at its end.
+    bool cancelled() {
+        std::lock_guard lock(mutex_);
+        return cancelled_;
+    }
+
     void cancel() {
         std::lock_guard lock(mutex_);
         cancelled_ = true;
