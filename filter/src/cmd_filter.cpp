@@ -145,6 +145,27 @@ void check_output_options(const FilterArgs& args, const CLI::App& app) {
                    args.colour.options.display, out.name);
 }
 
+// Options that mean something only with another, or for another output, are refused without it: they were accepted
+// and did nothing (the lens blur's without --dof, --dither into a float file, --compression outside EXR, --pfm-order
+// with no PFM on either side).
+void refuse_idle_options(const FilterArgs& args, const CLI::App& app) {
+    const auto given = [&](const char* name) { return app.get_option(name)->count() > 0; };
+    if (!args.dof.enabled)
+        for (const char* name : {"--focus", "--tilt", "--focus-point", "--depth-scale", "--depth-channel", "--deep", "--dof-rays", "--dof-max-rays",
+                                 "--no-chromatic-blur", "--dof-only"})
+            if (given(name)) throw CLI::ValidationError(name, "applies to the lens blur, which is off: add --dof");
+    const PipelineOptions& o = args.pipeline;
+    const OutputKind out = output_kind(o);
+    if (given("--dither") && args.colour.dither_mode() != colour::Dither::None && !out.display_referred && o.output != "-")
+        throw CLI::ValidationError("--dither", fmt::format("dithers display files' code values (PNG, JPEG...); {} output keeps float values", out.name));
+    const std::string in_ext = lower_extension(o.input), out_ext = lower_extension(o.output);
+    const bool exr_out = o.output == "-" ? !o.stream_format || *o.stream_format == StreamFormat::exr : out.name == "EXR" || out.name == "SXR" || out.name == "MXR";
+    if (given("--compression") && !exr_out)
+        throw CLI::ValidationError("--compression", fmt::format("sets EXR compression; {} output is not EXR", out.name));
+    const bool pfm = o.input == "-" || o.output == "-" || in_ext == "pfm" || out_ext == "pfm";
+    if (given("--pfm-order") && !pfm) throw CLI::ValidationError("--pfm-order", "orders PFM rows; neither the input nor the output is PFM");
+}
+
 // A flare whose gains leave nothing (--gain 0, or every part's gain 0) is legal, as every gain of 0 is (a shot
 // file can switch the flare off and keep its settings), but the frames then pass through unchanged: a warning
 // says so, as a user who did not mean it would otherwise not know.
@@ -194,6 +215,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     if (args.memory_limit.empty()) o.in_flight_limit = kDefaultInFlightBytes;
     args.flare.memory = o.memory;
     check_output_options(args, app);
+    refuse_idle_options(args, app);
     if (!args.flare.layer.empty()) o.adds_channels = "--layer " + args.flare.layer;
     warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);

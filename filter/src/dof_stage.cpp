@@ -36,9 +36,12 @@ struct DofShared {
 
 namespace {
 
+// A sensor tilt beyond this (degrees, either axis) is refused: view cameras tilt up to about 45, tilt-shift lenses 8-15.
+constexpr double kMaxTiltDeg = 45.0;
+
 std::array<double, 2> parse_pair(const std::string& text, const char* what) {
-    if (const auto xy = parse_pair_of<double>(text, ',')) return *xy;
-    throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, not \"{}\"", what, text));
+    if (const auto xy = parse_pair_of<double>(text, ','); xy && std::abs((*xy)[0]) <= kMaxTiltDeg && std::abs((*xy)[1]) <= kMaxTiltDeg) return *xy;
+    throw std::runtime_error(fmt::format("{} must be AX,AY in degrees, each within +-{}, not \"{}\"", what, kMaxTiltDeg, text));
 }
 
 // "X,Y,METRES" of --focus-point, in display-window pixels: X and Y within a million pixels (as a track

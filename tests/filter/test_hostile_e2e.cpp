@@ -491,6 +491,32 @@ TEST(Hostile, BadOptionValuesAreUsageErrors) {
     fs::remove_all(dir);
 }
 
+// Class 10 (silent no-ops): an option that means something only with another, or for another kind of output, is a
+// usage error naming it; each was accepted and did nothing. Where it does apply, it is accepted.
+TEST(Hostile, OptionsThatWouldDoNothingAreRefused) {
+    const auto dir = scratch_dir("hostile-idle");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string run_to = lensfx_in(dir) + fmt::format(" -i {0}/in.exr --lens brendel-tessar --threshold 1e9 -q -o {0}/", d);
+    const std::vector<std::pair<std::string, std::string>> idle = {
+        {"o.exr --focus 2", "--focus"},          {"o.exr --tilt 5,0", "--tilt"},
+        {"o.exr --focus-point 1,1,2", "--focus-point"}, {"o.exr --dof-rays 8", "--dof-rays"},
+        {"o.exr --depth-scale 2", "--depth-scale"},     {"o.exr --dof-only", "--dof-only"},
+        {"o.exr --dither ordered", "--dither"},         {"o.pfm --compression zip", "--compression"},
+        {"o.png --compression zip", "--compression"},   {"o.exr --pfm-order top", "--pfm-order"},
+        {"o.exr --dof --focus 2 --tilt nan,0", "--tilt"}, {"o.exr --dof --focus 2 --tilt 89,0", "--tilt"}};
+    for (const auto& [args, option] : idle) {
+        const RunResult r = run(run_to + args);
+        expect_one_line_refusal(r, option);
+        EXPECT_EQ(r.exit_code, 2) << args << ": " << r.stderr_text;
+    }
+    for (const char* args : {"o.exr --compression zip", "o.png --dither ordered", "o.exr --dither none", "o.pfm --pfm-order top"}) {
+        const RunResult r = run(run_to + args);
+        EXPECT_EQ(r.exit_code, 0) << args << ": " << r.stderr_text;
+    }
+    fs::remove_all(dir);
+}
+
 // Class 10 (option values, every command): what CLI11's own conversion lets through (an empty value read as 0,
 // NaN past its range checks, "-1" wrapped to the largest unsigned, 99999999999999999999 saturated) and the
 // sizes past what the code can hold are usage errors in every command (exit 2, one line naming the option),
