@@ -244,6 +244,10 @@ std::string coating_value(const Coating& c) {
 
 }  // namespace
 
+// Thicknesses and clear semi-diameters beyond this (mm) are no lens's: 10 m. A thickness of 1e300 once made a lens
+// of focal length 0 and a 180-degree field that drew no flare and said nothing.
+constexpr double kMaxLengthMm = 1e4;
+
 void validate_lens(const Lens& lens, std::string_view origin) {
     const auto at = [&](std::size_t i, std::string_view field, const std::string& msg) {
         fail(origin, lens.surfaces[i].source_line, fmt::format("surface {}: {}: {}", i + 1, field, msg));
@@ -274,11 +278,13 @@ void validate_lens(const Lens& lens, std::string_view origin) {
         const bool next_to_stop = s.is_stop || (i + 1 < lens.surfaces.size() && lens.surfaces[i + 1].is_stop);
         for (double t : s.thickness_mm) {
             if (!std::isfinite(t)) at(i, "t", "not a finite number");
+            if (std::abs(t) > kMaxLengthMm) at(i, "t", fmt::format("{} mm is beyond any lens (at most {} mm)", t, kMaxLengthMm));
             if (t < 0.0 && (!after.is_air() || !next_to_stop || i + 1 == lens.surfaces.size()))
                 at(i, "t", fmt::format("negative thickness {} (allowed only for an air gap next to the stop)", t));
         }
         if (!std::isfinite(s.semi_diameter_mm) || s.semi_diameter_mm <= 0.0)
             at(i, "sd", fmt::format("clear semi-diameter {} must be positive", s.semi_diameter_mm));
+        if (s.semi_diameter_mm > kMaxLengthMm) at(i, "sd", fmt::format("{} mm is beyond any lens (at most {} mm)", s.semi_diameter_mm, kMaxLengthMm));
         if (s.radius_mm != 0.0 && s.semi_diameter_mm > std::abs(s.radius_mm) && s.aspheric.empty() && s.conic == 0.0)
             at(i, "sd", fmt::format("semi-diameter {} exceeds |r| = {}", s.semi_diameter_mm, std::abs(s.radius_mm)));
         if (!std::isfinite(s.conic)) at(i, "k", "not a finite number");
@@ -309,6 +315,8 @@ Lens parse_lens_toml(std::string_view text, std::string_view origin) {
     lens.notes = top.opt_string("notes").value_or("");
     lens.stated_focal_mm = top.numbers("focal_length", true);
     lens.stated_f_number = top.opt_number("f_number").value_or(0.0);
+    if (top.get("f_number") && !(lens.stated_f_number > 0.0 && std::isfinite(lens.stated_f_number)))
+        top.error("f_number", fmt::format("{} must be positive (the lens's widest aperture)", lens.stated_f_number));
     lens.zoom_focal_labels = top.numbers("zoom_labels", false);
     if (auto focus = top.opt_string("focus")) {
         if (*focus == "as-written") lens.sensor_as_written = true;

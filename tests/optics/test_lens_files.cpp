@@ -307,6 +307,15 @@ TEST(LensFile, ErrorsNameTheLineAndTheField) {
     EXPECT_NE(e.find("bad.toml:4:"), std::string::npos) << e;
     EXPECT_NE(e.find("surface 2: t: negative thickness"), std::string::npos) << e;
 
+    // No lens is 10 m thick or wide: 1e300 once gave a focal length of 0 and a flare of nothing, without a word.
+    e = error_for("  { stop = true, t = 1, sd = 5 },\n  { r = 50, t = 1e300, sd = 10, nd = 1.5 },\n  { r = -50, t = 40, sd = 10 },\n");
+    EXPECT_NE(e.find("bad.toml:4:"), std::string::npos) << e;
+    EXPECT_NE(e.find("surface 2: t: 1e+300 mm is beyond any lens"), std::string::npos) << e;
+    e = error_for("  { stop = true, t = 1, sd = 5 },\n  { r = 0, t = 5, sd = 1e30, nd = 1.5 },\n  { r = 0, t = 40, sd = 10 },\n");
+    EXPECT_NE(e.find("surface 2: sd: 1e+30 mm is beyond any lens"), std::string::npos) << e;
+    e = parse_error("name = \"bad\"\nf_number = -5\nsurfaces = [\n  { stop = true, t = 1, sd = 5 },\n  { r = 50, t = 5, sd = 10, nd = 1.5 },\n  { r = -50, t = 40, sd = 10 },\n]\n");
+    EXPECT_NE(e.find("f_number: -5 must be positive"), std::string::npos) << e;
+
     e = error_for("  { stop = true, t = 1, sd = 5 },\n  { r = 50, t = 5, sd = 10, glass = \"UNOBTAINIUM\" },\n  { r = -50, t = 40, sd = 10 },\n");
     EXPECT_NE(e.find("bad.toml:4:"), std::string::npos) << e;
     EXPECT_NE(e.find("glass: unknown glass 'UNOBTAINIUM'"), std::string::npos) << e;
