@@ -1,6 +1,7 @@
 // `lensfx -i IN -o OUT [options]`: the frame filter's command line, turned into PipelineOptions.
 // Effect stages (detection, flare, colour) are built in make_stages() from their own options.
 #include "commands.h"
+#include "exr_io.h"
 
 #include <algorithm>
 #include <cctype>
@@ -216,6 +217,7 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     args.flare.memory = o.memory;
     check_output_options(args, app);
     refuse_idle_options(args, app);
+    check_exr_compression(o.write.compression);
     if (!args.flare.layer.empty()) o.adds_channels = "--layer " + args.flare.layer;
     warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);

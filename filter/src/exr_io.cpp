@@ -514,4 +514,10 @@ std::vector<std::string> exr_views(const ImageSpec& spec) {
 
 void set_exr_threads(int threads) { Imf::setGlobalThreadCount(threads); }
 
+void check_exr_compression(const std::string& compression) {
+    if (compression.empty()) return;
+    Imf::Header header;
+    set_compression(header, compression);
+}
+
 }  // namespace lensfx::filter

@@ -40,6 +40,9 @@ Frame read_exr_memory(const std::string& bytes, const std::string& source, const
 // given compression ("piz", "zip", "dwaa:45"...); the widened copies are sized against `budget`. Attributes: the input's header when it was an EXR,
 // then the spec's chromaticities, pixel aspect and text attributes.
 void write_exr(const Frame& frame, const std::string& path, const std::string& compression, const MemoryBudget& budget = {});
+// Throws what write_exr would for this compression ("piz", "dwaa:45"...; empty: the input's) when it is not one, so
+// a bad --compression is refused before the first frame is rendered rather than when it is written.
+void check_exr_compression(const std::string& compression);
 
 // The same EXR as write_exr() would write, into memory (one image of a stream on stdout).
 std::string write_exr_memory(const Frame& frame, const std::string& compression, const MemoryBudget& budget = {});
