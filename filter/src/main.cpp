@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <system_error>
 #include <vector>
 #include <exception>
 #include <iostream>
@@ -106,6 +107,14 @@ int main(int argc, char** argv) {
     } catch (const std::bad_alloc&) {
         // An allocation no budget check foresaw: still one line, with what to do about it.
         say("out of memory (std::bad_alloc); give a lower --memory-limit so that lensfx refuses earlier");
+        return 1;
+    } catch (const std::system_error& e) {
+        // A thread or process a library started (OpenEXR's and OpenImageIO's pools, the GL driver's) that the system
+        // would not: its text alone ("Resource temporarily unavailable") does not say what to change.
+        const bool limit = e.code() == std::errc::resource_unavailable_try_again;
+        say(limit ? fmt::format("{}: the system would not start another thread (a limit on threads, processes or memory: ulimit -u, "
+                                "ulimit -v); lower --threads or --queue-depth", e.what())
+                  : std::string(e.what()));
         return 1;
     } catch (const std::exception& e) {
         say(e.what());
