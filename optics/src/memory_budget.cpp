@@ -8,6 +8,7 @@
 #include <string>
 
 #include <fmt/core.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace lensfx {
@@ -88,6 +89,13 @@ double cgroup_memory_limit() {
 MemoryBudget default_memory_budget() {
     double memory = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
     if (const double cgroup = cgroup_memory_limit(); cgroup > 0.0 && (cgroup < memory || !(memory > 0.0))) memory = cgroup;
+    // A process limit (ulimit -v, ulimit -d) lower than that: half of it too, so that a frame too large for it is
+    // refused by the budget in a line that says so rather than failing an allocation (std::bad_alloc).
+    for (const int resource : {RLIMIT_AS, RLIMIT_DATA}) {
+        rlimit limit{};
+        if (::getrlimit(resource, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY && static_cast<double>(limit.rlim_cur) < memory)
+            memory = static_cast<double>(limit.rlim_cur);
+    }
     if (!(memory > 0.0)) return {};
     return MemoryBudget{static_cast<std::size_t>(memory / 2.0)};
 }

@@ -16,6 +16,9 @@
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
+#include <sys/wait.h>
+#include <sys/resource.h>
 
 #include <filter/colour.h>
 #include <filter/image_io.h>
@@ -117,6 +120,24 @@ TEST(MemoryBudget, DefaultIsHalfOfTheMachine) {
     const double physical = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));
     EXPECT_LE(static_cast<double>(budget.limit), physical / 2.0 + 1.0);
     EXPECT_GT(budget.limit, std::size_t{64} << 20);
+}
+
+// Under a process limit (ulimit -v) lower than the machine's memory, half of that: a 20000 x 20000 frame under
+// `ulimit -v 2000000` then is refused by the budget in words, where it ended in std::bad_alloc. In a child process,
+// which takes the limit.
+TEST(MemoryBudget, DefaultIsHalfOfTheProcessLimit) {
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        const rlimit one_gib{std::size_t{1} << 30, std::size_t{1} << 30};
+        if (::setrlimit(RLIMIT_AS, &one_gib) != 0) ::_exit(3);
+        const MemoryBudget budget = default_memory_budget();
+        ::_exit(budget.limited() && budget.limit == (std::size_t{1} << 29) ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
 // The tables of a lens grow with the cube of its surfaces (ghosts by the square, their sequences by the

@@ -36,8 +36,8 @@ std::string format_bytes(double bytes);
 // optional trailing "B" or "iB" is accepted; "0" or "none": no limit. Throws std::invalid_argument.
 MemoryBudget parse_memory_limit(std::string_view text);
 
-// The default budget: half of the machine's memory (the physical memory, or the cgroup's limit when it is
-// lower), so one run never takes the machine down with it.
+// The default budget: half of the machine's memory (the physical memory, or the cgroup's limit or the process's
+// address-space or data limit when lower), so one run never takes the machine down with it.
 MemoryBudget default_memory_budget();
 
 // --memory-limit's help text, shared by the commands that take it.
