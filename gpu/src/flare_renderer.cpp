@@ -139,6 +139,9 @@ struct GhostPrograms {
     const Program& triangles(const GhostPlan& plan, int rim_mode) const {
         return plan.area_coverage ? area : rim_mode != 0 ? raster : plan.faint ? faint : indexed;
     }
+    // Whether a program draws a ghost's grid by the triangle indices its shade pass wrote (each vertex shaded
+    // once), not each triangle's corners alone.
+    bool by_indices(const Program& program) const { return &program == &indexed || &program == &faint; }
 };
 
 // The buffers the passes read and write: the vertex array, the traced vertices (grown as passes ask for them,
@@ -743,6 +746,18 @@ struct GhostDrawValues {
 
 }  // namespace
 
+// The finest level (1, 2 ... 16) whose targets the GL holds for a frame of width x height: at full size only the width
+// counts (the full-size target is drawn in bands of rows), reduced both. Throws when not even 1/16 fits.
+int level_that_fits(int width, int height) {
+    GLint max_size = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    for (int level = 1; level <= 16; level *= 2) {
+        const bool fits = flare::reduced_side(width, level) <= max_size && (level == 1 || flare::reduced_side(height, level) <= max_size);
+        if (fits) return level;
+    }
+    throw std::invalid_argument(fmt::format("a {}x{} frame: not even its 1/16 fits the GL's largest texture ({} px)", width, height, max_size));
+}
+
 // One FlareRenderer::draw as named steps over what they share (the fitted ghosts and their selection, the
 // passes and their traced systems, the full-size bands): set up, estimate the lights, cull against the
 // scene, then per band, light and pass plan the ghosts and trace and raster them batch by batch; read back.
@@ -793,6 +808,9 @@ private:
     LightVerdicts verdicts_;                 // per light, pass, ghost; empty: no scene culling
     std::vector<SmallList> small_lists_;     // the batch being drawn's, per job
     int image_level_ = 1;                    // read back at 1/image_level_ of the view, no ghost drawn finer
+    // No ghost drawn finer than this: 1, or for a frame wider than the GL's largest texture (a panorama past 16384 px
+    // on llvmpipe) the first level whose targets it holds (the full-size target's bands split rows, not columns).
+    int fit_level_ = 1;
 
     void set_up_gl();
     FloatTarget& full_target() { return s_.targets.full(view_.width, bands_.target_rows()); }
@@ -853,6 +871,10 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
         }
     }
     set_up_gl();
+    fit_level_ = level_that_fits(view.width, view.height);
+    if (fit_level_ > 1 && options.per_ghost_power)
+        throw std::invalid_argument(fmt::format("per-ghost power needs the full-size target, and a {}x{} frame is wider than the GL's "
+                                                "largest texture", view.width, view.height));
     powers_.resize(ghosts_.size());
     for (std::size_t g = 0; g < ghosts_.size(); ++g) powers_[g] = {ghosts_[g].first, ghosts_[g].second, {}};
     if (options.per_ghost_power) accumulated_.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0);
@@ -1173,7 +1195,7 @@ void FlareRenderer::Drawing::draw_light(std::size_t l) {
 PassPlan FlareRenderer::Drawing::pass_plan(std::size_t l, std::size_t p) const {
     const DetailSettings detail{options_.accel,        options_.grid,        view_.sensor_width_mm / view_.width,
                                 options_.per_ghost_power, options_.batch_faint,
-                                std::max(spread_level(options_.spread), image_level_)};
+                                std::max({spread_level(options_.spread), image_level_, fit_level_})};
     return plan_pass(estimates_[l].pass[p], pass_total_[p], verdicts_[l].empty() ? std::vector<SceneVerdict>{} : verdicts_[l][p],
                      selection_, detail, band_);
 }
@@ -1303,7 +1325,7 @@ void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw&
     const GhostPlan& plan = pd.plans[job.ghost];
     const Program& program = ghost_uniforms(job, pd, reduce, rim_mode);
     const auto corners = 6 * plan.grid * plan.grid;  // two triangles a cell
-    if (&program == &s_.programs.indexed || &program == &s_.programs.faint)
+    if (s_.programs.by_indices(program))
         glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
     else
         glDrawArrays(GL_TRIANGLES, 0, corners);

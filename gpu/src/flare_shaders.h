@@ -760,10 +760,10 @@ float pixels_inside(float f) {
 // pixel wide, a straight edge's box-filtered coverage. A cut taken at the pixel's centre alone is a hard,
 // stair-stepped edge; the dense reference's rays cover the pixel. Where f does not change across the pixel, the
 // pixel is wholly on one side.
-float inside_share(float f) { return clamp(0.5 + pixels_inside(f), 0.0, 1.0); }
-// The same over a part of the pixel `width` pixels across (area coverage: the part a small triangle covers, f
-// taken at its centroid): a part far smaller than the pixel is cut where its centroid is.
+// Over a part of the pixel `width` pixels across (area coverage: the part a small triangle covers, f taken at its
+// centroid), the ramp is that part's width: a part far smaller than the pixel is cut where its centroid is.
 float inside_share(float f, float width) { return clamp(0.5 + pixels_inside(f) / width, 0.0, 1.0); }
+float inside_share(float f) { return inside_share(f, 1.0); }
 
 #ifndef INDEXED
 // The rim pass's share of the pixel (rim_mode 1 or 2), from its distance to the rim at its centre: to r_rel = 1,

@@ -63,6 +63,32 @@ TEST(MemoryFit, BandedFullTargetEqualsTheWholeOne) {
     EXPECT_LT(render_target_bytes(8192, 8192), 0.8e9);  // 8K: a 1.07 GB full target before
 }
 
+// A frame wider than the GL's largest texture (16384 px on llvmpipe; a panorama): the full-size target's bands split
+// rows, not columns, so its ghosts are drawn at the first level that fits (here 1/2) and enlarged, even where the
+// level of detail would draw them at full size (reduced drawing off); they once failed the frame ("render target size
+// 17000x64 exceeds GL_MAX_TEXTURE_SIZE"). Their light is that of the same view at half the pixels.
+TEST(MemoryFit, FramesWiderThanTheLargestTextureDrawTheirGhostsReduced) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    GpuFlareOptions options;
+    options.accel.reduced = false;
+    FlareView view;
+    view.angle_x_deg = 0.3;
+    view.width = 17000;
+    view.height = 64;
+    view.sensor_height_mm = view.sensor_width_mm * view.height / view.width;
+    const FlareImage wide = renderer.render(system, view, options);
+    view.width /= 2;
+    view.height /= 2;
+    const FlareImage half = renderer.render(system, view, options);
+    const double wide_pixel = 4.0, half_pixel = 1.0;  // the wide frame's pixels have a quarter of the area
+    for (int c = 0; c < 3; ++c) {
+        ASSERT_GT(channel_sum(half, c), 0.0) << c;
+        EXPECT_NEAR(channel_sum(wide, c) / wide_pixel, channel_sum(half, c) / half_pixel, 0.02 * channel_sum(half, c)) << c;
+    }
+}
+
 // A lens of 101 surfaces (about 4900 ghosts) under a budget that holds its ghost list but not every
 // ghost's steps: the brightest that fit, and the share of the power left out; a budget smaller than the
 // list is refused naming the lens, its ghosts and the limit.

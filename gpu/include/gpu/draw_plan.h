@@ -147,7 +147,7 @@ struct FullBands {
     int drawn_end(int b) const {
         if (count == 1) return image_rows;
         const int below = std::min(image_rows, end(b) + kMargin);
-        return std::min(image_rows, below + ((image_rows - below) & 1));
+        return below + ((image_rows - below) & 1);  // never past the image: an odd gap is at least a row
     }
     int rows_drawn(int b) const { return drawn_end(b) - drawn_first(b); }
     int target_rows() const { return count == 1 ? image_rows : std::min(image_rows, rows_per_band + 2 * kMargin + 1); }
