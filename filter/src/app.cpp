@@ -104,7 +104,11 @@ std::string bound_wording(std::string text) {
         if (text.compare(value, bottom.size(), bottom) == 0) {
             text.replace(at, range.size() + bottom.size(), "must be at most ");
         } else if (const std::size_t end = text.find(top, value); end != std::string::npos && text.find(' ', value) == end) {
-            text = text.substr(0, at) + "must be at least " + text.substr(value, end - value) + text.substr(end + top.size());
+            // The value itself refused at the bound: the bound is strict (CLI::PositiveNumber's "0 to ...").
+            const std::string bound = text.substr(value, end - value);
+            const std::size_t said = text.rfind("Value ", at);
+            const bool at_bound = said != std::string::npos && text.compare(said + 6, at - 1 - (said + 6), bound) == 0;
+            text = text.substr(0, at) + (at_bound ? "must be above " : "must be at least ") + bound + text.substr(end + top.size());
         }
     }
     return text;

@@ -91,6 +91,11 @@ TEST_F(Cli, UsageErrorsExitTwoWithOneLine) {
         EXPECT_LT(r.err.size(), 160u) << args << ": " << r.err;
         EXPECT_FALSE(std::regex_search(r.err, std::regex(R"(\d{12})"))) << args << ": " << r.err;
     }
+    // A bound the value is refused at is strict: "0 must be above 0", not "0 must be at least 0".
+    r = lensfx("-i " + p("in.exr") + " -o " + p("out.exr") + " --lens cooke-triplet --fstop 0");
+    EXPECT_EQ(r.err, "lensfx: --fstop: Value 0 must be above 0\n");
+    r = lensfx("-i " + p("in.exr") + " -o " + p("out.exr") + " --visibility -1");
+    EXPECT_EQ(r.err, "lensfx: --visibility: Value -1 must be at least 0\n");
     // A failed run is exit 1.
     EXPECT_EQ(lensfx("-i " + p("missing.exr") + " -o " + p("out.exr")).exit_code, 1);
     EXPECT_FALSE(fs::exists(p("out.exr")));
