@@ -871,10 +871,6 @@ FlareRenderer::Drawing::Drawing(State& state, const System& system, const FlareV
         }
     }
     set_up_gl();
-    fit_level_ = level_that_fits(view.width, view.height);
-    if (fit_level_ > 1 && options.per_ghost_power)
-        throw std::invalid_argument(fmt::format("per-ghost power needs the full-size target, and a {}x{} frame is wider than the GL's "
-                                                "largest texture", view.width, view.height));
     powers_.resize(ghosts_.size());
     for (std::size_t g = 0; g < ghosts_.size(); ++g) powers_[g] = {ghosts_[g].first, ghosts_[g].second, {}};
     if (options.per_ghost_power) accumulated_.assign(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height) * 3, 0.0);
@@ -1168,6 +1164,12 @@ void FlareRenderer::Drawing::cull_scene() {
 
 void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
     band_ = band;
+    if (band == 0) {  // after the estimates: a frame no level of which fits fails with its bounds tables unsaved
+        fit_level_ = level_that_fits(view_.width, view_.height);
+        if (fit_level_ > 1 && options_.per_ghost_power)
+            throw std::invalid_argument(fmt::format("per-ghost power needs the full-size target, and a {}x{} frame is wider than the GL's "
+                                                    "largest texture", view_.width, view_.height));
+    }
     if (!ghosts_.empty())
         for (std::size_t l = 0; l < lights_.size(); ++l)
             draw_light(l);
