@@ -144,6 +144,7 @@ Lens parse_pbrt_dat(std::string_view text, std::string_view origin) {
         fail(origin, lens.surfaces.back().source_line,
              fmt::format("the paraxial focus lies {:.4g} mm before the last surface: no real image to put the sensor at", bfl));
     lens.surfaces.back().thickness_mm = {bfl};
+    validate_lens(lens, origin);  // the back focal distance too: a nearly afocal lens focuses past any sensor (10 m)
     return lens;
 }
 

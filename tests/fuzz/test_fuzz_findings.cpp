@@ -52,6 +52,17 @@ TEST(FuzzFindings, PbrtIndexOutsideTheLensFormatsRangeIsRefused) {
     expect_round_trip(optics::parse_pbrt_dat(with_eta("1.603"), "tele.dat"));
 }
 
+// fuzz_lens_pbrt: a nearly afocal lens whose paraxial focus lies 116 m behind its last surface was imported
+// with that back focal distance as its last thickness, which the TOML reader refuses (no lens is 10 m long).
+// The importer now checks the thickness it sets as the reader would.
+TEST(FuzzFindings, PbrtBackFocalDistanceBeyondAnyLensIsRefused) {
+    const std::string rows = "# SIGLE152\t1.529\t47.5\r\t18\t3.755\t1.599\t44.5\r\n271.7625\t2.8175\t1.599\t44.5\r\n"
+                             "271.7625\t2.8175\t1\t41.5\r\n0\t65\t0\t40.37\r\n";
+    const std::string error = lens_error([&] { optics::parse_pbrt_dat(rows, "afocal.dat"); });
+    EXPECT_NE(error.find("afocal.dat:4: surface 3: t: 116361.5"), std::string::npos) << error;
+    EXPECT_NE(error.find("mm is beyond any lens"), std::string::npos) << error;
+}
+
 // fuzz_lens_lentil: an Abbe number of 319 was imported (the TOML reader takes (0, 150]).
 TEST(FuzzFindings, LentilAbbeNumberOutsideTheLensFormatsRangeIsRefused) {
     const std::string rows = "# x\n40.82 2.0 abbe 1.883 40.81 22\n12.969 12.306 air 12.7\n100000 1.1 iris 6\n"
