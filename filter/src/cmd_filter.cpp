@@ -107,6 +107,7 @@ std::string lower_extension(const std::string& path) {
 struct OutputKind {
     bool extra_channels = false;
     bool display_referred = false;
+    bool exr = false;  // an EXR file or stream (a stream input's format, not known yet, counts)
     std::string name;  // for messages: "PNG", "EXR stream"...
 };
 
@@ -117,12 +118,14 @@ OutputKind output_kind(const PipelineOptions& o) {
         k.name = fmt::format("{} stream", to_string(f));
         // Without --stream-format a stream input's format goes on: known once its first byte is read.
         k.extra_channels = f == StreamFormat::exr && (o.stream_format.has_value() || o.input != "-");
+        k.exr = f == StreamFormat::exr;
         return k;
     }
     const std::string ext = lower_extension(o.output);
     k.name = ext.empty() ? o.output : ext;
     std::transform(k.name.begin(), k.name.end(), k.name.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
-    k.extra_channels = ext == "exr" || ext == "sxr" || ext == "mxr" || ext == "tif" || ext == "tiff";
+    k.exr = ext == "exr" || ext == "sxr" || ext == "mxr";
+    k.extra_channels = k.exr || ext == "tif" || ext == "tiff";
     k.display_referred = colour::is_display_referred_format(o.output);
     return k;
 }
@@ -160,8 +163,7 @@ void refuse_idle_options(const FilterArgs& args, const CLI::App& app) {
     if (given("--dither") && args.colour.dither_mode() != colour::Dither::None && !out.display_referred && o.output != "-")
         throw CLI::ValidationError("--dither", fmt::format("dithers display files' code values (PNG, JPEG...); {} output keeps float values", out.name));
     const std::string in_ext = lower_extension(o.input), out_ext = lower_extension(o.output);
-    const bool exr_out = o.output == "-" ? !o.stream_format || *o.stream_format == StreamFormat::exr : out.name == "EXR" || out.name == "SXR" || out.name == "MXR";
-    if (given("--compression") && !exr_out)
+    if (given("--compression") && !out.exr)
         throw CLI::ValidationError("--compression", fmt::format("sets EXR compression; {} output is not EXR", out.name));
     const bool pfm = o.input == "-" || o.output == "-" || in_ext == "pfm" || out_ext == "pfm";
     if (given("--pfm-order") && !pfm) throw CLI::ValidationError("--pfm-order", "orders PFM rows; neither the input nor the output is PFM");

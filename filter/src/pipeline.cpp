@@ -269,9 +269,10 @@ StreamFormat output_stream_format(const PipelineOptions& o, const Plan& plan) {
 
 // Every frame a frame list names (--frames, or frames in the pattern) exists, or the run is refused before it
 // writes anything: a missing frame found by the reader stopped the run after the frames before it had replaced
-// their outputs. Stops at the first missing one, so a range of billions costs what its frames on disk do.
-void require_listed_frames(const Plan& plan) {
-    if (!plan.in_pattern.is_sequence) return;
+// their outputs. Stops at the first missing one, so a range of billions costs what its frames on disk do. A list
+// scanned from the disk (no list given) holds only frames it found there, and is not looked at again.
+void require_listed_frames(const Plan& plan, const PipelineOptions& o) {
+    if (!plan.in_pattern.is_sequence || (o.frames.empty() && plan.in_pattern.frames.empty())) return;
     for (std::uint64_t i = 0; i < plan.numbers.size(); ++i) {
         const std::string path = plan.in_pattern.path(plan.numbers[i]);
         std::error_code ec;
@@ -300,7 +301,7 @@ Plan make_plan(const PipelineOptions& o) {
     }
     plan.in_pattern = parse_pattern(o.input);
     plan.numbers = frames_to_read(o.input, o.frames, o.quiet);
-    if (!o.skip_bad_frames) require_listed_frames(plan);
+    if (!o.skip_bad_frames) require_listed_frames(plan, o);
     if (!plan.stream_out && !plan.out_pattern.is_sequence && plan.numbers.size() > 1) {
         throw std::runtime_error(fmt::format("{}: the output has no frame-number token but the input has {} frames", o.output, plan.numbers.size()));
     }
