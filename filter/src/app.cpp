@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cstdio>
 #include <cctype>
+#include <fstream>
 #include <set>
 #include <string>
 #include <string_view>
@@ -148,6 +149,60 @@ std::string other_spelling(const std::string& text) {
     return out;
 }
 
+// The --config file the parse read, as given; "" when none was.
+std::string config_file(const CLI::App& app) {
+    const CLI::Option* config = app.get_config_ptr();
+    return config != nullptr && !config->results().empty() ? config->results().back() : std::string();
+}
+
+// `text` without the spaces, tabs and one pair of double quotes round it.
+std::string_view unquoted(std::string_view text) {
+    while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
+    while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\r')) text.remove_suffix(1);
+    if (text.size() >= 2 && text.front() == '"' && text.back() == '"') text = text.substr(1, text.size() - 2);
+    return text;
+}
+
+// The first line (from 1) of the TOML file that sets `key` ("key = ...", quoted or not, or "section.key = ..."),
+// 0 when none does or the file cannot be read.
+int config_line(const std::string& file, std::string_view key) {
+    std::ifstream in(file);
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+        const std::size_t equals = line.find('=');
+        if (equals == std::string::npos) continue;
+        std::string_view name = unquoted(std::string_view(line).substr(0, equals));
+        if (const std::size_t dot = name.rfind('.'); dot != std::string_view::npos) name = unquoted(name.substr(dot + 1));
+        if (name == key) return number;
+    }
+    return 0;
+}
+
+// "--config FILE, line N" (or without the line where no line sets `key`).
+std::string config_place(const std::string& file, std::string_view key) {
+    const int line = config_line(file, key);
+    return line > 0 ? fmt::format("--config {}, line {}", file, line) : fmt::format("--config {}", file);
+}
+
+// A usage error that a --config file caused, said with the file and its line: a key no option has (CLI11: "INI was
+// not able to parse KEY"), or a bad value of an option the command line did not give. "" when it is neither.
+std::string config_error(const CLI::App& app, const std::string& message, const std::vector<std::string>& args) {
+    const std::string file = config_file(app);
+    if (file.empty()) return {};
+    if (const std::string unknown = "INI was not able to parse "; message.rfind(unknown, 0) == 0) {
+        std::string key = message.substr(unknown.size());
+        if (const std::size_t dot = key.rfind('.'); dot != std::string::npos) key = key.substr(dot + 1);
+        const std::string hint = nearest("--" + key, option_names(active(app)));
+        return fmt::format("{}: unknown key {}{}", config_place(file, key), key,
+                           hint.rfind("--", 0) == 0 ? fmt::format(" (did you mean {}?)", hint.substr(2)) : std::string());
+    }
+    if (message.rfind("--", 0) != 0) return {};
+    const std::string option = message.substr(0, message.find_first_of(": "));
+    const bool given = std::any_of(args.begin(), args.end(), [&](const std::string& a) { return a == option || a.rfind(option + "=", 0) == 0; });
+    if (given || config_line(file, option.substr(2)) == 0) return {};
+    return fmt::format("{}: {}", config_place(file, option.substr(2)), message);
+}
+
 }  // namespace
 
 std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const char* const* argv) {
@@ -168,8 +223,10 @@ std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const
     return args;
 }
 
-std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e) {
+std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e, const std::vector<std::string>& args) {
     std::string message = readable_numbers(e.what());
+    if (!message.empty() && message.back() == '\n') message.pop_back();
+    if (std::string in_config = config_error(app, message, args); !in_config.empty()) return in_config;
     // An unknown option is the likelier cause of any error (a misspelt --angle is also a missing one).
     {
         const CLI::App& where = active(app);

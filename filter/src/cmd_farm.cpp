@@ -49,6 +49,10 @@ struct FarmSettings {
     int local_jobs = 1;
     std::vector<std::string> sbatch_options;  // extra #SBATCH lines (--partition=x, --time=1:00:00)
     std::vector<std::string> filter_options;  // everything else: the filter's options, passed to every task
+    // -q (--quiet) among them: the farm too says nothing but its errors (and, not waiting, the job it submitted).
+    bool quiet() const {
+        return std::any_of(filter_options.begin(), filter_options.end(), [](const std::string& o) { return o == "-q" || o == "--quiet"; });
+    }
 };
 
 // One task of the array: its 1-based index (SLURM_ARRAY_TASK_ID) and frames.
@@ -412,11 +416,15 @@ bool is_final_state(const std::string& state) {
 // One sbatch --array per try, followed through scontrol (works without Slurm's accounting database).
 class SlurmEngine : public Engine {
 public:
-    explicit SlurmEngine(bool wait) : wait_(wait) {}
+    SlurmEngine(bool wait, bool quiet) : wait_(wait), quiet_(quiet) {}
     std::string name() const override { return "slurm"; }
 
     std::vector<TaskResult> run(const FarmPlan& plan, const std::vector<int>& chunks, int attempt) override {
         const std::string job = submit(plan, chunks, attempt);
+        if (!wait_ && quiet_) {
+            fmt::print("{}\n", job);  // the job id alone, as `sbatch --parsable` prints it
+            return {};
+        }
         if (!wait_) {
             fmt::print("lensfx farm: submitted job {} ({} tasks, chunks {}) from {}\n"
                        "  follow:  squeue -j {}   (sacct -j {} where accounting is on; scontrol show job {})\n"
@@ -425,7 +433,7 @@ public:
                        job, chunks.size(), chunk_ids(chunks), plan.script.string(), job, job, job, plan.logs.string(), job);
             return {};
         }
-        fmt::print(stderr, "lensfx farm: job {} (chunks {}, try {})\n", job, chunk_ids(chunks), attempt);
+        if (!quiet_) fmt::print(stderr, "lensfx farm: job {} (chunks {}, try {})\n", job, chunk_ids(chunks), attempt);
         return follow(plan, job);
     }
 
@@ -482,6 +490,7 @@ private:
         }
     }
     bool wait_;
+    bool quiet_;
 };
 
 // Whether a Slurm controller answers here (sinfo reaches it).
@@ -491,9 +500,9 @@ std::unique_ptr<Engine> make_engine(const FarmSettings& s) {
     std::string engine = s.engine;
     if (engine == "auto") {
         engine = slurm_answers() ? "slurm" : "local";
-        if (engine == "local") fmt::print(stderr, "lensfx farm: no Slurm scheduler answers (sinfo); running the chunks here\n");
+        if (engine == "local" && !s.quiet()) fmt::print(stderr, "lensfx farm: no Slurm scheduler answers (sinfo); running the chunks here\n");
     }
-    if (engine == "slurm") return std::make_unique<SlurmEngine>(s.wait);
+    if (engine == "slurm") return std::make_unique<SlurmEngine>(s.wait, s.quiet());
     return std::make_unique<LocalEngine>(s.local_jobs);
 }
 
@@ -601,8 +610,9 @@ void run_farm(FarmSettings& s) {
     track_shot(plan, s);
     write_job_script(plan, s);
     auto engine = make_engine(s);
-    fmt::print(stderr, "lensfx farm: {} frames in {} chunks ({} to render, {} complete already), engine {}, job script {}\n", plan.frames.size(),
-               plan.chunks.size(), todo.size(), plan.chunks.size() - todo.size(), engine->name(), plan.script.string());
+    if (!s.quiet())
+        fmt::print(stderr, "lensfx farm: {} frames in {} chunks ({} to render, {} complete already), engine {}, job script {}\n",
+                   plan.frames.size(), plan.chunks.size(), todo.size(), plan.chunks.size() - todo.size(), engine->name(), plan.script.string());
     std::map<int, ChunkRecord> records;
     for (int attempt = 1; !todo.empty() && attempt <= s.retries + 1; ++attempt) {
         std::vector<TaskResult> results = engine->run(plan, todo, attempt);
@@ -614,13 +624,13 @@ void run_farm(FarmSettings& s) {
             if (r.ok) continue;
             records[r.chunk].failures.push_back(failure_text(r, attempt));
             todo.push_back(r.chunk);
-            fmt::print(stderr, "lensfx farm: chunk {} failed: {}\n", r.chunk, failure_text(r, attempt));
+            if (!s.quiet()) fmt::print(stderr, "lensfx farm: chunk {} failed: {}\n", r.chunk, failure_text(r, attempt));
         }
         std::sort(todo.begin(), todo.end());
     }
-    if (const std::size_t n = remove_stale_temporaries(plan); n > 0)
+    if (const std::size_t n = remove_stale_temporaries(plan); n > 0 && !s.quiet())
         fmt::print(stderr, "lensfx farm: removed {} temporary files left by killed tasks\n", n);
-    print_report(plan, records, std::chrono::duration<double>(Clock::now() - start).count());
+    if (!s.quiet()) print_report(plan, records, std::chrono::duration<double>(Clock::now() - start).count());
     if (!todo.empty()) {
         const ChunkRecord& rec = records[todo.front()];
         throw std::runtime_error(fmt::format("farm: chunk {} (frames {}) failed {} times, last {}; {} chunks unfinished, --resume renders them",

@@ -18,8 +18,9 @@ namespace lensfx::filter {
 // The whole command line: every command and option, their callbacks installed, nothing run or parsed.
 std::unique_ptr<CLI::App> build_app();
 // A usage error (unknown option, bad value) as the one line after "lensfx: ": "did you mean" for an
-// unknown option near a known one, numbers printed short.
-std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e);
+// unknown option near a known one, numbers printed short, and the --config file and line where a shot file's
+// key caused it. args: the command line after argv[0] (an option given there is not the file's).
+std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e, const std::vector<std::string>& args);
 // The first "--name=" with nothing after the '=' (CLI11 would take the next argument as its value), or "".
 std::string empty_value_option(int argc, const char* const* argv);
 // The arguments after argv[0] with each unknown long option spelled "colour" or "color" replaced by the

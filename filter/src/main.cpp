@@ -91,18 +91,19 @@ int main(int argc, char** argv) {
         return 2;
     }
     const std::unique_ptr<CLI::App> app = build_app();
+    std::vector<std::string> args;
     try {
         refuse_special_config(argc, argv);
-        std::vector<std::string> args = normalise_spelling(*app, argc, argv);
-        std::reverse(args.begin(), args.end());  // CLI11 takes them last first
-        app->parse(args);
+        args = normalise_spelling(*app, argc, argv);
+        std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
+        app->parse(reversed);
     } catch (const CLI::CallForHelp& e) {
         return flushed(app->exit(e));
     } catch (const CLI::CallForAllHelp& e) {
         return flushed(app->exit(e));
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return flushed(app->exit(e));
-        say(usage_error_message(*app, e));
+        say(usage_error_message(*app, e, args));
         return 2;
     } catch (const std::bad_alloc&) {
         // An allocation no budget check foresaw: still one line, with what to do about it.

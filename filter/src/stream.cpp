@@ -60,13 +60,16 @@ std::string header_token(std::FILE* in) {
     return token;
 }
 
+constexpr long kMaxPfmSide = 1 << 16;  // the widest and tallest PFM image read (pixels)
+
 int header_int(std::FILE* in, std::string_view what) {
     const std::string token = header_token(in);
     char* end = nullptr;
     const long value = std::strtol(token.c_str(), &end, 10);
-    if (end != token.c_str() + token.size() || value < 1 || value > (1 << 16)) {
+    if (end != token.c_str() + token.size() || value < 1) {
         throw std::runtime_error(fmt::format("malformed PFM header: {} \"{}\"", what, token));
     }
+    if (value > kMaxPfmSide) throw std::runtime_error(fmt::format("PFM image {} {} is over the {} pixels lensfx reads", what, token, kMaxPfmSide));
     return static_cast<int>(value);
 }
 

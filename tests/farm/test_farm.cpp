@@ -178,6 +178,10 @@ TEST_P(FarmTest, KilledChunkIsRetriedAndFramesMatchOneProcess) {
     EXPECT_EQ(again.exit_code, 0) << again.stderr_text;
     EXPECT_NE(again.stderr_text.find("24 of 24 frames complete: 0 rendered, 24 complete already"), std::string::npos) << again.stderr_text;
     EXPECT_EQ(complete_frames(), before);
+    // -q: the farm says nothing either (stdout and stderr together here).
+    const auto quiet = farm("--resume -q");
+    EXPECT_EQ(quiet.exit_code, 0) << quiet.stderr_text;
+    EXPECT_EQ(quiet.stderr_text, "");
 }
 
 TEST_P(FarmTest, ResumeRendersOnlyWhatIsMissing) {

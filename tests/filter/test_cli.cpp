@@ -170,6 +170,23 @@ TEST_F(Cli, ReportOnStdoutHoldsTheOptionsAndConfigRepeatsTheRun) {
     EXPECT_EQ(lensfx("-i " + p("in.exr") + " -o - --report -").exit_code, 1);
 }
 
+// A shot file's mistakes name the file and the line: a key no option has (with the near one), a bad value. The
+// same value given on the command line is the command line's error.
+TEST_F(Cli, ConfigErrorsNameTheFileAndLine) {
+    std::ofstream(p("typo.toml")) << "input = \"" << p("in.exr") << "\"\n# exposure below\ntreshold = 5\n";
+    Output r = lensfx("--config " + p("typo.toml") + " -o " + p("t.exr"));
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err, "lensfx: --config " + p("typo.toml") + ", line 3: unknown key treshold (did you mean threshold?)\n");
+    std::ofstream(p("value.toml")) << "input = \"" << p("in.exr") << "\"\n\nexposure = \"bright\"\n";
+    r = lensfx("--config " + p("value.toml") + " -o " + p("t.exr"));
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err.rfind("lensfx: --config " + p("value.toml") + ", line 3: --exposure: ", 0), 0u) << r.err;
+    r = lensfx("--config " + p("value.toml") + " --exposure dim -o " + p("t.exr"));
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err.rfind("lensfx: --exposure: ", 0), 0u) << r.err;
+    EXPECT_FALSE(fs::exists(p("t.exr")));
+}
+
 TEST_F(Cli, VersionNamesTheBuildAndTheLibraries) {
     const auto t0 = std::chrono::steady_clock::now();
     const Output r = lensfx("--version");

@@ -99,6 +99,17 @@ TEST(Pfm, TruncatedOrMalformedThrows) {
     EXPECT_THROW(read_pfm(bad_size.get(), true), std::runtime_error);
 }
 
+// A well-formed header of an image wider than lensfx reads says so, not that the header is malformed.
+TEST(Pfm, TooWideSaysHowWideItReads) {
+    auto wide = memory_file("PF\n100000 2\n-1.0\n");
+    try {
+        read_pfm(wide.get(), true);
+        FAIL() << "a 100000-wide PFM was read";
+    } catch (const std::runtime_error& e) {
+        EXPECT_STREQ(e.what(), "PFM image width 100000 is over the 65536 pixels lensfx reads");
+    }
+}
+
 TEST(Pfm, WriteReadRoundTripInBothOrders) {
     auto src = memory_file("PF\n2 3\n-1.0\n" + floats({1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18}));
     const Frame frame = *read_pfm(src.get(), true);
