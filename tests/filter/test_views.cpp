@@ -34,9 +34,12 @@ std::vector<float> plane(int lamp_x, int c) {
     return px;
 }
 
-// Views right (default: R, G, B) and left (left.R, left.G, left.B), as the multiView attribute names them.
-void write_stereo(const fs::path& path) {
-    Imf::Header header(W, H);
+// Views right (default: R, G, B) and left (left.R, left.G, left.B), as the multiView attribute names them;
+// over the whole W x H display window, or only the central half of it (`inner`).
+void write_stereo(const fs::path& path, bool inner = false) {
+    const Imath::Box2i display({0, 0}, {W - 1, H - 1});
+    const Imath::Box2i data = inner ? Imath::Box2i({W / 4, H / 4}, {3 * W / 4 - 1, 3 * H / 4 - 1}) : display;
+    Imf::Header header(display, data);
     header.insert("multiView", Imf::StringVectorAttribute({"right", "left"}));
     std::vector<std::vector<float>> planes;
     planes.reserve(6);  // the slices point into them
@@ -51,16 +54,18 @@ void write_stereo(const fs::path& path) {
         }
     Imf::OutputFile out(path.c_str(), header);
     out.setFrameBuffer(fb);
-    out.writePixels(H);
+    out.writePixels(data.max.y - data.min.y + 1);
 }
 
+// A channel over the W x H display window: -1 where the file has no such channel, 0 outside its data window.
 std::vector<float> read_channel(const fs::path& path, const std::string& name) {
-    std::vector<float> px(W * H, -1.0f);
+    std::vector<float> px(W * H, 0.0f);
     Imf::InputFile in(path.c_str());
+    const Imath::Box2i data = in.header().dataWindow();
     Imf::FrameBuffer fb;
     fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(px.data()), sizeof(float), sizeof(float) * W, 1, 1, -1.0));
     in.setFrameBuffer(fb);
-    in.readPixels(0, H - 1);
+    in.readPixels(data.min.y, data.max.y);
     return px;
 }
 
@@ -101,6 +106,25 @@ TEST(Views, EachViewIsFlaredFromItsOwnLamp) {
     r = run(lensfx_cmd() + fmt::format(" -i {0}/stereo.exr -o {0}/x.exr --views centre", dir.string()) + flare);
     EXPECT_NE(r.exit_code, 0);
     EXPECT_NE(r.stderr_text.find("no view \"centre\" (its views: right, left)"), std::string::npos) << r.stderr_text;
+    fs::remove_all(dir);
+}
+
+// A data window inside the display window: the flare of the view picked grows it (every view's channels with
+// it), and the default view, not picked, passes as it was, 0 where the window grew (a failure before: the default
+// view's working buffer kept the old window's size).
+TEST(Views, AViewPickedAloneMayGrowTheDataWindow) {
+    const fs::path dir = lensfx::test::scratch_dir("views-window");
+    write_stereo(dir / "inner.exr", true);
+    const std::string flare = " -q --lens cooke-triplet --threshold 1000 --parts starburst --starburst-scale 4 --gain 50";
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/inner.exr -o {0}/left.exr --views left", dir.string()) + flare);
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    const Imath::Box2i grown = Imf::InputFile((dir / "left.exr").c_str()).header().dataWindow();
+    EXPECT_LT(grown.min.x, W / 4);  // the starburst reaches beyond the input's window
+    for (const char* c : {"R", "G", "B"}) EXPECT_EQ(read_channel(dir / "left.exr", c), read_channel(dir / "inner.exr", c)) << c;
+    double total = 0;
+    const double cx = added_centroid_x(read_channel(dir / "inner.exr", "left.G"), read_channel(dir / "left.exr", "left.G"), total);
+    EXPECT_GT(total, 0.0);
+    EXPECT_NEAR(cx, kLeftLampX, 3.0);
     fs::remove_all(dir);
 }
 
