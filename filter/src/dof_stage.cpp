@@ -66,6 +66,33 @@ void check_focus_distance(const optics::System& system, double metres, const std
     }
 }
 
+// The distance a focal surface through `points` ("X,Y,METRES") stands for where no --focus is given: the mean of
+// their inverse distances (the focal surface is interpolated in inverse distance).
+double mean_focus(const std::vector<std::string>& points) {
+    double inverse = 0.0;
+    for (const std::string& p : points) inverse += 1.0 / parse_focus_point(p).metres;
+    return static_cast<double>(points.size()) / inverse;
+}
+
+// Refuses deep samples (--deep) over another display window than the frame's: they would land elsewhere or nowhere.
+void check_deep_window(const dof::DeepImage& deep, const std::string& files, const ImageSpec& spec) {
+    if (deep.full_x == spec.full_x && deep.full_y == spec.full_y && deep.full_width == spec.full_width && deep.full_height == spec.full_height)
+        return;
+    throw std::runtime_error(fmt::format("--deep {}: its display window is {}x{} at ({}, {}), the frame's {}x{} at ({}, {})", files,
+                                         deep.full_width, deep.full_height, deep.full_x, deep.full_y, spec.full_width, spec.full_height,
+                                         spec.full_x, spec.full_y));
+}
+
+// What the lens blur of a frame holds at most, per pixel of its display window: the frame grown to it and its R, G,
+// B; the layers (two for a flat image, up to eight of deep samples) on the CPU and as the GL's textures (inverse
+// depth, colour); the pyramids, the gathered sums and the result read back.
+double dof_frame_bytes(const ImageSpec& spec, bool deep) {
+    const double layers = deep ? 8.0 : 2.0;
+    const double per_layer = 2.0 * (2 * sizeof(float) + 4 * sizeof(float));  // CPU and GL: depth pair and RGBA
+    const double per_pixel = static_cast<double>(spec.pixel_bytes()) + 2.0 * 3 * sizeof(float) + layers * per_layer + 110.0;
+    return bytes_of(spec.full_width, spec.full_height, per_pixel);
+}
+
 }  // namespace
 
 void add_dof_options(CLI::App& app, DofSettings& s) {
@@ -263,7 +290,8 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
     : state_(std::make_unique<State>()) {
     State& s = *state_;
     if (settings.lens.lens.empty()) throw std::runtime_error("--dof needs --lens");
-    if (!settings.focus_m) throw std::runtime_error("--dof needs --focus METRES");
+    if (!settings.focus_m && !settings.focus_points.empty()) settings.focus_m = mean_focus(settings.focus_points);
+    if (!settings.focus_m) throw std::runtime_error("--dof needs --focus METRES (or --focus-point X,Y,METRES)");
     s.system = realize_lens(settings.lens).system;
     if (!settings.deep.empty()) {
         std::vector<dof::DeepImage> images;
@@ -274,6 +302,7 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
             } catch (const std::runtime_error& e) {
                 throw std::runtime_error(fmt::format("--deep {}: {}", f, e.what()));
             }
+            if (!dof::is_deep_exr(f)) throw std::runtime_error(fmt::format("--deep {}: not a deep EXR (a flat image's depth is its own Z channel)", f));
             images.push_back(dof::read_deep_exr(f, settings.memory));
         }
         s.deep = images.size() == 1 ? std::move(images.front()) : dof::merge_deep(images, settings.memory);
@@ -296,6 +325,9 @@ void DofStage::process(Frame& frame) {
     auto t0 = std::chrono::steady_clock::now();
     // the blur spreads over the whole sensor: the display window
     const ImageSpec& spec = frame.spec;
+    if (s.deep) check_deep_window(*s.deep, s.settings.deep, spec);
+    s.settings.memory.check(dof_frame_bytes(spec, s.deep || dof::is_deep_exr(frame.source)),
+                            fmt::format("the lens blur over the {}x{} display window", spec.full_width, spec.full_height));
     grow_data_window(frame, spec.full_x, spec.full_y, spec.full_x + spec.full_width, spec.full_y + spec.full_height);
     const dof::Camera camera = s.camera_for(frame);
     if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||

@@ -18,42 +18,15 @@
 
 #include <dof/deep_exr.h>
 
+#include "exr_rgbz.h"
+
 namespace lensfx::dof {
+using test::write_small_deep;
 namespace {
 
 constexpr std::size_t kMegabyte = std::size_t{1} << 20;
 
 std::string temp_path(const char* name) { return "/tmp/lensfx-test-deep-" + std::to_string(::getpid()) + "-" + name; }
-
-// A 3 x 2 deep file whose pixel i holds i % 3 samples, sample s of it R = 10 i + s, Z = 1 + s.
-void write_small_deep(const std::string& path) {
-    constexpr int kW = 3, kH = 2;
-    Imf::Header header(kW, kH);
-    for (const char* c : {"R", "G", "B", "A", "Z"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
-    header.setType(Imf::DEEPSCANLINE);
-    header.compression() = Imf::ZIPS_COMPRESSION;
-    std::vector<unsigned int> counts(kW * kH);
-    std::vector<std::vector<float>> values(5);
-    std::vector<std::vector<float*>> pointers(5, std::vector<float*>(kW * kH));
-    for (int i = 0; i < kW * kH; ++i) counts[static_cast<std::size_t>(i)] = static_cast<unsigned int>(i % 3);
-    for (auto& v : values) v.resize(16);
-    Imf::DeepFrameBuffer fb;
-    fb.insertSampleCountSlice(Imf::Slice(Imf::UINT, reinterpret_cast<char*>(counts.data()), sizeof(unsigned int), sizeof(unsigned int) * kW));
-    const char* names[] = {"R", "G", "B", "A", "Z"};
-    for (std::size_t c = 0; c < 5; ++c) {
-        std::size_t next = 0;
-        for (std::size_t i = 0; i < counts.size(); ++i) {
-            pointers[c][i] = values[c].data() + next;
-            for (unsigned s = 0; s < counts[i]; ++s)
-                values[c][next + s] = c == 0 ? static_cast<float>(10 * i + s) : c == 3 ? 1.0f : c == 4 ? 1.0f + static_cast<float>(s) : 0.0f;
-            next += counts[i];
-        }
-        fb.insert(names[c], Imf::DeepSlice(Imf::FLOAT, reinterpret_cast<char*>(pointers[c].data()), sizeof(float*), sizeof(float*) * kW, sizeof(float)));
-    }
-    Imf::DeepScanLineOutputFile out(path.c_str(), header);
-    out.setFrameBuffer(fb);
-    out.writePixels(kH);
-}
 
 void append_attribute(std::string& out, const std::string& name, const std::string& type, const std::string& value) {
     const auto size = static_cast<std::uint32_t>(value.size());

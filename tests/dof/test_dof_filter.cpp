@@ -222,6 +222,48 @@ TEST(DofFilter, DeepInputThatIsNoRegularFileOrHasADamagedHeaderIsAOneLineError) 
     std::filesystem::remove(fifo);
 }
 
+// Deep samples that do not fit the frame are refused in one line, not drawn as black: a flat file given as --deep,
+// and a deep file over another display window. So is a display window whose blur would not fit --memory-limit,
+// before anything of its size is made.
+TEST(DofFilter, DeepFilesThatDoNotFitAndHugeWindowsAreRefused) {
+    const auto dir = lensfx::test::scratch_dir("dof_deep_misfit");
+    const std::string in = point_exr(dir, true), out = (dir / "out.exr").string(), deep = (dir / "small_deep.exr").string();
+    write_small_deep(deep);
+    const std::string dof = " --dof --dof-only --lens mld-double-gauss --focus 1 ";
+    auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + "--deep " + deep);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.stderr_text.find("--deep " + deep + ": its display window is 3x2 at (0, 0), the frame's 48x48 at (0, 0)"), std::string::npos)
+        << r.stderr_text;
+    r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + dof + "--deep " + in);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.stderr_text.find("--deep " + in + ": not a deep EXR"), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(std::filesystem::exists(out));
+    // 48 x 48 pixels of data in a 20000 x 20000 display window: about 100 GB of lens blur.
+    const std::string wide = (dir / "wide.exr").string();
+    write_exr(wide, kSize, kSize, {"R", "G", "B", "Z"},
+              {std::vector<float>(kSize * kSize, 1.0f), std::vector<float>(kSize * kSize, 1.0f), std::vector<float>(kSize * kSize, 1.0f),
+               std::vector<float>(kSize * kSize, 2.0f)});
+    r = lensfx::test::run("oiiotool " + wide + " --fullsize 20000x20000 -o " + wide);
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + wide + " -o " + out + dof + "--memory-limit 1G");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.stderr_text.find("the lens blur over the 20000x20000 display window needs"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(std::count(r.stderr_text.begin(), r.stderr_text.end(), '\n'), 1) << r.stderr_text;
+    EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+// Focus points alone make the focal surface (their mean inverse distance stands for --focus).
+TEST(DofFilter, FocusPointsNeedNoFocus) {
+    const auto dir = lensfx::test::scratch_dir("dof_points_only");
+    const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
+    const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
+                                     " --dof --dof-only --lens mld-double-gauss --focus-point 5,5,2 --focus-point 40,40,2");
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    int w = 0, h = 0;
+    const std::vector<float> g = read_channel(out, "G", w, h);
+    EXPECT_NEAR(g[static_cast<std::size_t>(kSize / 2 * kSize + kSize / 2)], 1000.0f / 16.0f, 1.0f) << "the plane at 2 m is sharp";
+}
+
 TEST(DofFilter, NeedsALensAndAFocus) {
     const auto dir = lensfx::test::scratch_dir("dof_args");
     const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
