@@ -18,6 +18,7 @@
 #include <filter/dof_stage.h>
 #include <filter/flare_stage.h>
 #include <filter/option_checks.h>
+#include <filter/sequence.h>
 #include <filter/output_files.h>
 #include <filter/pipeline.h>
 #include <filter/views.h>
@@ -130,16 +131,18 @@ OutputKind output_kind(const PipelineOptions& o) {
     return k;
 }
 
-// Options that cannot apply to this output are errors (--layer into a PNG, --bits into an EXR); PQ
-// quantised to 8 bits bands, which is only a warning.
+// Options that cannot apply to this output are usage errors (--layer into a PNG, --bits into an EXR, 16 bits into
+// a JPEG); PQ quantised to 8 bits bands, which is only a warning.
 void check_output_options(const FilterArgs& args, const CLI::App& app) {
     const OutputKind out = output_kind(args.pipeline);
     const bool stream_in_out = args.pipeline.output == "-" && !args.pipeline.stream_format && !args.pipeline.pix_fmt && args.pipeline.input == "-";
     if (!args.flare.layer.empty() && !out.extra_channels && !stream_in_out)
-        throw std::runtime_error(fmt::format("--layer {} adds channels, which {} output cannot hold (EXR or TIFF can; on - give --stream-format exr)",
-                                             args.flare.layer, out.name));
+        throw CLI::ValidationError(fmt::format("--layer {} adds channels, which {} output cannot hold (EXR or TIFF can; on - give --stream-format exr)",
+                                               args.flare.layer, out.name));
     if (app.get_option("--bits")->count() > 0 && !out.display_referred)
-        throw std::runtime_error(fmt::format("--bits sets the code values of display files (PNG, JPEG...); {} output keeps float values", out.name));
+        throw CLI::ValidationError(fmt::format("--bits sets the code values of display files (PNG, JPEG...); {} output keeps float values", out.name));
+    if (args.colour.bits != 8 && lower_extension(args.pipeline.output).rfind("jp", 0) == 0)
+        throw CLI::ValidationError(fmt::format("--bits {}: {} holds 8-bit code values (PNG or TIFF hold 16)", args.colour.bits, out.name));
     std::string display = args.colour.options.display;
     std::transform(display.begin(), display.end(), display.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     const bool pq = display.find("pq") != std::string::npos || display.find("2084") != std::string::npos;
@@ -262,10 +265,12 @@ void register_filter(CLI::App& app) {
         "changed: every other channel, the windows and the metadata pass through.");
     app.add_option("-i,--input", o.input, "Input file, pattern or - (stdin)");
     app.add_option("-o,--output", o.output, "Output file, pattern or - (stdout)");
-    app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2 (every 2nd), 1-100y2 (the others), 100-1, 3,7,10-20; also in the pattern: pan.1-5#.exr (default: those on disk)");
+    app.add_option("--frames", o.frames, "Frames of a pattern input: 1-100, 1-100x2 (every 2nd), 1-100y2 (the others), 100-1, 3,7,10-20; also in the pattern: pan.1-5#.exr (default: those on disk)")
+        ->check(parsed_by([](const std::string& t) { parse_frame_list(t); }, "--frames", "LIST"));
     app.add_option("--threads", o.threads, "Worker threads for decoding and encoding (0: one per core)")->capture_default_str()->check(CLI::Range(0, 1024));
     app.add_option("--queue-depth", o.queue_depth, "Frames held between reader, effects and writer")->check(CLI::Range(1, 256));
-    app.add_option("--compression", o.write.compression, "EXR compression: piz, zip, zips, dwaa[:level], none... (default: the input's, else piz)");
+    app.add_option("--compression", o.write.compression, "EXR compression: piz, zip, zips, dwaa[:level], none... (default: the input's, else piz)")
+        ->check(parsed_by([](const std::string& t) { check_exr_compression(t); }, "--compression", "NAME[:LEVEL]"));
     app.add_option("--pfm-order", args->pfm_order, "PFM row order: top (ffmpeg 5.1), bottom (the PFM spec), auto (top on pipes, bottom in files)")
         ->check(CLI::IsMember({"auto", "top", "bottom"}));
     app.add_option("--stream-format", args->stream_format, "What - carries as output: exr, pfm or raw (default: the input stream's, else exr)")
@@ -292,7 +297,7 @@ void register_filter(CLI::App& app) {
         if (!app.get_subcommands().empty()) return;
         if (args->pipeline.input.empty() && args->pipeline.output.empty()) throw CLI::CallForHelp();
         if (args->pipeline.input.empty() || args->pipeline.output.empty()) {
-            throw std::runtime_error("the filter needs both -i IN and -o OUT");
+            throw CLI::ValidationError("the filter needs both -i IN and -o OUT");
         }
         args->gpu_given = app.get_option("--gpu")->count() > 0;
         run_filter(*args, app);

@@ -214,8 +214,7 @@ void add_only_ghosts(const FlareArgs& args, const optics::System& system, flare:
         const auto [a, b] = parse_pair(g, ',', "--ghost");
         const int count = static_cast<int>(system.interfaces.size());
         if (a != std::floor(a) || b != std::floor(b) || a < 1 || b < 1 || a > count || b > count || a == b) {
-            throw std::invalid_argument(
-                fmt::format("--ghost {}: two different surface numbers 1..{} expected", g, count));
+            throw CLI::ValidationError(fmt::format("--ghost {}: two different surface numbers 1..{} expected", g, count));
         }
         view.only_ghosts.emplace_back(static_cast<int>(a) - 1, static_cast<int>(b) - 1);
     }

@@ -40,10 +40,12 @@ void add_lens_options(CLI::App& app, LensChoice& c, const std::string& group) {
 }
 
 std::array<double, 2> parse_sensor(const std::string& text) {
-    const auto wh = parse_pair_of<double>(text.find('x') == std::string::npos ? text + "x0" : text, 'x');
+    const bool height_given = text.find('x') != std::string::npos;
+    const auto wh = parse_pair_of<double>(height_given ? text : text + "x0", 'x');
     if (!wh) throw std::invalid_argument(fmt::format("--sensor must be WIDTH or WIDTHxHEIGHT in mm, not \"{}\"", text));
     const auto [w, h] = *wh;
-    if (!(w > 0.0) || !std::isfinite(w) || h < 0.0 || !std::isfinite(h))
+    // (a height given as 0 would stand for none: the image's aspect)
+    if (!(w > 0.0) || !std::isfinite(w) || !(h > 0.0 || (!height_given && h == 0.0)) || !std::isfinite(h))
         throw std::invalid_argument(fmt::format("--sensor {}: sizes must be positive", text));
     const auto within = [](double side) { return side >= kMinSensorMm && side <= kMaxSensorMm; };
     if (!within(w) || (h != 0.0 && !within(h)))
@@ -99,7 +101,10 @@ void add_flare_options(CLI::App& app, FlareSettings& s) {
     app.add_option("--tracks", s.tracks, "Render the lights of this track file (lensfx track) instead of detecting")->group(group);
     app.add_option("--gpu", s.gpu, "EGL platform: auto, device (a GPU driver), surfaceless (Mesa)")->capture_default_str()->group(group)
         ->check(CLI::IsMember({"auto", "device", "surfaceless"}));
-    app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")->capture_default_str()->group(group);
+    app.add_option("--parts", s.parts, "What to render: ghosts, starburst or both (ghosts,starburst)")
+        ->capture_default_str()
+        ->group(group)
+        ->check(parsed_by([](const std::string& t) { parse_parts(t); }, "--parts", "PARTS"));
     add_part_gain_options(app, s.controls.ghost_gain, s.starburst_gain, group);
     add_flare_control_options(app, s.controls, group);
     app.add_option("--starburst-scale", s.starburst_scale, "Starburst length relative to its physical length (the spikes' width stays that of wavelength x f-number)")->capture_default_str()->group(group)->check(CLI::PositiveNumber)->check(finite_number());

@@ -213,14 +213,25 @@ TEST_F(Cli, FramesWrittenInThePattern) {
 
 TEST_F(Cli, OptionsThatCannotApplyAreErrors) {
     Output r = lensfx("-i " + p("in.exr") + " -o " + p("o.png") + " --lens cooke-triplet --layer flare");
-    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.exit_code, 2);  // usage errors, as every bad value
     EXPECT_NE(r.err.find("--layer flare adds channels, which PNG output cannot hold"), std::string::npos) << r.err;
     r = lensfx("-i " + p("in.exr") + " -o " + p("o.jpg") + " --lens cooke-triplet --layer flare");
     EXPECT_NE(r.err.find("JPG output cannot hold"), std::string::npos) << r.err;
     r = lensfx("-i " + p("in.exr") + " -o " + p("o.exr") + " --bits 16");
-    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.exit_code, 2);
     EXPECT_NE(r.err.find("--bits sets the code values of display files"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(p("o.exr")));
+    r = lensfx("-i " + p("in.exr") + " -o " + p("o.jpg") + " --bits 16");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err, "lensfx: --bits 16: JPG holds 8-bit code values (PNG or TIFF hold 16)\n");
+    EXPECT_FALSE(fs::exists(p("o.jpg")));
+    // Values refused by the parser itself, before anything runs.
+    for (const char* bad : {" --parts foo", " --frames 5-a", " --frames 1-10x0", " --compression foo", " --sensor 36x0"}) {
+        r = lensfx("-i " + p("in.exr") + " -o " + p("o.exr") + " --lens cooke-triplet" + bad);
+        EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.err;
+        EXPECT_EQ(r.err.rfind("lensfx: " + std::string(bad).substr(1, std::string(bad).find(' ', 1) - 1) + ": ", 0), 0u) << r.err;
+    }
+    EXPECT_EQ(lensfx("-i \"\" -o " + p("o.exr")).exit_code, 2);
     r = lensfx("-i " + p("in.exr") + " -o " + p("o.png") + " --display rec2100-pq");
     EXPECT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.err.find("warning: PQ (rec2100-pq) in an 8-bit PNG"), std::string::npos) << r.err;

@@ -39,7 +39,7 @@ TEST(RealizeLens, AppliesTheChoiceAndOneBladesRule) {
 TEST(ParseSensor, WidthAloneOrWidthByHeight) {
     EXPECT_EQ(parse_sensor("36"), (std::array<double, 2>{36.0, 0.0}));
     EXPECT_EQ(parse_sensor("23.5x15.6"), (std::array<double, 2>{23.5, 15.6}));
-    for (const char* bad : {"", "x24", "36x", "36x24x2", "-36", "0", "36x-1", "inf", "36mm"})
+    for (const char* bad : {"", "x24", "36x", "36x24x2", "-36", "0", "36x-1", "36x0", "inf", "36mm"})
         EXPECT_THROW(parse_sensor(bad), std::invalid_argument) << bad;
 }
 

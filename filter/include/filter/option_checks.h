@@ -38,17 +38,19 @@ inline const CLI::Validator& finite_non_negative() {
     return check;
 }
 
-// A check that runs `parse` (which throws with a message starting with the option's name) on the option's
+// A check that runs `parse` (which throws with a message starting with the option's name, maybe and a colon) on the option's
 // text: a value it refuses is a usage error (exit 2, one line), named once, by CLI11.
 template <class Parse>
 CLI::Validator parsed_by(Parse parse, const std::string& option, const char* description) {
     return CLI::Validator(
-        [parse, prefix = option + " "](std::string& text) -> std::string {
+        [parse, option](std::string& text) -> std::string {
             try {
                 parse(text);
             } catch (const std::exception& e) {
                 const std::string message = e.what();
-                return message.rfind(prefix, 0) == 0 ? message.substr(prefix.size()) : message;
+                for (const std::string& prefix : {option + ": ", option + " "})
+                    if (message.rfind(prefix, 0) == 0) return message.substr(prefix.size());
+                return message;
             }
             return {};
         },
