@@ -280,6 +280,15 @@ void require_listed_frames(const Plan& plan, const PipelineOptions& o) {
     }
 }
 
+// A frame stream on a terminal is refused: binary frames would scroll over it, and one read from it would wait for
+// typing.
+void refuse_terminal_streams(const Plan& plan) {
+    if (plan.stream_out && ::isatty(STDOUT_FILENO))
+        throw std::runtime_error("-o -: stdout is a terminal; pipe the frames on (| ffmpeg ...) or redirect them (> file)");
+    if (plan.stream_in && ::isatty(STDIN_FILENO))
+        throw std::runtime_error("-i -: stdin is a terminal; pipe frames in (ffmpeg ... |) or redirect a file (< file)");
+}
+
 Plan make_plan(const PipelineOptions& o) {
     Plan plan;
     plan.stream_in = o.input == "-";
@@ -287,6 +296,7 @@ Plan make_plan(const PipelineOptions& o) {
     plan.in_order = resolve(o.pfm_order, plan.stream_in);
     plan.out_order = resolve(o.pfm_order, plan.stream_out);
     check_stream_options(o, plan);
+    refuse_terminal_streams(plan);
     if (!plan.stream_out) {
         plan.out_pattern = parse_pattern(o.output);
         require_output_directory(o.output);

@@ -366,6 +366,22 @@ TEST(Hostile, EmptyStreamsAreErrors) {
     fs::remove_all(dir);
 }
 
+// A frame stream on a terminal is refused (script(1) gives the program a terminal): binary EXR bytes on a user's
+// screen, or a read that waits for typing.
+TEST(Hostile, StreamsOnATerminalAreRefused) {
+    if (run("command -v script").exit_code != 0) GTEST_SKIP() << "no script(1) to run lensfx on a terminal";
+    const auto dir = scratch_dir("hostile-tty");
+    write_rgb(dir / "in.exr");
+    auto r = run(fmt::format("script -qec '{} -i {}/in.exr -o -' /dev/null 1>&2", lensfx_cmd(), dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("lensfx: -o -: stdout is a terminal"), std::string::npos) << r.stderr_text;
+    EXPECT_EQ(r.stderr_text.find("channels"), std::string::npos) << "no frame bytes on the terminal";
+    r = run(fmt::format("script -qec '{} -i - -o {}/out.exr' /dev/null < /dev/null 1>&2", lensfx_cmd(), dir.string()));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.stderr_text.find("lensfx: -i -: stdin is a terminal"), std::string::npos) << r.stderr_text;
+    fs::remove_all(dir);
+}
+
 // Class 9: devices and named pipes where a file is needed are refused at once (they used to hang).
 TEST(Hostile, SpecialFilesAreRefused) {
     const auto dir = scratch_dir("hostile-special");
