@@ -204,9 +204,13 @@ struct Plan {
     std::string output_path(std::int64_t number) const { return stream_out ? "-" : out_pattern.path(number); }
 };
 
-PfmOrder resolve(PfmOrder order, bool stream) {
+// --pfm-order auto: top row first on a pipe (ffmpeg's), bottom first in a file (the format's), stdin or stdout
+// redirected to one included.
+PfmOrder resolve(PfmOrder order, bool stream, int fd) {
     if (order != PfmOrder::automatic) return order;
-    return stream ? PfmOrder::top_first : PfmOrder::bottom_first;
+    struct stat st {};
+    const bool file = !stream || (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode));  // `< shot.pfm` is a file too
+    return file ? PfmOrder::bottom_first : PfmOrder::top_first;
 }
 
 // The ids of the files on disk that a pattern names (a directory's worth at most).
@@ -293,8 +297,8 @@ Plan make_plan(const PipelineOptions& o) {
     Plan plan;
     plan.stream_in = o.input == "-";
     plan.stream_out = o.output == "-";
-    plan.in_order = resolve(o.pfm_order, plan.stream_in);
-    plan.out_order = resolve(o.pfm_order, plan.stream_out);
+    plan.in_order = resolve(o.pfm_order, plan.stream_in, STDIN_FILENO);
+    plan.out_order = resolve(o.pfm_order, plan.stream_out, STDOUT_FILENO);
     check_stream_options(o, plan);
     refuse_terminal_streams(plan);
     if (!plan.stream_out) {

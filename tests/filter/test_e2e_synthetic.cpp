@@ -54,7 +54,7 @@ void make_exr(const fs::path& path, int seed, int display_width = 64, bool finit
 TEST(FilterEndToEnd, NoArgumentsPrintsHelp) {
     const auto r = run(lensfx_cmd() + " > /dev/null");
     EXPECT_EQ(r.exit_code, 0);
-    EXPECT_EQ(run(lensfx_cmd() + " -i x.exr").exit_code, 1);
+    EXPECT_EQ(run(lensfx_cmd() + " -i x.exr").exit_code, 2);  // a usage error: no -o
 }
 
 TEST(FilterEndToEnd, PassThroughKeepsTypesWindowsAndMetadata) {
@@ -82,12 +82,12 @@ TEST(FilterEndToEnd, CompressionLevelsAndUnknownNames) {
     EXPECT_EQ(in->spec().get_string_attribute("compression"), "dwaa");
     EXPECT_EQ(in->spec().get_float_attribute("openexr:dwaCompressionLevel"), 45.0f);
     const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/bad.exr --compression lzw", dir.string()));
-    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.exit_code, 2);  // a usage error
     EXPECT_NE(r.stderr_text.find("unknown EXR compression \"lzw\""), std::string::npos) << r.stderr_text;
     EXPECT_FALSE(fs::exists(dir / "bad.exr"));
     for (const char* level : {"zip:42", "dwaa:-5", "dwaa:nan", "piz:3", "dwaa:1e9"}) {  // refused before the frame is read
         const auto bad = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/bad.exr --compression {1}", dir.string(), level));
-        EXPECT_EQ(bad.exit_code, 1) << level;
+        EXPECT_EQ(bad.exit_code, 2) << level;
         EXPECT_NE(bad.stderr_text.find("bad level"), std::string::npos) << level << ": " << bad.stderr_text;
     }
     EXPECT_FALSE(fs::exists(dir / "bad.exr"));
@@ -270,6 +270,22 @@ std::string stdout_of(const std::string& command) {
 
 // EXR images on the pipes: every channel (alpha, Z, a uint id), type, window and attribute pass a stream
 // in and out unchanged; the output stream follows the input's (PFM stays PFM) unless --stream-format.
+// --pfm-order auto: a PFM file redirected to stdin (or stdout redirected to a file) is a file, bottom row first,
+// as lensfx writes PFM files; only a pipe carries ffmpeg's top-first order.
+TEST(FilterEndToEnd, RedirectedPfmFilesKeepTheFileOrder) {
+    const auto dir = scratch_dir("pfm-redirect");
+    const std::string d = dir.string();
+    make_exr(dir / "in.exr", 3, 64, true);
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/a.pfm", d)).exit_code, 0);
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/a.pfm -o {0}/file.exr", d)).exit_code, 0);
+    const auto r = run(lensfx_cmd() + fmt::format(" -i - -o {0}/redirected.exr < {0}/a.pfm", d));
+    ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_EQ(compare_images(d + "/file.exr", d + "/redirected.exr", false), "");
+    ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o - --stream-format pfm > {0}/b.pfm", d)).exit_code, 0);
+    EXPECT_EQ(run(fmt::format("cmp {0}/a.pfm {0}/b.pfm", d)).exit_code, 0);
+    fs::remove_all(dir);
+}
+
 TEST(FilterEndToEnd, ExrStreamsKeepEverything) {
     const auto dir = scratch_dir("exrstream");
     const std::string d = dir.string();
