@@ -412,7 +412,8 @@ public:
 private:
     void make(const LensModel& lens, const std::vector<flare::SpectralPass>& passes, double corner_deg, const std::string& cache_dir_option) {
         table_ = flare::DirectPowerTable(lens.system, std::min(89.0, 1.02 * corner_deg), 12, 96, passes);
-        key_ = fmt::format("lensfx-direct-2\n{}\nfield {:.17g}\n{}", lens.text, table_.max_field_deg(), flare::passes_key(passes));
+        // (3: a lens stopped far down is sampled again round its beam, flare::direct_power)
+        key_ = fmt::format("lensfx-direct-3\n{}\nfield {:.17g}\n{}", lens.text, table_.max_field_deg(), flare::passes_key(passes));
         if (const std::string dir = flare::cache_dir_of(cache_dir_option); !dir.empty()) {
             file_ = flare::cache_file(dir, "direct", flare::key_hash(key_));
             table_.load(file_, key_);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <future>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -26,6 +27,53 @@ bool plausible_power(const std::array<double, 3>& p) {
     return std::all_of(p.begin(), p.end(), [](double v) { return v == 0.0 || (v >= 1e-12 && v <= 1e8); });
 }
 
+// Fewer passing samples than this over the entrance square: the iris's image is a few samples across (a lens
+// stopped far down: f/500 passed none of 96^2), so it is sampled again over a square round it, until this many pass.
+constexpr int kMinPassing = 64;
+constexpr int kMaxCloser = 4;  // squares round the beam, each about a tenth of the last across
+
+// The direct path sampled `rays` a side over `square`: its power (mm^2), how many samples pass, and where the
+// sample whose stop crossing lies nearest the iris's centre enters (the beam's middle, to a sample).
+struct DirectSamples {
+    double power = 0.0;
+    int passing = 0;
+    double centre_x = 0.0, centre_y = 0.0;
+    double centre_r = std::numeric_limits<double>::infinity();
+};
+
+DirectSamples sample_direct(const optics::TraceSystem& traced, const std::vector<optics::Step>& path, const optics::Aperture& aperture,
+                            double ax_deg, double ay_deg, const PupilRect& square, int rays) {
+    DirectSamples out;
+    const double dx = (square.x1 - square.x0) / rays;
+    const double dy = (square.y1 - square.y0) / rays;
+    double sum = 0.0;
+    for (int iy = 0; iy < rays; ++iy) {
+        for (int ix = 0; ix < rays; ++ix) {
+            const double x = square.x0 + dx * (ix + 0.5), y = square.y0 + dy * (iy + 0.5);
+            const optics::Ray ray = optics::collimated_ray(ax_deg, ay_deg, x, y, 0.0);
+            const optics::TraceResult r = optics::trace(traced, ray, path);
+            if (r.ok() && r.stop_count > 0) {
+                const double at_stop = std::hypot(r.stop_crossings[0].x, r.stop_crossings[0].y);
+                if (at_stop < out.centre_r) out.centre_r = at_stop, out.centre_x = x, out.centre_y = y;
+            }
+            if (!ray_passes(r, aperture)) continue;
+            sum += r.transmission * std::abs(ray.direction.z);
+            ++out.passing;
+        }
+    }
+    out.power = sum * dx * dy;
+    return out;
+}
+
+// A square round the beam that the coarse samples found only a few of (`coarse` over `square`, `rays` a side):
+// its middle, grown by the radius their count gives and two samples.
+PupilRect around_beam(const DirectSamples& coarse, const PupilRect& square, int rays) {
+    const double spacing = std::max(square.x1 - square.x0, square.y1 - square.y0) / rays;
+    const double radius = std::sqrt(coarse.passing / std::numbers::pi) * spacing + 2.0 * spacing;
+    const double half = 1.5 * radius;
+    return {coarse.centre_x - half, coarse.centre_y - half, coarse.centre_x + half, coarse.centre_y + half};
+}
+
 }  // namespace
 
 std::array<double, 3> direct_power(const optics::System& system, double ax_deg, double ay_deg, int rays,
@@ -37,19 +85,13 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
     const std::vector<optics::Step> path = optics::direct_path(system);
     for (const SpectralPass& pass : passes.empty() ? view.passes() : passes) {
         const optics::TraceSystem traced(system, pass.wavelength_nm);
-        const PupilRect square = entrance_square(traced, view);
-        const double dx = (square.x1 - square.x0) / rays;
-        const double dy = (square.y1 - square.y0) / rays;
-        double sum = 0.0;
-        for (int iy = 0; iy < rays; ++iy) {
-            for (int ix = 0; ix < rays; ++ix) {
-                const optics::Ray ray = optics::collimated_ray(ax_deg, ay_deg, square.x0 + dx * (ix + 0.5),
-                                                               square.y0 + dy * (iy + 0.5), 0.0);
-                const optics::TraceResult r = optics::trace(traced, ray, path);
-                if (ray_passes(r, system.aperture)) sum += r.transmission * std::abs(ray.direction.z);
-            }
+        PupilRect square = entrance_square(traced, view);
+        DirectSamples s = sample_direct(traced, path, system.aperture, ax_deg, ay_deg, square, rays);
+        for (int closer = 0; closer < kMaxCloser && s.passing < kMinPassing && std::isfinite(s.centre_r); ++closer) {
+            square = around_beam(s, square, rays);
+            s = sample_direct(traced, path, system.aperture, ax_deg, ay_deg, square, rays);
         }
-        for (std::size_t c = 0; c < 3; ++c) power[c] += pass.weight[c] * sum * dx * dy;
+        for (std::size_t c = 0; c < 3; ++c) power[c] += pass.weight[c] * s.power;
     }
     return power;
 }

@@ -38,6 +38,22 @@ TEST(DirectPower, IsThePupilAreaTimesTransmission) {
         EXPECT_NEAR(hexagon[c] / on_axis[c], 3.0 * std::sqrt(3.0) / (2.0 * std::numbers::pi), 0.01);
 }
 
+// Stopped far down, the pupil is a few samples of the entrance square across (at f/500 none of 96^2 passed, and
+// every light was said to lie outside the field): it is sampled again round the beam, on and off axis.
+TEST(DirectPower, ATinyPupilIsFound) {
+    for (const double f_number : {64.0, 500.0}) {
+        optics::System system = optics::realize(optics::load_lens("mld-double-gauss"), 0.0, f_number);
+        system.aperture.blades = 0;
+        const double epd = optics::paraxial(system).entrance_pupil_diameter_mm;
+        const double area = std::numbers::pi * epd * epd / 4.0;
+        for (double p : flare::direct_power(system, 0.0, 0.0, 96)) {
+            EXPECT_GT(p, 0.85 * area) << "f/" << f_number;
+            EXPECT_LT(p, 1.03 * area) << "f/" << f_number;
+        }
+        for (double p : flare::direct_power(system, 10.0, 4.0, 96)) EXPECT_GT(p, 0.5 * area) << "f/" << f_number << " off axis";
+    }
+}
+
 TEST(DirectPower, TableIsWithinOnePercentOfADenseTrace) {
     // Across a full-frame 36 x 24 mm field (a 50 mm lens: corners at 23 degrees), at azimuths off the
     // table's axis, for a round and a bladed iris.
