@@ -14,6 +14,12 @@
 
 namespace lensfx::optics {
 
+namespace {
+// How far below the widest f-number an asked one may be and still mean it (the entrance pupil's radius, relative):
+// marked f-numbers are rounded to two figures (f/2 for f/2.03, f/2.8 for 2.83).
+constexpr double kMarkedRounding = 0.03;
+}  // namespace
+
 std::vector<double> thicknesses_at(const Lens& lens, double zoom) {
     if (!std::isfinite(zoom) || zoom < 0.0 || zoom > 1.0)
         throw std::invalid_argument(fmt::format("lens '{}': zoom {} is outside [0, 1]", lens.name, zoom));
@@ -102,7 +108,8 @@ System realize(const Lens& lens, double zoom, std::optional<double> f_number) {
         const Paraxial open = paraxial(sys, kLambdaD_nm);
         const double radius = stop_radius_for_epd(sys, std::abs(open.efl_mm) / *f_number, kLambdaD_nm);
         const double clear = sys.interfaces[static_cast<std::size_t>(stop)].semi_diameter_mm;
-        if (radius > clear * (1.0 + 1e-9))
+        // A marked f-number is rounded (f/2 for f/2.03): one within kMarkedRounding of the widest is taken wide open.
+        if (radius > clear * (1.0 + kMarkedRounding))
             throw std::invalid_argument(fmt::format("lens '{}': f/{:g} is wider than its stop allows (f/{:.3g} at this zoom)",
                                                     lens.name, *f_number, open.f_number));
         sys.interfaces[static_cast<std::size_t>(stop)].semi_diameter_mm = std::min(radius, clear);

@@ -152,6 +152,23 @@ TEST(Presets, StopOpensAboutAsWideAsTheStatedFNumberAndStopsDown) {
     }
 }
 
+// The f-number a lens is marked with (`lens list`) is accepted as wide open even where the prescription's is a
+// little wider (pbrt-dgauss-50 is marked f/2 and opens to f/2.03); anything wider than rounding is refused.
+TEST(Presets, TheMarkedFNumberOpensTheStopWide) {
+    for (const auto& name : preset_names()) {
+        const Lens lens = load_preset(name);
+        if (!(lens.stated_f_number > 0.0)) continue;
+        const System open = realize(lens, 0.0);
+        const double widest = paraxial(open).f_number;
+        if (lens.stated_f_number < widest / 1.03) continue;  // marked wider than the prescription opens
+        const System marked = realize(lens, 0.0, lens.stated_f_number);
+        EXPECT_NEAR(paraxial(marked).f_number, std::max(lens.stated_f_number, widest), 1e-6 * widest) << name;
+    }
+    const Lens dgauss = load_preset("pbrt-dgauss-50");
+    EXPECT_NEAR(paraxial(realize(dgauss, 0.0, 2.0)).f_number, paraxial(realize(dgauss, 0.0)).f_number, 1e-9);
+    EXPECT_THROW(realize(dgauss, 0.0, 1.9), std::invalid_argument);
+}
+
 TEST(Presets, WriterRoundTripsEveryPreset) {
     for (const auto& name : preset_names()) {
         SCOPED_TRACE(name);
