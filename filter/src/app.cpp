@@ -74,6 +74,18 @@ std::string nearest(const std::string& unknown, const std::vector<std::string>& 
     return best;
 }
 
+// Whether `app` takes an argument named `name` by position (lens info's LENS).
+bool positional(const CLI::App& app, const std::string& name) {
+    for (const CLI::Option* o : app.get_options())
+        if (o->get_positional() && o->get_name(true, false) == name) return true;
+    return false;
+}
+
+// "lensfx lens info": the command names from the app down to `app`.
+std::string command_path(const CLI::App& app) {
+    return app.get_parent() != nullptr ? command_path(*app.get_parent()) + " " + app.get_name() : app.get_name();
+}
+
 // The subcommand being parsed (the app when none was given).
 const CLI::App& active(const CLI::App& app) {
     for (const CLI::App* sub : app.get_subcommands())
@@ -196,6 +208,10 @@ std::string config_error(const CLI::App& app, const std::string& message, const 
         return fmt::format("{}: unknown key {}{}", config_place(file, key), key,
                            hint.rfind("--", 0) == 0 ? fmt::format(" (did you mean {}?)", hint.substr(2)) : std::string());
     }
+    if (const std::string not_allowed = ": This option is not allowed in a configuration file"; message.ends_with(not_allowed)) {
+        const std::string key = message.substr(0, message.size() - not_allowed.size());
+        return fmt::format("{}: {} cannot be set in a shot file", config_place(file, key), key);
+    }
     if (message.rfind("--", 0) != 0) return {};
     const std::string option = message.substr(0, message.find_first_of(": "));
     const bool given = std::any_of(args.begin(), args.end(), [&](const std::string& a) { return a == option || a.rfind(option + "=", 0) == 0; });
@@ -227,6 +243,10 @@ std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e, c
     std::string message = readable_numbers(e.what());
     if (!message.empty() && message.back() == '\n') message.pop_back();
     if (std::string in_config = config_error(app, message, args); !in_config.empty()) return in_config;
+    if (const std::string unreadable = " was not readable (missing?)"; message.ends_with(unreadable))
+        return fmt::format("--config {}: no such file", message.substr(0, message.size() - unreadable.size()));
+    if (const std::string twice = ": At Most 1 required but received "; message.find(twice) != std::string::npos && message.rfind("--", 0) == 0)
+        return fmt::format("{} is given more than once (give it once)", message.substr(0, message.find(twice)));
     // An unknown option is the likelier cause of any error (a misspelt --angle is also a missing one).
     {
         const CLI::App& where = active(app);
@@ -235,7 +255,12 @@ std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e, c
             if (extra.empty() || extra[0] != '-') continue;
             const std::string name = extra.substr(0, extra.find('='));
             const std::string hint = nearest(name, option_names(where));
-            hints.push_back(hint.empty() ? fmt::format("unknown option {}", name) : fmt::format("unknown option {} (did you mean {}?)", name, hint));
+            if (const std::string bare = name.substr(std::min(name.size(), name.find_first_not_of('-'))); hint.empty() && positional(where, bare)) {
+                std::string upper = bare;
+                std::transform(upper.begin(), upper.end(), upper.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+                hints.push_back(fmt::format("unknown option {} (the {} goes without {}: {} {})", name, bare, name, command_path(where), upper));
+            } else
+                hints.push_back(hint.empty() ? fmt::format("unknown option {}", name) : fmt::format("unknown option {} (did you mean {}?)", name, hint));
         }
         if (!hints.empty()) {
             message.clear();

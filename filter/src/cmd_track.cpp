@@ -69,7 +69,8 @@ public:
         if (to_stdout) write_stdout(detect::to_json_text(file_));
         else write_file(settings_.tracks_out, detect::to_json_text(file_));
         if (!settings_.quiet)
-            fmt::print(stderr, "lensfx track: {} frames, {} tracks, {} cuts -> {}\n", frames_, file_.tracks.size(), cuts_,
+            fmt::print(stderr, "lensfx track: {} frame{}, {} track{}, {} cut{} -> {}\n", frames_, frames_ == 1 ? "" : "s", file_.tracks.size(),
+                       file_.tracks.size() == 1 ? "" : "s", cuts_, cuts_ == 1 ? "" : "s",
                        to_stdout ? "stdout" : settings_.tracks_out);
     }
 

@@ -241,7 +241,11 @@ void refuse_special_output(const std::string& path, std::string_view option) {
 void require_output_directory(const std::string& path) {
     fs::path dir = fs::path(path).parent_path();
     if (dir.empty()) dir = ".";
-    if (!fs::is_directory(dir)) throw std::runtime_error(fmt::format("{}: output directory {} does not exist", path, dir.string()));
+    if (!fs::is_directory(dir)) {
+        std::error_code ec;
+        const bool exists = fs::exists(dir, ec);
+        throw std::runtime_error(fmt::format("{}: output directory {} {}", path, dir.string(), exists ? "is not a directory" : "does not exist"));
+    }
     if (::access(dir.c_str(), W_OK) != 0) throw std::runtime_error(fmt::format("{}: output directory {} is not writable", path, dir.string()));
 }
 

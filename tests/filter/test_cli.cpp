@@ -185,6 +185,21 @@ TEST_F(Cli, ConfigErrorsNameTheFileAndLine) {
     EXPECT_EQ(r.exit_code, 2);
     EXPECT_EQ(r.err.rfind("lensfx: --exposure: ", 0), 0u) << r.err;
     EXPECT_FALSE(fs::exists(p("t.exr")));
+    std::ofstream(p("self.toml")) << "config = \"other.toml\"\n";
+    EXPECT_EQ(lensfx("--config " + p("self.toml")).err, "lensfx: --config " + p("self.toml") + ", line 1: config cannot be set in a shot file\n");
+    EXPECT_EQ(lensfx("--config " + p("none.toml")).err, "lensfx: --config " + p("none.toml") + ": no such file\n");
+}
+
+// Usage messages say what to do: a positional argument given as an option, an option given twice, an output folder
+// that is a file.
+TEST_F(Cli, UsageMessagesPointAtTheFix) {
+    Output r = lensfx("lens info --lens cooke-triplet");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err, "lensfx: unknown option --lens (the lens goes without --lens: lensfx lens info LENS)\n");
+    r = lensfx("-i " + p("in.exr") + " -o " + p("o.exr") + " --frames 1 --frames 1");
+    EXPECT_EQ(r.err, "lensfx: --frames is given more than once (give it once)\n");
+    r = lensfx("-i " + p("in.exr") + " -o " + p("in.exr") + "/o.exr");
+    EXPECT_NE(r.err.find("output directory " + p("in.exr") + " is not a directory"), std::string::npos) << r.err;
 }
 
 TEST_F(Cli, VersionNamesTheBuildAndTheLibraries) {
