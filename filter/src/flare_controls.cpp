@@ -295,9 +295,8 @@ std::string describe(const LightSummary& s) {
     std::vector<int> sorted = s.lights_per_frame;
     std::sort(sorted.begin(), sorted.end());
     if (!sorted.empty() && sorted.back() > 0) {
-        const std::string culled = s.ghosts_culled > 0 ? fmt::format(", ghosts drawn {}, culled against the plate {}",
-                                                                     s.ghosts_drawn, s.ghosts_culled)
-                                                       : std::string();
+        std::string culled = s.ghosts_drawn > 0 || s.ghosts_culled > 0 ? fmt::format(", ghosts drawn {}", s.ghosts_drawn) : std::string();
+        if (s.ghosts_culled > 0) culled += fmt::format(", culled against the plate {}", s.ghosts_culled);
         return fmt::format("lensfx: {}, lights per frame min {}, median {}, max {}{}{}{}", of_frames, sorted.front(),
                            sorted[(sorted.size() - 1) / 2], sorted.back(), culled, outside_field(s), dropped_added(s));
     }

@@ -152,6 +152,11 @@ TEST(FlareControls, SummarySaysWhatWasFoundOrWhyNothingWas) {
     s.threshold_there = 20.0;
     s.lights_per_frame = {2, 0, 3, 1};
     EXPECT_EQ(filter::describe(s), "lensfx: 4 frames, lights per frame min 0, median 1, max 3");
+    s.ghosts_drawn = 90;  // --no-scene-cull, or a frame that culls none: the ghosts drawn are said all the same
+    EXPECT_EQ(filter::describe(s), "lensfx: 4 frames, lights per frame min 0, median 1, max 3, ghosts drawn 90");
+    s.ghosts_culled = 10;
+    EXPECT_EQ(filter::describe(s), "lensfx: 4 frames, lights per frame min 0, median 1, max 3, ghosts drawn 90, culled against the plate 10");
+    s.ghosts_drawn = s.ghosts_culled = 0;
     s.lights_per_frame = {0};
     s.brightest_luminance = 12.06;
     EXPECT_EQ(filter::describe(s),
