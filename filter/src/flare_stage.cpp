@@ -277,7 +277,10 @@ void check_flare_channels(const Frame& frame) {
     if (!frame.has_rgb()) {
         std::string names;
         for (const auto& n : frame.spec.channelnames) names += (names.empty() ? "" : ", ") + n;
-        throw std::runtime_error(fmt::format("the flare needs R, G, B channels (or LAYER.R, .G, .B); this frame has {}", names.empty() ? "none" : names));
+        const std::string first = frame.spec.channelnames.empty() ? std::string("Y") : frame.spec.channelnames.front();
+        throw std::runtime_error(fmt::format("the flare needs R, G, B channels (or LAYER.R, .G, .B, or Y alone); this frame has {0} (to flare one "
+                                             "channel, copy it to R, G, B: oiiotool IN --ch R={1},G={1},B={1} -o OUT)",
+                                             names.empty() ? "none" : names, first));
     }
     for (int c : frame.rgb_channels)
         if (frame.spec.channel_type(c) == PixelType::uint32)

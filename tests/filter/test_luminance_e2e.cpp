@@ -168,7 +168,8 @@ TEST(Luminance, ChromaAndOddChannelSetsAreRefusedInOneLine) {
     }
     expect_one_line_refusal(run(lensfx_in(dir) + fmt::format(" -i {0}/sub.exr -o {0}/out.exr", d) + kLens), "luminance/chroma");
     write_exr(dir / "lower.exr", {"y"}, scene());
-    expect_one_line_refusal(run(lensfx_in(dir) + fmt::format(" -i {0}/lower.exr -o {0}/out.exr", d) + kLens), "this frame has y");
+    expect_one_line_refusal(run(lensfx_in(dir) + fmt::format(" -i {0}/lower.exr -o {0}/out.exr", d) + kLens),
+                            "this frame has y (to flare one channel, copy it to R, G, B: oiiotool IN --ch R=y,G=y,B=y -o OUT)");
     write_exr(dir / "rg.exr", {"R", "G"}, scene());
     expect_one_line_refusal(run(lensfx_in(dir) + fmt::format(" -i {0}/rg.exr -o {0}/out.exr", d) + kLens), "this frame has");
     EXPECT_FALSE(fs::exists(dir / "out.exr"));
