@@ -10,6 +10,7 @@
 #include <fmt/core.h>
 
 #include <dof/deep_exr.h>
+#include <dof/highlights.h>
 #include <dof/ray_cache.h>
 #include <dof/renderer.h>
 #include <filter/option_checks.h>
@@ -211,6 +212,7 @@ struct DofStage::State {
     std::optional<dof::DeepImage> deep;
     std::unique_ptr<dof::Renderer> renderer;
     std::optional<dof::RayTable> table;
+    std::optional<dof::RayTable> bokeh_table;  // the highlights' bokeh shapes: many samples on a coarse grid
     dof::Camera camera;
     std::shared_ptr<DofShared> shared = std::make_shared<DofShared>();
     dof::RayTableSource table_source;
@@ -221,11 +223,15 @@ struct DofStage::State {
     int max_rays() const { return std::max(settings.rays, settings.max_rays > 0 ? settings.max_rays : std::min(4 * settings.rays, 256)); }
 
     dof::Camera camera_for(const Frame& frame) const;
-    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work) const;
+    // The scene's layers over `work`; a flat frame's highlights (dof/highlights.h) are taken out into `highlights`.
+    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work, std::vector<dof::Highlight>& highlights) const;
 };
 
 // Sensor points across the raster's width in the ray table.
 constexpr int kRayGrid = 17;
+// The bokeh table's lens rays per sensor point (its hull is the highlights' bokeh: corners within about
+// 1/30 of its width) and its sensor points across the raster (the pupil's shape changes slowly).
+constexpr int kBokehSamples = 1024, kBokehGrid = 9;
 
 std::string DofStage::State::cache_dir() const {
     return flare::cache_dir_of(settings.cache_dir);
@@ -259,7 +265,8 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     return c;
 }
 
-dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t, const DofRegion& work) const {
+dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t, const DofRegion& work,
+                                           std::vector<dof::Highlight>& highlights) const {
     const ImageSpec& spec = frame.spec;
     const int x = spec.x + work.x, y = spec.y + work.y;
     if (deep) return dof::layers_from_deep(dof::reframe(*deep, x, y, work.width, work.height), settings.depth_scale);
@@ -272,7 +279,7 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     std::vector<float> depth = crop(channels_as_float(frame, {z}), spec.width, 1, work);
     const int a = channel_index(frame, "A");
     const std::vector<float> alpha = a >= 0 ? crop(channels_as_float(frame, {a}), spec.width, 1, work) : std::vector<float>{};
-    const std::vector<float> rgb = crop(frame.rgb, spec.width, 3, work);
+    std::vector<float> rgb = crop(frame.rgb, spec.width, 3, work);
     float zmin = 1e30f, zmax = 0.0f;
     for (float& d : depth) {
         d = static_cast<float>(static_cast<double>(d) * settings.depth_scale);
@@ -283,6 +290,7 @@ dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTab
     const double reach = t.max_slope * std::max(std::abs(1.0 / static_cast<double>(zmin) - t.focus_w),
                                                 std::abs(1.0 / static_cast<double>(std::max(zmax, zmin)) - t.focus_w));
     options.hidden_radius_px = std::clamp(reach + 2.0, 2.0, 64.0);
+    highlights = dof::take_highlights(rgb, depth, work.width, work.height, t, work.x, work.y);  // scattered after the gather
     return dof::layers_from_flat(rgb.data(), depth.data(), work.width, work.height, options, alpha.empty() ? nullptr : alpha.data());
 }
 
@@ -333,6 +341,7 @@ void DofStage::process(Frame& frame) {
     if (!s.table || camera.width != s.camera.width || camera.height != s.camera.height || camera.centre_x != s.camera.centre_x ||
         camera.centre_y != s.camera.centre_y) {
         s.table = dof::cached_ray_table(camera, std::max(64, s.max_rays()), kRayGrid, s.cache_dir(), &s.table_source);
+        s.bokeh_table.reset();
         s.camera = camera;
     }
     s.rays_ms = ms_since(t0);
@@ -344,8 +353,12 @@ void DofStage::process(Frame& frame) {
         const DofRegion reached = blur_extent(spec, flat_content(frame, z, s.settings.depth_scale), *s.table);
         if (reached.width > 0 && reached.height > 0) work = reached;
     }
-    const dof::LayerStack layers = s.layers_of(frame, *s.table, work);
+    std::vector<dof::Highlight> highlights;
+    const dof::LayerStack layers = s.layers_of(frame, *s.table, work, highlights);
     s.layers_ms = ms_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    if (!highlights.empty() && !s.bokeh_table) s.bokeh_table = dof::cached_ray_table(s.camera, kBokehSamples, kBokehGrid, s.cache_dir());
+    s.rays_ms += ms_since(t0);
     t0 = std::chrono::steady_clock::now();
     s.gpu->get();
     if (!s.renderer) s.renderer = std::make_unique<dof::Renderer>();
@@ -356,8 +369,10 @@ void DofStage::process(Frame& frame) {
     trace.origin_x = work.x, trace.origin_y = work.y;
     const int alpha_channel = channel_index(frame, "A");
     std::vector<float> alpha;
-    std::vector<float> blurred = uncrop(s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr), spec.width,
-                                        spec.height, 3, work);
+    std::vector<float> traced = s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr);
+    const std::vector<float> visible(layers.front.begin(), layers.front.begin() + static_cast<std::ptrdiff_t>(traced.size() / 3));
+    if (!highlights.empty()) dof::splat_highlights(highlights, *s.bokeh_table, work.x, work.y, trace.chromatic, visible, work.width, work.height, traced);
+    std::vector<float> blurred = uncrop(traced, spec.width, spec.height, 3, work);
     // the alpha blurs with the colour
     if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, uncrop(alpha, spec.width, spec.height, 1, work));
     s.trace_ms = ms_since(t0);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <set>
 #include <string>
@@ -87,7 +88,7 @@ TEST(DofFilter, AlphaBlursWithTheColour) {
     EXPECT_LT(differ, 1e-3) << "premultiplied white: the colour is the alpha";
 }
 
-// The ray table is written to --cache-dir by the first run and read by the next: the same output.
+// The ray tables are written to --cache-dir by the first run and read by the next: the same output.
 TEST(DofFilter, SecondRunReadsTheCachedRayTable) {
     const auto dir = lensfx::test::scratch_dir("dof_cache");
     const std::string in = point_exr(dir, true), cache = (dir / "cache").string();
@@ -98,7 +99,7 @@ TEST(DofFilter, SecondRunReadsTheCachedRayTable) {
     }
     std::size_t tables = 0;
     for (const auto& e : std::filesystem::directory_iterator(cache)) tables += e.path().filename().string().starts_with("dof-rays-") ? 1 : 0;
-    EXPECT_EQ(tables, 1u);
+    EXPECT_EQ(tables, 2u) << "the blur's table and the bokeh table of its highlight (the bright square)";
     int w = 0, h = 0;
     EXPECT_EQ(read_channel((dir / "cold.exr").string(), "G", w, h), read_channel((dir / "warm.exr").string(), "G", w, h));
 }
@@ -288,6 +289,51 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     EXPECT_EQ(bad_bands.exit_code, 2) << "a usage error, found before any frame is read";
     EXPECT_NE(bad_bands.stderr_text.find("--bands: give 0 (RGB, three wavelengths) or 7..81 spectral bands, not 5"), std::string::npos) << bad_bands.stderr_text;
     for (const auto* r : {&bad_point, &bad_bands}) EXPECT_EQ(std::count(r->stderr_text.begin(), r->stderr_text.end(), '\n'), 1) << r->stderr_text;
+}
+
+// Bokeh of a small bright light (issue 18, highlights): a 3 x 3 light of 200 at 10 m over a dim plate, far out
+// of focus (1 m; a bokeh about 40 px across), fills an even disc instead of the gather's lattice of dots (one
+// ray hit per ~10 output pixels), and keeps its energy; focused at 10 m it stays where it was.
+TEST(DofFilter, SmallHotLightBecomesAnEvenlyFilledDisc) {
+    constexpr int n = 96, c = n / 2;
+    const auto dir = lensfx::test::scratch_dir("dof_bokeh");
+    std::vector<float> rgb(n * n, 0.02f), z(n * n, 10.0f);
+    for (int y = c - 1; y <= c + 1; ++y)
+        for (int x = c - 1; x <= c + 1; ++x) rgb[static_cast<std::size_t>(y * n + x)] = 200.0f;
+    const std::string in = (dir / "light.exr").string();
+    write_exr(in, n, n, {"R", "G", "B", "Z"}, {rgb, rgb, rgb, z});
+    const double energy = std::accumulate(rgb.begin(), rgb.end(), 0.0);
+    const auto blur = [&](const char* focus) {
+        const std::string out = (dir / (std::string("out") + focus + ".exr")).string();
+        const auto r = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out +
+                                         " --dof --dof-only --lens mld-double-gauss --sensor 12 --cache-dir none --focus " + focus);
+        EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+        int w = 0, h = 0;
+        return read_channel(out, "G", w, h);
+    };
+    const std::vector<float> far = blur("1");
+    ASSERT_EQ(far.size(), rgb.size());
+    // the disc's inside (radius 10 px of about 20): the light's share of each pixel, its mean and spread
+    double sum = 0.0, sum2 = 0.0, count = 0.0;
+    for (int y = c - 10; y <= c + 10; ++y)
+        for (int x = c - 10; x <= c + 10; ++x) {
+            if (std::hypot(x - c, y - c) > 10.0) continue;
+            const double v = double{far[static_cast<std::size_t>(y * n + x)]} - 0.02;
+            sum += v, sum2 += v * v, count += 1.0;
+        }
+    const double mean = sum / count, spread = std::sqrt(std::max(0.0, sum2 / count - mean * mean));
+    EXPECT_GT(mean, 0.5) << "the light spreads over the disc";
+    EXPECT_LT(spread / mean, 0.05) << "an even disc, not dots: std / mean " << spread / mean;
+    std::printf("disc inside: mean %.4f, std / mean %.4f\n", mean, spread / mean);
+    // the light's energy (the plate keeps its 0.02): focused at 1 m the lens images 10 m 1 / 0.912 times
+    // larger than the plate's scale (focus breathing, as DofFilter.BlursAPointBehindTheFocus...), 1.202 x
+    const double plate = 0.02 * (n * n - 9), light = energy - plate;
+    EXPECT_NEAR((std::accumulate(far.begin(), far.end(), 0.0) - plate) / (light * 1.202), 1.0, 0.01) << "energy";
+    const std::vector<float> sharp = blur("10");
+    double kept = 0.0;
+    for (int y = c - 2; y <= c + 2; ++y)
+        for (int x = c - 2; x <= c + 2; ++x) kept += double{sharp[static_cast<std::size_t>(y * n + x)]};
+    EXPECT_GT(kept / (9 * 200.0), 0.95) << "in focus the light stays within 5 x 5 px";
 }
 
 }  // namespace
