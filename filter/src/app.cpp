@@ -219,6 +219,15 @@ std::string config_error(const CLI::App& app, const std::string& message, const 
     return fmt::format("{}: {}", config_place(file, option.substr(2)), message);
 }
 
+// CLI11's wording of a missing --config file and of an option given twice, said as what to do; "" for others.
+std::string reworded(const std::string& message) {
+    if (const std::string unreadable = " was not readable (missing?)"; message.ends_with(unreadable))
+        return fmt::format("--config {}: no such file", message.substr(0, message.size() - unreadable.size()));
+    if (const std::string twice = ": At Most 1 required but received "; message.find(twice) != std::string::npos && message.rfind("--", 0) == 0)
+        return fmt::format("{} is given more than once (give it once)", message.substr(0, message.find(twice)));
+    return {};
+}
+
 }  // namespace
 
 std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const char* const* argv) {
@@ -243,10 +252,7 @@ std::string usage_error_message(const CLI::App& app, const CLI::ParseError& e, c
     std::string message = readable_numbers(e.what());
     if (!message.empty() && message.back() == '\n') message.pop_back();
     if (std::string in_config = config_error(app, message, args); !in_config.empty()) return in_config;
-    if (const std::string unreadable = " was not readable (missing?)"; message.ends_with(unreadable))
-        return fmt::format("--config {}: no such file", message.substr(0, message.size() - unreadable.size()));
-    if (const std::string twice = ": At Most 1 required but received "; message.find(twice) != std::string::npos && message.rfind("--", 0) == 0)
-        return fmt::format("{} is given more than once (give it once)", message.substr(0, message.find(twice)));
+    if (std::string plain = reworded(message); !plain.empty()) return plain;
     // An unknown option is the likelier cause of any error (a misspelt --angle is also a missing one).
     {
         const CLI::App& where = active(app);
