@@ -370,8 +370,10 @@ void DofStage::process(Frame& frame) {
     const int alpha_channel = channel_index(frame, "A");
     std::vector<float> alpha;
     std::vector<float> traced = s.renderer->render(layers, *s.table, trace, alpha_channel >= 0 ? &alpha : nullptr);
-    const std::vector<float> visible(layers.front.begin(), layers.front.begin() + static_cast<std::ptrdiff_t>(traced.size() / 3));
-    if (!highlights.empty()) dof::splat_highlights(highlights, *s.bokeh_table, work.x, work.y, trace.chromatic, visible, work.width, work.height, traced);
+    if (!highlights.empty()) {  // the first layer is the visible surface, which hides a farther light
+        const std::vector<float> visible(layers.front.begin(), layers.front.begin() + static_cast<std::ptrdiff_t>(traced.size() / 3));
+        dof::splat_highlights(highlights, *s.bokeh_table, work.x, work.y, trace.chromatic, visible, work.width, work.height, traced);
+    }
     std::vector<float> blurred = uncrop(traced, spec.width, spec.height, 3, work);
     // the alpha blurs with the colour
     if (alpha_channel >= 0) store_channels(frame, {alpha_channel}, uncrop(alpha, spec.width, spec.height, 1, work));
