@@ -224,7 +224,9 @@ struct DofStage::State {
 
     dof::Camera camera_for(const Frame& frame) const;
     // The scene's layers over `work`; a flat frame's highlights (dof/highlights.h) are taken out into `highlights`.
-    dof::LayerStack layers_of(const Frame& frame, const dof::RayTable& table, const DofRegion& work, std::vector<dof::Highlight>& highlights) const;
+    // deep_input: the frame itself is a deep EXR (dof::is_deep_exr of its source).
+    dof::LayerStack layers_of(const Frame& frame, bool deep_input, const dof::RayTable& table, const DofRegion& work,
+                              std::vector<dof::Highlight>& highlights) const;
 };
 
 // Sensor points across the raster's width in the ray table.
@@ -265,12 +267,12 @@ dof::Camera DofStage::State::camera_for(const Frame& frame) const {
     return c;
 }
 
-dof::LayerStack DofStage::State::layers_of(const Frame& frame, const dof::RayTable& t, const DofRegion& work,
+dof::LayerStack DofStage::State::layers_of(const Frame& frame, bool deep_input, const dof::RayTable& t, const DofRegion& work,
                                            std::vector<dof::Highlight>& highlights) const {
     const ImageSpec& spec = frame.spec;
     const int x = spec.x + work.x, y = spec.y + work.y;
     if (deep) return dof::layers_from_deep(dof::reframe(*deep, x, y, work.width, work.height), settings.depth_scale);
-    if (dof::is_deep_exr(frame.source)) {  // a deep input: its samples are the layers
+    if (deep_input) {  // its samples are the layers
         const dof::DeepImage own = dof::read_deep_exr(frame.source, settings.memory);
         return dof::layers_from_deep(dof::reframe(own, x, y, work.width, work.height), settings.depth_scale);
     }
@@ -334,7 +336,8 @@ void DofStage::process(Frame& frame) {
     // the blur spreads over the whole sensor: the display window
     const ImageSpec& spec = frame.spec;
     if (s.deep) check_deep_window(*s.deep, s.settings.deep, spec);
-    s.settings.memory.check(dof_frame_bytes(spec, s.deep || dof::is_deep_exr(frame.source)),
+    const bool deep_input = !s.deep && dof::is_deep_exr(frame.source);  // (opens the file: asked once a frame)
+    s.settings.memory.check(dof_frame_bytes(spec, s.deep || deep_input),
                             fmt::format("the lens blur over the {}x{} display window", spec.full_width, spec.full_height));
     grow_data_window(frame, spec.full_x, spec.full_y, spec.full_x + spec.full_width, spec.full_y + spec.full_height);
     const dof::Camera camera = s.camera_for(frame);
@@ -349,12 +352,12 @@ void DofStage::process(Frame& frame) {
     // a flat frame's fill around its data window stays black: only the part the blur reaches is traced
     DofRegion work{0, 0, spec.width, spec.height};
     const int z = channel_index(frame, s.settings.depth_channel);
-    if (!s.deep && !dof::is_deep_exr(frame.source) && z >= 0) {
+    if (!s.deep && !deep_input && z >= 0) {
         const DofRegion reached = blur_extent(spec, flat_content(frame, z, s.settings.depth_scale), *s.table);
         if (reached.width > 0 && reached.height > 0) work = reached;
     }
     std::vector<dof::Highlight> highlights;
-    const dof::LayerStack layers = s.layers_of(frame, *s.table, work, highlights);
+    const dof::LayerStack layers = s.layers_of(frame, deep_input, *s.table, work, highlights);
     s.layers_ms = ms_since(t0);
     t0 = std::chrono::steady_clock::now();
     if (!highlights.empty() && !s.bokeh_table) s.bokeh_table = dof::cached_ray_table(s.camera, kBokehSamples, kBokehGrid, s.cache_dir());

@@ -381,32 +381,36 @@ void rows_as_float(const Frame& frame, const std::vector<int>& channels, int fir
                        static_cast<std::size_t>(first_row + rows) * w, out);
 }
 
+std::vector<float> rgb_in_window(const std::vector<float>& rgb, const ImageSpec& was, const ImageSpec& now) {
+    std::vector<float> out(now.pixel_count() * 3, 0.0f);
+    const auto old_w = static_cast<std::size_t>(was.width), new_w = static_cast<std::size_t>(now.width);
+    const auto dx = static_cast<std::size_t>(was.x - now.x), dy = static_cast<std::size_t>(was.y - now.y);
+    for (std::size_t y = 0; y < static_cast<std::size_t>(was.height); ++y)
+        std::copy_n(rgb.data() + y * old_w * 3, old_w * 3, out.data() + ((y + dy) * new_w + dx) * 3);
+    return out;
+}
+
 void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1) {
+    const ImageSpec was = frame.spec;
+    const int nx0 = std::min(was.x, x0), ny0 = std::min(was.y, y0);
+    const int nx1 = std::max(was.x + was.width, x1), ny1 = std::max(was.y + was.height, y1);
+    if (nx0 == was.x && ny0 == was.y && nx1 == was.x + was.width && ny1 == was.y + was.height) return;
     ImageSpec& spec = frame.spec;
-    const int nx0 = std::min(spec.x, x0), ny0 = std::min(spec.y, y0);
-    const int nx1 = std::max(spec.x + spec.width, x1), ny1 = std::max(spec.y + spec.height, y1);
-    if (nx0 == spec.x && ny0 == spec.y && nx1 == spec.x + spec.width && ny1 == spec.y + spec.height) return;
-    const std::size_t px_bytes = spec.pixel_bytes();
-    const auto new_w = static_cast<std::size_t>(nx1 - nx0), new_h = static_cast<std::size_t>(ny1 - ny0);
-    const auto old_w = static_cast<std::size_t>(spec.width);
-    const auto dx = static_cast<std::size_t>(spec.x - nx0), dy = static_cast<std::size_t>(spec.y - ny0);
-    const bool released = frame.pixels.size() == 0;  // release_rgb_pixels(): `rgb` holds every channel
-    PixelBuffer pixels(released ? 0 : new_w * new_h * px_bytes);
-    if (!released) std::memset(pixels.data(), 0, pixels.size());
-    std::vector<float> rgb(frame.rgb.empty() ? 0 : new_w * new_h * 3, 0.0f);
-    for (std::size_t y = 0; y < static_cast<std::size_t>(spec.height); ++y) {
-        if (!released)
-            std::memcpy(pixels.data() + ((y + dy) * new_w + dx) * px_bytes, frame.pixels.data() + y * old_w * px_bytes,
-                        old_w * px_bytes);
-        if (!rgb.empty())
-            std::copy_n(frame.rgb.data() + y * old_w * 3, old_w * 3, rgb.data() + ((y + dy) * new_w + dx) * 3);
-    }
     spec.x = nx0;
     spec.y = ny0;
     spec.width = nx1 - nx0;
     spec.height = ny1 - ny0;
-    frame.pixels = std::move(pixels);
-    if (!frame.rgb.empty()) frame.rgb = std::move(rgb);
+    const std::size_t px_bytes = spec.pixel_bytes();
+    const auto new_w = static_cast<std::size_t>(spec.width), old_w = static_cast<std::size_t>(was.width);
+    const auto dx = static_cast<std::size_t>(was.x - nx0), dy = static_cast<std::size_t>(was.y - ny0);
+    if (frame.pixels.size() != 0) {  // else released (release_rgb_pixels()): `rgb` holds every channel
+        PixelBuffer pixels(spec.image_bytes());
+        std::memset(pixels.data(), 0, pixels.size());
+        for (std::size_t y = 0; y < static_cast<std::size_t>(was.height); ++y)
+            std::memcpy(pixels.data() + ((y + dy) * new_w + dx) * px_bytes, frame.pixels.data() + y * old_w * px_bytes, old_w * px_bytes);
+        frame.pixels = std::move(pixels);
+    }
+    if (!frame.rgb.empty()) frame.rgb = rgb_in_window(frame.rgb, was, spec);
 }
 
 void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<float>& rgb) {

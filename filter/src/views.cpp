@@ -44,22 +44,6 @@ void DefaultViewStage::process(Frame& frame) {
     if (views_->default_selected(frame)) inner_->process(frame);
 }
 
-namespace {
-
-// The default view's working R, G, B (interleaved over the data window `was`) moved into the data window the
-// frame has now, which a view's flare may have grown (grow_data_window): new pixels 0, as that gives them.
-void follow_data_window(std::vector<float>& rgb, const ImageSpec& was, const ImageSpec& now) {
-    if (rgb.empty() || (was.x == now.x && was.y == now.y && was.width == now.width && was.height == now.height)) return;
-    std::vector<float> grown(now.pixel_count() * 3, 0.0f);
-    const auto old_w = static_cast<std::size_t>(was.width), new_w = static_cast<std::size_t>(now.width);
-    const auto dx = static_cast<std::size_t>(was.x - now.x), dy = static_cast<std::size_t>(was.y - now.y);
-    for (std::size_t y = 0; y < static_cast<std::size_t>(was.height); ++y)
-        std::copy_n(rgb.data() + y * old_w * 3, old_w * 3, grown.data() + ((y + dy) * new_w + dx) * 3);
-    rgb = std::move(grown);
-}
-
-}  // namespace
-
 void OtherViewsStage::process(Frame& frame) {
     const std::vector<std::string> views = frame_views(frame);
     if (views.size() < 2) return;
@@ -85,7 +69,9 @@ void OtherViewsStage::process(Frame& frame) {
         frame.rgb.clear();
     }
     frame.rgb_channels = default_rgb;
-    follow_data_window(default_working, before, frame.spec);
+    // a view's flare may have grown the data window (grow_data_window): the default view's buffer grows with it
+    const bool grown = before.x != frame.spec.x || before.y != frame.spec.y || before.width != frame.spec.width || before.height != frame.spec.height;
+    if (grown && !default_working.empty()) default_working = rgb_in_window(default_working, before, frame.spec);
     frame.rgb = std::move(default_working);
 }
 

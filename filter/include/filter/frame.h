@@ -102,6 +102,9 @@ void rows_as_float(const Frame& frame, const std::vector<int>& channels, int fir
 // Grows the data window to also cover the rectangle [x0, x1) x [y0, y1) (absolute pixel coordinates, as
 // spec.x / spec.y); new pixels are 0 in every channel, and `rgb`, when loaded, grows with `pixels`.
 void grow_data_window(Frame& frame, int x0, int y0, int x1, int y1);
+// `rgb` (R, G, B interleaved over the data window of `was`) over the data window of `now`, which holds it: 0 where
+// it grew (grow_data_window's working buffer; a multi-view frame's other view's).
+std::vector<float> rgb_in_window(const std::vector<float>& rgb, const ImageSpec& was, const ImageSpec& now);
 // Appends channels LAYER.R, LAYER.G, LAYER.B, of the R channel's type, holding `rgb` (float RGB
 // interleaved over the data window). Throws std::invalid_argument when a channel of that name exists.
 void add_rgb_layer(Frame& frame, const std::string& layer, const std::vector<float>& rgb);
