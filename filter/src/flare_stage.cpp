@@ -470,6 +470,8 @@ struct FlareStage::State {
     LightSummary summary;
     std::shared_ptr<GpuSession> gpu_session;  // its context is made ahead and taken at the first ghost render
     std::unique_ptr<gpu::FlareRenderer> renderer;  // made at the first ghost render (ghost_renderer)
+    // The renderer made and warmed up on the context's worker (GpuSession::prepare), taken at the first ghost render.
+    std::shared_ptr<std::unique_ptr<gpu::FlareRenderer>> renderer_ahead = std::make_shared<std::unique_ptr<gpu::FlareRenderer>>();
     std::unique_ptr<gpu::MeasuredRenderer> measured_renderer;
     FlareParts parts;
     gpu::GpuFlareOptions render_options;  // grid, ringing, accelerations, --flare-look styles
@@ -485,6 +487,18 @@ struct FlareStage::State {
     // The extended lights' groups, shared by a frame's lights; let go at the frame's end. After convolve_scratch:
     // destroyed first, it waits for a group still being spread (which uses convolve_scratch).
     LevelSums level_sums;
+
+    // A renderer the context's worker may still be making, or made and no render took, is let go with the context
+    // current here.
+    ~State() {
+        if (!gpu_session || !gpu_session->preparing()) return;
+        try {
+            gpu_session->get();
+        } catch (const std::exception&) {  // no context was made: nor was the renderer
+        }
+    }
+    State(const State&) = delete;
+    State& operator=(const State&) = delete;
 
     State(FlareSettings s, std::shared_ptr<GpuSession> g, PrimariesSource primaries)
         : settings(with_files_checked(std::move(s))),
@@ -517,8 +531,27 @@ struct FlareStage::State {
         if (settings.bands != 0) flare::spectral_passes(settings.bands);  // checks the band count
         if (settings.band_filter && settings.bands == 0) throw std::invalid_argument("--band-filter needs --bands N");
         if (gpu_session->platform.empty() || gpu_session->platform == "auto") gpu_session->platform = settings.gpu;
-        if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare();
+        if (parts.ghosts && settings.gain > 0.0) gpu_session->prepare(lens.measured ? nullptr : renderer_made_ahead());
         flare::keep_fft_wisdom_in(flare::cache_dir_of(settings.accel.cache_dir));  // the footprints' FFT plans
+    }
+
+    // A renderer made on the context's worker and warmed up there (FlareRenderer::prepare: shaders compiled,
+    // the passes' ghost sequences built) while the first frame is read, its lights found and their starbursts
+    // drawn: canon-70-200 on a 1080p frame starts drawing ghosts some 40 ms sooner. A failure leaves it unmade:
+    // the first render then makes its own and reports the fault where it meets it.
+    std::function<void(gpu::Context&)> renderer_made_ahead() const {
+        flare::FlareView view;
+        view.sensor_width_mm = lens.sensor[0];
+        view.sensor_height_mm = lens.sensor[1] > 0.0 ? lens.sensor[1] : lens.sensor[0];
+        view.bands = settings.bands;
+        return [slot = renderer_ahead, system = lens.system, view, options = render_options](gpu::Context& context) {
+            try {
+                auto made = std::make_unique<gpu::FlareRenderer>(context);
+                made->prepare(system, view, options);
+                *slot = std::move(made);
+            } catch (const std::exception&) {
+            }
+        };
     }
 
     // The prescription, realized at --zoom and --fstop with its coatings and blades.
@@ -650,7 +683,9 @@ struct FlareStage::State {
     // The ghost renderer, made at the first render: the light's direct power, starburst and footprint groups
     // are computed first, while the context made ahead (GpuSession::prepare) may still be starting up.
     gpu::FlareRenderer& ghost_renderer() {
-        if (!renderer) renderer = std::make_unique<gpu::FlareRenderer>(gpu_session->get());
+        if (renderer) return *renderer;
+        gpu::Context& context = gpu_session->get();  // after the worker is done with the renderer it made
+        renderer = *renderer_ahead ? std::move(*renderer_ahead) : std::make_unique<gpu::FlareRenderer>(context);
         return *renderer;
     }
 

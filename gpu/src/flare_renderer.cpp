@@ -783,6 +783,8 @@ public:
     int bands() const { return bands_.count; }
     // The trace step alone on ghost g at the first pass (for tests): the batch's vertices read back.
     std::vector<float> trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect);
+    // Every pass's sequences built and every program used once (FlareRenderer::prepare), for the first light.
+    void warm_up();
 
 private:
     State& s_;
@@ -1549,6 +1551,40 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
     glUseProgram(0);
     glBindVertexArray(0);
     return vertices;
+}
+
+// The first light's passes drawn as four ghosts planned to use every program: indexed with its small triangles
+// apart, with area coverage, reduced with a rim pass at full size, and faint (batched). Each is a 2 x 2 grid over
+// a square millimetre at the pupil's centre, and the light carries no power: nothing is added to the targets.
+void FlareRenderer::Drawing::warm_up() {
+    constexpr std::size_t kWarmGhosts = 4;
+    if (ghosts_.size() < kWarmGhosts || lights_.empty()) return;
+    GhostEstimate small;
+    small.rect = {-0.5, -0.5, 0.5, 0.5};
+    estimates_.assign(1, LightEstimates{std::vector<std::vector<GhostEstimate>>(passes_.size(), std::vector<GhostEstimate>(ghosts_.size(), small))});
+    PassPlan plan;
+    plan.plans.assign(ghosts_.size(), GhostPlan{});
+    plan.plans[0] = {.draw = true, .grid = 2, .reduce = 1, .rim = false};
+    plan.plans[1] = {.draw = true, .grid = 2, .reduce = 1, .rim = false, .area_coverage = true};
+    plan.plans[2] = {.draw = true, .grid = 2, .reduce = kRimReduce, .rim = true};
+    plan.plans[3] = {.draw = true, .grid = 2, .reduce = 2, .rim = false, .small_apart = false, .faint = true};
+    plan.todo = {0, 1, 2};
+    plan.batched = {3};
+    for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(0, p, plan, nullptr);
+    glFinish();  // compiled here, on this thread, before the context is handed on
+}
+
+void FlareRenderer::prepare(const System& system, const FlareView& view, const GpuFlareOptions& options) {
+    FlareView small = view;
+    small.width = kWarmUpSide;
+    small.height = kWarmUpSide;
+    const ScaledLight dark{0.0, 0.0, {0.0, 0.0, 0.0}};
+    GpuFlareOptions plain = options;
+    plain.visibility = nullptr;
+    plain.per_ghost_power = false;
+    Drawing drawing = start_drawing(system, small, std::span(&dark, 1), plain);
+    drawing.warm_up();
+    state_->report.stats = {};
 }
 
 void FlareRenderer::draw(const System& system, const FlareView& view, std::span<const ScaledLight> lights,

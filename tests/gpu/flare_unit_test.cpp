@@ -253,5 +253,35 @@ INSTANTIATE_TEST_SUITE_P(Ghosts, CutEdges,
                                            CutCase{"nikon-80-200", 11.41, 7.68, 0, 7, 960, 640, 550.0},
                                            CutCase{"pbrt-dgauss-50", -5.5, 0.1, 6, 4, 1000, 810, 550.0}));
 
+// FlareRenderer::prepare (the filter's warm-up on the context's worker) changes nothing drawn: a prepared
+// renderer's images are bit for bit a fresh one's, at the warm-up's own size (whose targets it drew into) and at
+// a frame's, for a lens with every ghost and for one ghost alone (too few ghosts to warm up with).
+TEST(FlareRenderer, APreparedRendererDrawsWhatAFreshOneDraws) {
+    const optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    const Context context(Platform::Surfaceless);
+    for (const int side : {kWarmUpSide, 96}) {
+        for (const bool one_ghost : {false, true}) {
+            FlareView view;
+            view.angle_x_deg = 8.0;
+            view.angle_y_deg = -3.0;
+            view.width = side;
+            view.height = side * 2 / 3;
+            if (one_ghost) {
+                const std::vector<optics::Ghost> ghosts = optics::enumerate_ghosts(system);
+                view.only_ghosts = {{ghosts[0].first, ghosts[0].second}};
+            }
+            FlareRenderer fresh(context);
+            const FlareImage expected = fresh.render(system, view);
+            FlareRenderer prepared(context);
+            prepared.prepare(system, view, {});
+            const FlareImage image = prepared.render(system, view);
+            double power = 0.0;
+            for (const float v : expected.rgb) power += static_cast<double>(v);
+            EXPECT_GT(power, 0.0) << side << (one_ghost ? " one ghost" : "");
+            EXPECT_EQ(image.rgb, expected.rgb) << side << (one_ghost ? " one ghost" : "");
+        }
+    }
+}
+
 }  // namespace
 }  // namespace lensfx::gpu

@@ -4,6 +4,7 @@
 // stage has it made ahead on a worker thread, so EGL's start-up overlaps reading the first frame.
 #pragma once
 
+#include <functional>
 #include <future>
 #include <memory>
 #include <string>
@@ -19,15 +20,20 @@ struct GpuSession {
 
     // The GPU path is active: a context exists (or is to be made because the user asked for it).
     bool active() const { return context != nullptr || requested; }
-    // Starts making the context on a worker thread; get() takes it over (and throws what making it threw).
-    void prepare() {
+    // Starts making the context on a worker thread, where `ahead` then runs with it current (GL work a stage
+    // wants done before its first frame: the flare stage makes and warms up its renderer; it catches its own
+    // errors); get() takes it over (and throws what making it threw).
+    void prepare(std::function<void(gpu::Context&)> ahead = {}) {
         if (context || pending.valid()) return;
-        pending = std::async(std::launch::async, [p = gpu::parse_platform(platform)] {
+        pending = std::async(std::launch::async, [p = gpu::parse_platform(platform), ahead = std::move(ahead)] {
             auto made = std::make_unique<gpu::Context>(p);
+            if (ahead) ahead(*made);
             made->release();
             return made;
         });
     }
+    // The context is still being made (prepare), perhaps with a stage's GL work.
+    bool preparing() const { return pending.valid(); }
     gpu::Context& get() {
         if (!context && pending.valid()) {
             auto made = pending.get();

@@ -1,5 +1,5 @@
 // The program's heap set up for frame-sized buffers: glibc's malloc tuned once at start-up so that images and
-// render targets come from memory backed by transparent huge pages and kept for the next frame.
+// render targets come from the one heap and are kept for the next frame.
 #pragma once
 
 #include <string>
@@ -13,8 +13,8 @@ struct HeapTuning {
     bool one_arena = false;  // every thread allocates from the one heap (tuned, or under ulimit -v / -d)
 };
 
-// On glibc, with an unlimited address space and data segment and no strict overcommit: the heap's first 192 MiB advised to use
-// huge pages, frame-sized blocks (1080p images and targets) served from it instead of fresh mappings, and up
+// On glibc, with an unlimited address space and data segment and no strict overcommit: frame-sized blocks
+// (1080p images and targets) served from the heap instead of fresh mappings, and up
 // to 288 MiB of freed memory kept for the next frame; every thread's blocks from that one heap; bigger blocks (8K) stay mappings given back at free.
 // Elsewhere, under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is, but for
 // one thing under ulimit -v or -d: the threads share one arena, which halves the address space a run needs.

@@ -84,6 +84,9 @@ struct ScaledLight {
     std::array<double, 3> scale{1.0, 1.0, 1.0};
 };
 
+// The side (pixels) of the view FlareRenderer::prepare draws into: its targets are made again at a frame's size.
+inline constexpr int kWarmUpSide = 16;
+
 class FlareRenderer {
 public:
     // Compiles the shaders; the context must stay alive and current while the renderer is used.
@@ -93,6 +96,11 @@ public:
     FlareRenderer& operator=(const FlareRenderer&) = delete;
 
     FlareImage render(const System& system, const FlareView& view, const GpuFlareOptions& options = {});
+    // Gets ready to render `system` through views like `view` (their size and light aside): every pass's ghost
+    // sequences built and uploaded, and every program used once on a few tiny ghosts into small targets, since a
+    // software rasteriser compiles a shader at its first use. The filter has this done on a worker thread while
+    // the first frame is read and its lights found; a render does whatever was not.
+    void prepare(const System& system, const FlareView& view, const GpuFlareOptions& options);
     // The ghosts of several lights seen through the same view (its angles ignored) added into rgb (view.width x
     // view.height, top row first), each light's scaled: the targets are cleared and read back once for all.
     // With level 2, 4, 8 or 16, rgb is the view reduced by level (flare::reduced_side; its pixel i covers the
