@@ -544,11 +544,13 @@ struct FlareStage::State {
         view.sensor_width_mm = lens.sensor[0];
         view.sensor_height_mm = lens.sensor[1] > 0.0 ? lens.sensor[1] : lens.sensor[0];
         view.bands = settings.bands;
-        return [slot = renderer_ahead, system = lens.system, view, options = render_options](gpu::Context& context) {
+        // The slot is held weakly: were the stage gone (its construction failed after this), the renderer is let go
+        // here, where the context is current.
+        return [slot = std::weak_ptr(renderer_ahead), system = lens.system, view, options = render_options](gpu::Context& context) {
             try {
                 auto made = std::make_unique<gpu::FlareRenderer>(context);
                 made->prepare(system, view, options);
-                *slot = std::move(made);
+                if (const auto taker = slot.lock()) *taker = std::move(made);
             } catch (const std::exception&) {
             }
         };
