@@ -529,8 +529,17 @@ void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress
 
 // Every stage on one frame, with their times and figures in its record; R, G, B as float meanwhile when a
 // stage wants them. Throws when the frame's display window differs from the first frame's.
-void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_rgb, std::optional<ImageSpec>& first,
-                   FrameRecord& rec) {
+// What working on a frame's R, G, B as float holds before any effect runs: the frame as read and its float copy;
+// checked before the copy is made, so a frame too big for --memory-limit is refused before it grows (an 8K half
+// frame under 300M reached 710 MB before the flare's own check refused it, after the copy and the detection).
+// The effects check their own buffers (the flare's over the display window) when they make them.
+void check_working_bytes(const Frame& frame, const MemoryBudget& memory) {
+    memory.check(static_cast<double>(frame_bytes(frame, true)),
+                 fmt::format("the {}x{} frame as float R, G, B", frame.spec.width, frame.spec.height));
+}
+
+void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_rgb, const MemoryBudget& memory,
+                   std::optional<ImageSpec>& first, FrameRecord& rec) {
     if (!first) {
         first = frame.spec;
     } else if (!same_display_window(*first, frame.spec)) {
@@ -540,6 +549,7 @@ void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_r
     }
     const bool load = wants_rgb && frame.has_rgb();
     if (load) {
+        check_working_bytes(frame, memory);
         load_rgb(frame);
         release_rgb_pixels(frame);  // an RGB-only frame is held once, as float, until store_rgb
     }
@@ -590,7 +600,7 @@ void process_frames(const PipelineOptions& o, const std::vector<Stage*>& stages,
         if (item->frame) {
             const auto t0 = Clock::now();
             try {
-                process_frame(*item->frame, stages, wants_rgb, first, rec);
+                process_frame(*item->frame, stages, wants_rgb, o.memory, first, rec);
                 item->held.resize(frame_bytes(*item->frame, false));
             } catch (const std::exception& e) {
                 item->frame.reset();

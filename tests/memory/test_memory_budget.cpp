@@ -234,6 +234,19 @@ TEST(MemoryBudgetEndToEnd, HugeDisplayWindowOfATinyFile) {
     fs::remove_all(dir);
 }
 
+// A frame whose float R, G, B copy would take it over the limit is refused before the copy is made, in one line
+// naming the frame and the limit (before, an 8K half frame under 300M reached 710 MB: copied, its lights found,
+// and only then refused by the flare's own check).
+TEST(MemoryBudgetEndToEnd, AFrameIsRefusedBeforeItsFloatCopyOutgrowsTheLimit) {
+    const fs::path dir = scratch_dir("memory-float-copy");
+    make_windowed_exr(dir / "in.exr", 2048, 2048);  // 25 MB as half, 50 MB more as float
+    const std::string in = quoted(dir / "in.exr");
+    expect_one_line(run(lensfx_cmd() + fmt::format(" -i {} -o {} --lens cooke-triplet --memory-limit 40M", in, quoted(dir / "out.exr"))),
+                    "frame 1: the 2048x2048 frame as float R, G, B needs 75 MB, over the memory limit of 42 MB");
+    EXPECT_EQ(file_count(dir), 1u);  // nothing written
+    fs::remove_all(dir);
+}
+
 // 1e6 x 1e6 windows: the default budget (half of any machine) refuses a flare over the display window; a
 // header whose data window is that large is refused before its pixels are allocated.
 TEST(MemoryBudgetEndToEnd, MillionPixelWindows) {
