@@ -2,6 +2,8 @@
 #include <dof/highlights.h>
 
 #include <algorithm>
+#include <numbers>
+#include <numeric>
 #include <cmath>
 #include <map>
 #include <unordered_map>
@@ -264,6 +266,24 @@ std::size_t cell_of(const RayTable& table, Point s) {
     return index(x, y, table.grid_x - 1);
 }
 
+// The brightest of `found` (by the sum of their excess), from the brightest down while there are at most `count`
+// and their areas sum to at most `max_area`, in the plate's order; the dimmer stay in the plate, with the gather.
+void keep_brightest_within(std::vector<Highlight>& found, const std::vector<double>& area, std::size_t count, double max_area) {
+    std::vector<std::size_t> order(found.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    const auto energy = [&](std::size_t k) { return found[k].excess[0] + found[k].excess[1] + found[k].excess[2]; };
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return energy(a) > energy(b); });
+    std::size_t n = 0;
+    double used = 0.0;
+    for (; n < order.size() && n < count && used + area[order[n]] <= max_area; ++n) used += area[order[n]];
+    if (n == found.size()) return;
+    order.resize(n);
+    std::sort(order.begin(), order.end());  // kept in the plate's order
+    std::vector<Highlight> kept;
+    for (const std::size_t k : order) kept.push_back(found[k]);
+    found = std::move(kept);
+}
+
 }  // namespace
 
 std::vector<Highlight> take_highlights(std::vector<float>& rgb, const std::vector<float>& depth_m, int width, int height,
@@ -272,6 +292,7 @@ std::vector<Highlight> take_highlights(std::vector<float>& rgb, const std::vecto
     // a highlight's excess is at most its value: a plate with none that bright has none (no opening to compute)
     if (std::none_of(rgb.begin(), rgb.end(), [&](float v) { return double{v} >= settings.min_excess; }) || settings.max_count == 0) return found;
     const std::vector<float> level = opening(rgb, width, height, settings.radius);
+    std::vector<double> area;  // each one's bokeh's, pi r^2 (pixels)
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
             const std::size_t i = index(x, y, width);
@@ -282,15 +303,12 @@ std::vector<Highlight> take_highlights(std::vector<float>& rgb, const std::vecto
                 most = std::max(most, h.excess[c]), base = std::max(base, level[3 * i + c]);
             }
             if (!(double{most} >= settings.min_excess && double{most} >= settings.min_ratio * double{base})) continue;
-            if (bokeh_radius(table, x + 0.5 + origin_x, y + 0.5 + origin_y, h.w) < settings.min_blur_px) continue;
+            const double r = bokeh_radius(table, x + 0.5 + origin_x, y + 0.5 + origin_y, h.w);
+            if (r < settings.min_blur_px) continue;
             found.push_back(h);
+            area.push_back(std::numbers::pi * r * r);
         }
-    // past the cap the dimmest stay in the plate
-    const auto brighter = [](const Highlight& a, const Highlight& b) { return a.excess[0] + a.excess[1] + a.excess[2] > b.excess[0] + b.excess[1] + b.excess[2]; };
-    if (found.size() > settings.max_count) {
-        std::nth_element(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(settings.max_count), found.end(), brighter);
-        found.resize(settings.max_count);
-    }
+    keep_brightest_within(found, area, settings.max_count, settings.max_area_ratio * width * height);
     for (const Highlight& h : found)
         for (std::size_t c = 0; c < 3; ++c) rgb[3 * index(h.x, h.y, width) + c] -= h.excess[c];
     return found;

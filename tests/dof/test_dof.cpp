@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include <dof/deep_exr.h>
+#include <dof/highlights.h>
 #include <dof/reference.h>
 #include <flare/flare.h>
 #include <optics/tracer.h>
@@ -313,6 +314,44 @@ TEST(DofLayers, FlatImageGetsTheHiddenSurfaceUnderItsNearerNeighbour) {
     EXPECT_FLOAT_EQ(l.front[l.at(1, 4, 1)], 5.0f);   // 4 px in
     EXPECT_FLOAT_EQ(l.front[l.at(1, 2, 1)], 0.0f);   // beyond the reach
     EXPECT_FLOAT_EQ(l.front[l.at(1, 12, 1)], 0.0f);  // nothing hides behind the far surface
+}
+
+// The highlights taken from a plate for the bokeh splat are the brightest whose bokehs' areas fit
+// HighlightSettings::max_area_ratio (the splat's cost follows that area); the others stay in the plate.
+TEST(Highlights, TheBrightestWithinTheAreaBudgetAreTaken) {
+    constexpr int n = 96;
+    const Camera cam = camera_for("mld-double-gauss", 4.0, 1.0, 10.0, n, 12.0);  // 10 m blurs to about 12 px
+    const RayTable table = make_ray_table(cam, 256, 5);
+    std::vector<float> rgb(3 * n * n, 0.0f), depth(n * n, 10.0f);
+    std::vector<std::size_t> lights;  // a lattice of 36 one-pixel lights of 100, 110, 120...
+    for (int y = 8; y < n; y += 16)
+        for (int x = 8; x < n; x += 16) {
+            const std::size_t i = static_cast<std::size_t>(y * n + x);
+            for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = 100.0f + 10.0f * static_cast<float>(lights.size());
+            lights.push_back(i);
+        }
+    const auto taken = [&](double ratio, std::vector<float>& plate) {
+        plate = rgb;
+        HighlightSettings settings;
+        settings.max_area_ratio = ratio;
+        return take_highlights(plate, depth, n, n, table, 0, 0, settings);
+    };
+    std::vector<float> plate;
+    EXPECT_EQ(taken(1e9, plate).size(), lights.size());
+    const std::vector<Highlight> some = taken(0.1, plate);  // 922 px^2: a few discs of radius about 6 px
+    ASSERT_GT(some.size(), 0u);
+    ASSERT_LT(some.size(), lights.size());
+    float dimmest_taken = 1e30f;
+    for (const Highlight& h : some) dimmest_taken = std::min(dimmest_taken, h.excess[1]);
+    for (const std::size_t i : lights) {
+        const bool was_taken = std::any_of(some.begin(), some.end(), [&](const Highlight& h) { return static_cast<std::size_t>(h.y * n + h.x) == i; });
+        if (was_taken) {
+            EXPECT_EQ(plate[3 * i + 1], 0.0f) << "a taken light leaves the plate";
+        } else {
+            EXPECT_EQ(plate[3 * i + 1], rgb[3 * i + 1]) << "a light left out stays in the plate";
+            EXPECT_LT(rgb[3 * i + 1], dimmest_taken) << "the brightest are taken";
+        }
+    }
 }
 
 }  // namespace
