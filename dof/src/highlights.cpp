@@ -267,7 +267,8 @@ std::size_t cell_of(const RayTable& table, Point s) {
 }
 
 // The brightest of `found` (by the sum of their excess), from the brightest down while there are at most `count`
-// and their areas sum to at most `max_area`, in the plate's order; the dimmer stay in the plate, with the gather.
+// and their areas sum to at most `max_area`, less any as bright as the first left out, in the plate's order; the
+// others stay in the plate, with the gather.
 void keep_brightest_within(std::vector<Highlight>& found, const std::vector<double>& area, std::size_t count, double max_area) {
     std::vector<std::size_t> order(found.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
@@ -277,6 +278,9 @@ void keep_brightest_within(std::vector<Highlight>& found, const std::vector<doub
     double used = 0.0;
     for (; n < order.size() && n < count && used + area[order[n]] <= max_area; ++n) used += area[order[n]];
     if (n == found.size()) return;
+    // Lights as bright as the first left out are all left out: a cap splitting equal lights by their place
+    // would splat a band of them and gather the rest (a field of equal lights is gathered smooth).
+    while (n > 0 && energy(order[n - 1]) == energy(order[n])) --n;
     order.resize(n);
     std::sort(order.begin(), order.end());  // kept in the plate's order
     std::vector<Highlight> kept;

@@ -491,11 +491,14 @@ struct FlareStage::State {
     // A renderer the context's worker may still be making, or made and no render took, is let go with the context
     // current here.
     ~State() {
-        if (!gpu_session || !gpu_session->preparing()) return;
-        try {
-            gpu_session->get();
-        } catch (const std::exception&) {  // no context was made: nor was the renderer
+        if (!gpu_session) return;
+        if (gpu_session->preparing()) {
+            try {
+                gpu_session->get();
+            } catch (const std::exception&) {  // lost: see forget_lost_renderer
+            }
         }
+        forget_lost_renderer();
     }
     State(const State&) = delete;
     State& operator=(const State&) = delete;
@@ -687,8 +690,16 @@ struct FlareStage::State {
     gpu::FlareRenderer& ghost_renderer() {
         if (renderer) return *renderer;
         gpu::Context& context = gpu_session->get();  // after the worker is done with the renderer it made
+        forget_lost_renderer();
         renderer = *renderer_ahead ? std::move(*renderer_ahead) : std::make_unique<gpu::FlareRenderer>(context);
         return *renderer;
+    }
+
+    // A renderer made ahead in a context that was lost (GpuSession::lost_ahead; a later get() makes another) is
+    // let go without deleting its GL objects: their names belong to the lost context, and in another would be
+    // someone else's.
+    void forget_lost_renderer() {
+        if (gpu_session->lost_ahead() && *renderer_ahead) static_cast<void>(renderer_ahead->release());
     }
 
     // Step 3, the model: every light's starburst and ghosts added into `rgb` (the display window) at the light's

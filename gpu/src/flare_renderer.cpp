@@ -1571,6 +1571,9 @@ void FlareRenderer::Drawing::warm_up() {
     plan.todo = {0, 1, 2};
     plan.batched = {3};
     for (std::size_t p = 0; p < passes_.size(); ++p) draw_pass(0, p, plan, nullptr);
+    glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);  // as a read-back leaves them, for whoever draws next
+    glUseProgram(0);
+    glBindVertexArray(0);
     glFinish();  // compiled here, on this thread, before the context is handed on
 }
 
@@ -1582,6 +1585,9 @@ void FlareRenderer::prepare(const System& system, const FlareView& view, const G
     GpuFlareOptions plain = options;
     plain.visibility = nullptr;
     plain.per_ghost_power = false;
+    // No ringing texture: it is planned with FFTW, whose planner must not run beside the caller's (the
+    // filter's starburst, on its own thread while this runs on the context's worker). Its use is a uniform.
+    plain.ringing = false;
     Drawing drawing = start_drawing(system, small, std::span(&dark, 1), plain);
     drawing.warm_up();
     state_->report.stats = {};

@@ -352,6 +352,12 @@ TEST(Highlights, TheBrightestWithinTheAreaBudgetAreTaken) {
             EXPECT_LT(rgb[3 * i + 1], dimmest_taken) << "the brightest are taken";
         }
     }
+    // Equal lights are taken all or none: a cap splitting them by place would splat a band and gather the rest.
+    for (const std::size_t i : lights)
+        for (std::size_t c = 0; c < 3; ++c) rgb[3 * i + c] = 100.0f;
+    EXPECT_EQ(taken(1e9, plate).size(), lights.size());
+    EXPECT_TRUE(taken(0.1, plate).empty());
+    EXPECT_EQ(plate, rgb);
 }
 
 }  // namespace

@@ -265,7 +265,7 @@ TEST(FlareRenderer, APreparedRendererDrawsWhatAFreshOneDraws) {
             view.angle_x_deg = 8.0;
             view.angle_y_deg = -3.0;
             view.width = side;
-            view.height = side * 2 / 3;
+            view.height = side;
             if (one_ghost) {
                 const std::vector<optics::Ghost> ghosts = optics::enumerate_ghosts(system);
                 view.only_ghosts = {{ghosts[0].first, ghosts[0].second}};

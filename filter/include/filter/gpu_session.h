@@ -34,11 +34,19 @@ struct GpuSession {
     }
     // The context is still being made (prepare), perhaps with a stage's GL work.
     bool preparing() const { return pending.valid(); }
+    // The context prepare() made was lost (its making, its release on the worker or its taking here failed):
+    // whatever GL objects a stage made there ahead are gone with it, and are not to be used or deleted.
+    bool lost_ahead() const { return ahead_lost; }
     gpu::Context& get() {
         if (!context && pending.valid()) {
-            auto made = pending.get();
-            made->make_current();  // kept only once current here: a failure leaves nothing half taken
-            context = std::move(made);
+            try {
+                auto made = pending.get();
+                made->make_current();  // kept only once current here: a failure leaves nothing half taken
+                context = std::move(made);
+            } catch (...) {
+                ahead_lost = true;
+                throw;
+            }
         }
         if (!context) context = std::make_unique<gpu::Context>(gpu::parse_platform(platform));
         return *context;
@@ -46,6 +54,7 @@ struct GpuSession {
 
 private:
     std::future<std::unique_ptr<gpu::Context>> pending;  // a context being made by prepare()
+    bool ahead_lost = false;
 };
 
 }  // namespace lensfx::filter
