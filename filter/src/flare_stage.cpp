@@ -540,8 +540,10 @@ struct FlareStage::State {
 
     // A renderer made on the context's worker and warmed up there (FlareRenderer::prepare: shaders compiled,
     // the passes' ghost sequences built) while the first frame is read, its lights found and their starbursts
-    // drawn: canon-70-200 on a 1080p frame starts drawing ghosts some 40 ms sooner. A failure leaves it unmade:
-    // the first render then makes its own and reports the fault where it meets it.
+    // drawn: canon-70-200's first pass on a 1080p frame took 117 ms instead of 229 (each step finished before the
+    // next), the whole run 15 ms less back to back and 50 ms less 3 s after the last. A failure leaves it unmade:
+    // the first render then makes its own and reports the fault where it meets it. The view's size and sensor
+    // height matter only to the warm-up's tiny draws.
     std::function<void(gpu::Context&)> renderer_made_ahead() const {
         flare::FlareView view;
         view.sensor_width_mm = lens.sensor[0];

@@ -527,8 +527,6 @@ void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress
     progress.finish();
 }
 
-// Every stage on one frame, with their times and figures in its record; R, G, B as float meanwhile when a
-// stage wants them. Throws when the frame's display window differs from the first frame's.
 // What working on a frame's R, G, B as float holds before any effect runs: the frame as read and its float copy;
 // checked before the copy is made, so a frame too big for --memory-limit is refused before it grows (an 8K half
 // frame under 300M reached 710 MB before the flare's own check refused it, after the copy and the detection).
@@ -538,6 +536,9 @@ void check_working_bytes(const Frame& frame, const MemoryBudget& memory) {
                  fmt::format("the {}x{} frame as float R, G, B", frame.spec.width, frame.spec.height));
 }
 
+// Every stage on one frame, with their times and figures in its record; R, G, B as float meanwhile when a
+// stage wants them (refused first when they would not fit `memory`). Throws when the frame's display window
+// differs from the first frame's.
 void process_frame(Frame& frame, const std::vector<Stage*>& stages, bool wants_rgb, const MemoryBudget& memory,
                    std::optional<ImageSpec>& first, FrameRecord& rec) {
     if (!first) {
