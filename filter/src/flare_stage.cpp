@@ -200,6 +200,9 @@ struct LevelSums {
     void start_light(std::size_t pixels) {
         stop_spreading();  // left by a light whose drawing failed: its result is not wanted
         used = {};
+        // spread() swaps the two images: the larger (an earlier light's full-size group, its pages touched) is
+        // made `scratch` again rather than a second full-size image being made (24 MB at 1080p).
+        if (other.capacity() > scratch.capacity()) std::swap(scratch, other);
         scratch.reserve(pixels * 3);
     }
     // A zeroed image of w x h for the next group: not the one a group is being spread from.

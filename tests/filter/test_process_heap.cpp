@@ -8,9 +8,12 @@
 #include <functional>
 #include <string>
 #include <thread>
+#include <vector>
+#include <chrono>
 
 #include <gtest/gtest.h>
 #include <malloc.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -116,6 +119,52 @@ TEST(ProcessHeap, AWorkerThreadsFreedBlockIsReusedByTheNext) {
         const long faults = minor_faults() - before;
         std::free(opaque(q));
         return faults < static_cast<long>(kFrameBytes / 4096 / 4) ? 0 : 1;  // well under one fault per 4 KiB page
+    }), 0);
+}
+
+// Pages of [p, p + bytes) resident in memory (mincore).
+std::size_t resident_pages(const void* p, std::size_t bytes) {
+    const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+    const std::uintptr_t from = reinterpret_cast<std::uintptr_t>(p) & ~(page - 1);
+    const std::size_t span = reinterpret_cast<std::uintptr_t>(p) + bytes - from;
+    std::vector<unsigned char> in((span + page - 1) / page);
+    if (mincore(reinterpret_cast<void*>(from), span, in.data()) != 0) return 0;
+    std::size_t n = 0;
+    for (unsigned char c : in) n += c & 1;
+    return n;
+}
+
+// Frame-sized blocks beyond the heap's pad (it grows) are made resident by the warmer before anything touches
+// them; without the warmer, an untouched block's pages are not resident.
+TEST(ProcessHeap, TheWarmerMakesWhatTheHeapGrowsByResident) {
+    EXPECT_EQ(in_child([] {
+        const HeapTuning tuning = tune_process_heap();
+        if (!tuning.tuned) return 2;
+        const std::size_t pages = kFrameBytes / static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+        void* cold = opaque(std::malloc(kFrameBytes));
+        if (resident_pages(cold, kFrameBytes) > pages / 16) return 3;
+        const HeapWarmer warmer(tuning);
+        if (!warmer.running()) return 4;
+        std::vector<void*> blocks;  // four frames: beyond the 64 MiB the heap grew by for the first
+        for (int i = 0; i < 4; ++i) blocks.push_back(opaque(std::malloc(kFrameBytes)));
+        bool resident = false;
+        for (int waited_ms = 0; waited_ms < 5000 && !resident; waited_ms += 10) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            resident = resident_pages(blocks.back(), kFrameBytes) >= pages;
+        }
+        const bool warmed = warmer.warmed() >= kFrameBytes;
+        for (void* b : blocks) std::free(b);
+        std::free(cold);
+        return resident && warmed ? 0 : 1;
+    }), 0);
+}
+
+// An untuned heap (here LENSFX_SYSTEM_HEAP) is not warmed.
+TEST(ProcessHeap, AnUntunedHeapIsNotWarmed) {
+    EXPECT_EQ(in_child([] {
+        setenv("LENSFX_SYSTEM_HEAP", "1", 1);
+        const HeapWarmer warmer(tune_process_heap());
+        return !warmer.running() && warmer.warmed() == 0 ? 0 : 1;
     }), 0);
 }
 
