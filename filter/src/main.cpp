@@ -80,8 +80,9 @@ int main(int argc, char** argv) {
     using namespace lensfx::filter;
     keep_standard_streams_open();
     report_broken_pipes();
-    const HeapWarmer warmer(tune_process_heap());  // before the first frame-sized allocation
+    const HeapTuning heap = tune_process_heap();  // before the first frame-sized allocation
     lensfx::gpu::set_default_llvmpipe_threads();  // before any thread and the GL driver
+    const HeapWarmer warmer(heap);
     if (const int version = wants_version(argc, argv)) {
         fmt::print("{}", version_text(version == 2));
         return flushed(0);

@@ -25,15 +25,16 @@ struct HeapTuning {
 // Call once, first thing in main.
 HeapTuning tune_process_heap();
 
-// Makes the memory the heap grows by resident ahead of its first use, on a thread of its own at idle priority
-// (SCHED_IDLE: it runs only on a core nothing else wants). On a virtual machine each page's first touch traps
-// to the host: 4 KiB pages faulted in one at a time cost 3 ms a MB here, and a 1080p run touches about 150 MB
-// for the first time (its frame, the flare's images, the GL driver's render targets). The heap grows by the
-// block asked for and 64 MiB more (tune_process_heap's pad): that pad is made resident, 2 MiB at a time, while
-// the cores are idle, and the block is made resident beside the thread that asked for it.
+// Makes the memory the heap grows by resident ahead of its first use, on a thread of its own. On a virtual
+// machine each page's first touch may trap to the host: 4 KiB pages faulted in one at a time cost 3 ms a MB on
+// the twenty-first stop's, and a 1080p run touches about 150 MB for the first time (its frame, the flare's
+// images, the GL driver's render targets). The heap grows by the block asked for and 64 MiB more
+// (tune_process_heap's pad): the thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a
+// tenth of the faults' cost there. All of it becomes resident, touched or not: the rest of the pad and room
+// reserved but never used (at most the pad and the largest reservation more than a run would touch).
 // Inert (warms nothing) where the heap is not tuned or the kernel lacks MADV_POPULATE_WRITE (before Linux 5.14).
-// Told to stop when destroyed, and not waited for: at idle priority on a busy machine it may not run again for
-// a while, and it touches nothing but the kernel's page tables and its own counter.
+// Told to stop when destroyed, and not waited for (it may be asleep for 64 ms): it touches nothing but the
+// kernel's page tables and its own counter.
 class HeapWarmer {
 public:
     HeapWarmer() = default;  // warms nothing
