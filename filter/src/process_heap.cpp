@@ -25,6 +25,8 @@
 
 #include <filter/process_heap.h>
 
+#include <optics/memory_budget.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -135,7 +137,8 @@ void warm_heap(const std::stop_token& stop, std::uintptr_t from, std::atomic<std
 
 HeapWarmer::HeapWarmer([[maybe_unused]] const HeapTuning& tuning) {
 #if defined(LENSFX_HEAP_WARMER)
-    if (!tuning.tuned) return;
+    // Under a cgroup's memory limit, memory made resident but never used could take the run over it.
+    if (!tuning.tuned || cgroup_memory_limit() > 0.0) return;
     const std::uintptr_t from = program_break();
     warmed_ = std::make_shared<std::atomic<std::size_t>>(0);
     try {

@@ -67,9 +67,6 @@ MemoryBudget parse_memory_limit(std::string_view text) {
     return MemoryBudget{static_cast<std::size_t>(bytes)};
 }
 
-namespace {
-
-// The cgroup (v2, else v1) memory limit of this process, 0 when none is set.
 double cgroup_memory_limit() {
     for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
         std::ifstream in(path);
@@ -83,8 +80,6 @@ double cgroup_memory_limit() {
     }
     return 0.0;
 }
-
-}  // namespace
 
 MemoryBudget default_memory_budget() {
     double memory = static_cast<double>(::sysconf(_SC_PHYS_PAGES)) * static_cast<double>(::sysconf(_SC_PAGE_SIZE));

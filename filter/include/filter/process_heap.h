@@ -32,7 +32,8 @@ HeapTuning tune_process_heap();
 // (tune_process_heap's pad): the thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a
 // tenth of the faults' cost there. All of it becomes resident, touched or not: the rest of the pad and room
 // reserved but never used (at most the pad and the largest reservation more than a run would touch).
-// Inert (warms nothing) where the heap is not tuned or the kernel lacks MADV_POPULATE_WRITE (before Linux 5.14).
+// Inert (warms nothing) where the heap is not tuned, under a cgroup's memory limit (what it makes resident
+// unused could take the run over it) or where the kernel lacks MADV_POPULATE_WRITE (before Linux 5.14).
 // Told to stop when destroyed, and not waited for (it may be asleep for 64 ms): it touches nothing but the
 // kernel's page tables and its own counter.
 class HeapWarmer {

@@ -36,6 +36,9 @@ std::string format_bytes(double bytes);
 // optional trailing "B" or "iB" is accepted; "0" or "none": no limit. Throws std::invalid_argument.
 MemoryBudget parse_memory_limit(std::string_view text);
 
+// The cgroup (v2, else v1) memory limit of this process in bytes, 0 when none is set.
+double cgroup_memory_limit();
+
 // The default budget: half of the machine's memory (the physical memory, or the cgroup's limit or the process's
 // address-space or data limit when lower), so one run never takes the machine down with it.
 MemoryBudget default_memory_budget();
