@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <fmt/core.h>
 #include <sys/resource.h>
@@ -67,18 +68,89 @@ MemoryBudget parse_memory_limit(std::string_view text) {
     return MemoryBudget{static_cast<std::size_t>(bytes)};
 }
 
-double cgroup_memory_limit() {
-    for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
-        std::ifstream in(path);
-        std::string value;
-        if (!(in >> value) || value == "max") continue;
-        try {
-            const double bytes = std::stod(value);
-            if (bytes > 0.0 && bytes < 1e18) return bytes;  // v1 reports "no limit" as a huge number
-        } catch (const std::exception&) {
+namespace {
+
+// A limit file's value in bytes; 0 for "max", v1's "no limit" (a number near 2^63) and anything unreadable.
+double limit_value(const std::optional<std::string>& text) {
+    if (!text) return 0.0;
+    std::string value = *text;
+    value.erase(std::remove_if(value.begin(), value.end(), [](unsigned char c) { return std::isspace(c); }), value.end());
+    if (value.empty() || value == "max" || value.find_first_not_of("0123456789") != std::string::npos) return 0.0;
+    try {
+        const double bytes = std::stod(value);
+        return bytes > 0.0 && bytes < 1e18 ? bytes : 0.0;
+    } catch (const std::exception&) {
+        return 0.0;
+    }
+}
+
+// The cgroup directories from `cgroup_dir` (a path inside `mount`, "/" at the root) up to the root, deepest first.
+std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::string_view cgroup_dir) {
+    // Paths never hold ".." from the kernel; refuse one rather than read outside the mount.
+    if (cgroup_dir.empty() || cgroup_dir.front() != '/' || cgroup_dir.find("..") != std::string_view::npos) cgroup_dir = {};
+    std::vector<std::string> dirs;
+    for (;;) {
+        while (!cgroup_dir.empty() && cgroup_dir.back() == '/') cgroup_dir.remove_suffix(1);
+        dirs.push_back(mount + std::string(cgroup_dir));
+        if (cgroup_dir.empty()) break;
+        cgroup_dir = cgroup_dir.substr(0, cgroup_dir.find_last_of('/'));
+    }
+    return dirs;
+}
+
+// Whether a v1 line's comma-separated controller list names the memory controller.
+bool names_memory_controller(std::string_view controllers) {
+    while (!controllers.empty()) {
+        const auto comma = controllers.find(',');
+        if (controllers.substr(0, comma) == "memory") return true;
+        if (comma == std::string_view::npos) break;
+        controllers.remove_prefix(comma + 1);
+    }
+    return false;
+}
+
+}  // namespace
+
+double cgroup_memory_limit(std::string_view proc_self_cgroup,
+                           const std::function<std::optional<std::string>(const std::string& path)>& read_file) {
+    double lowest = 0.0;
+    const auto consider = [&](const std::string& file) {
+        if (const double bytes = limit_value(read_file(file)); bytes > 0.0 && (lowest == 0.0 || bytes < lowest)) lowest = bytes;
+    };
+    // The hierarchy roots, read even when /proc/self/cgroup is missing or names paths this mount does not show.
+    consider("/sys/fs/cgroup/memory.max");
+    consider("/sys/fs/cgroup/memory/memory.limit_in_bytes");
+    // Each line: "hierarchy-id:controllers:/path" (v2: "0::/path").
+    while (!proc_self_cgroup.empty()) {
+        const auto end = proc_self_cgroup.find('\n');
+        const std::string_view line = proc_self_cgroup.substr(0, end);
+        proc_self_cgroup.remove_prefix(end == std::string_view::npos ? proc_self_cgroup.size() : end + 1);
+        const auto first = line.find(':');
+        const auto second = first == std::string_view::npos ? first : line.find(':', first + 1);
+        if (second == std::string_view::npos) continue;
+        const std::string_view controllers = line.substr(first + 1, second - first - 1);
+        const std::string_view path = line.substr(second + 1);
+        if (line.substr(0, first) == "0" && controllers.empty()) {
+            for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup", path)) consider(dir + "/memory.max");
+        } else if (names_memory_controller(controllers)) {
+            for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup/memory", path))
+                consider(dir + "/memory.limit_in_bytes");
         }
     }
-    return 0.0;
+    return lowest;
+}
+
+double cgroup_memory_limit() {
+    // A whole small file (cgroupfs and procfs files are a few lines); nullopt where it cannot be opened.
+    const auto read_file = [](const std::string& path) -> std::optional<std::string> {
+        std::ifstream in(path);
+        if (!in) return std::nullopt;
+        std::string text(64 * 1024, '\0');
+        in.read(text.data(), static_cast<std::streamsize>(text.size()));
+        text.resize(static_cast<std::size_t>(in.gcount()));
+        return text;
+    };
+    return cgroup_memory_limit(read_file("/proc/self/cgroup").value_or(""), read_file);
 }
 
 MemoryBudget default_memory_budget() {

@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <optional>
 #include <stdexcept>
 #include <sstream>
 #include <string>
@@ -138,6 +140,37 @@ TEST(MemoryBudget, DefaultIsHalfOfTheProcessLimit) {
     ASSERT_EQ(::waitpid(child, &status, 0), child);
     ASSERT_TRUE(WIFEXITED(status));
     EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+// The cgroup limit is read where the process's cgroup is, not only at the hierarchy's root: a Slurm job's or a
+// systemd slice's limit sits on a child cgroup. The lowest over the cgroup and its ancestors counts; "max" and
+// v1's "no limit" (2^63 rounded to pages) do not; a path with ".." is not followed out of the mount.
+TEST(MemoryBudget, CgroupLimitOfAChildCgroupAndItsAncestors) {
+    std::map<std::string, std::string> files;
+    const auto reader = [&](const std::string& path) -> std::optional<std::string> {
+        const auto found = files.find(path);
+        return found == files.end() ? std::nullopt : std::optional<std::string>(found->second);
+    };
+    // v2: the job's own limit, under an unlimited root.
+    files = {{"/sys/fs/cgroup/memory.max", "max\n"},
+             {"/sys/fs/cgroup/slurm/uid_0/job_7/memory.max", "2000000000\n"},
+             {"/sys/fs/cgroup/slurm/uid_0/memory.max", "max\n"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/slurm/uid_0/job_7\n", reader), 2e9);
+    // An ancestor's lower limit wins over the child's.
+    files["/sys/fs/cgroup/slurm/memory.max"] = "1000000000\n";
+    EXPECT_EQ(cgroup_memory_limit("0::/slurm/uid_0/job_7\n", reader), 1e9);
+    // v1 (hybrid): the memory controller's line among others, its path under the memory mount.
+    files = {{"/sys/fs/cgroup/memory/memory.limit_in_bytes", "9223372036854771712\n"},
+             {"/sys/fs/cgroup/memory/process_api/a1/memory.limit_in_bytes", "3000000000\n"}};
+    EXPECT_EQ(cgroup_memory_limit("12:cpu,cpuacct:/x\n4:memory:/process_api/a1\n0::/\n", reader), 3e9);
+    EXPECT_EQ(cgroup_memory_limit("4:memsomething:/process_api/a1\n", reader), 0.0);
+    // No /proc/self/cgroup (or a namespace showing "/"): the roots alone.
+    files = {{"/sys/fs/cgroup/memory.max", "4294967296"}};
+    EXPECT_EQ(cgroup_memory_limit("", reader), 4294967296.0);
+    EXPECT_EQ(cgroup_memory_limit("0::/\n", reader), 4294967296.0);
+    // Hostile text: no ".." out of the mount, garbage values ignored.
+    files = {{"/sys/fs/memory.max", "1000"}, {"/sys/fs/cgroup/a/memory.max", "12abc"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/../..\n0::/a\nnonsense\n::::\n", reader), 0.0);
 }
 
 // The tables of a lens grow with the cube of its surfaces (ghosts by the square, their sequences by the

@@ -5,6 +5,8 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -36,8 +38,15 @@ std::string format_bytes(double bytes);
 // optional trailing "B" or "iB" is accepted; "0" or "none": no limit. Throws std::invalid_argument.
 MemoryBudget parse_memory_limit(std::string_view text);
 
-// The cgroup (v2, else v1) memory limit of this process in bytes, 0 when none is set.
+// The cgroup memory limit of this process in bytes, 0 when none is set: the lowest memory.max (v2) or
+// memory.limit_in_bytes (v1) over the cgroups /proc/self/cgroup names and their ancestors, so that a limit on a
+// child cgroup (a Slurm job's, a systemd slice's) counts as well as one seen at the hierarchy's root.
 double cgroup_memory_limit();
+
+// The same, from /proc/self/cgroup's text and a reader of cgroupfs files (nullopt where a file cannot be read),
+// to be tested without the machine's cgroups.
+double cgroup_memory_limit(std::string_view proc_self_cgroup,
+                           const std::function<std::optional<std::string>(const std::string& path)>& read_file);
 
 // The default budget: half of the machine's memory (the physical memory, or the cgroup's limit or the process's
 // address-space or data limit when lower), so one run never takes the machine down with it.
