@@ -17,7 +17,8 @@ fi
 cxx=${LENSFX_FUZZ_CXX:-clang++-14}
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
-cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$cxx" -DLENSFX_FUZZ=ON \
+cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
+  -DCMAKE_CXX_COMPILER="$cxx" -DLENSFX_FUZZ=ON \
   -DLENSFX_BUILD_TESTS=OFF -DLENSFX_BUILD_BENCH=OFF -DLENSFX_WERROR=OFF "${launcher[@]}" >/dev/null
 cmake --build build-fuzz --target fuzzers -j "${LENSFX_FUZZ_JOBS:-2}"
 
