@@ -84,10 +84,37 @@ double limit_value(const std::optional<std::string>& text) {
     }
 }
 
+// Whether a path has a component that is exactly "..".
+bool has_parent_component(std::string_view path) {
+    while (!path.empty()) {
+        const auto slash = path.find('/');
+        if (path.substr(0, slash) == "..") return true;
+        if (slash == std::string_view::npos) break;
+        path.remove_prefix(slash + 1);
+    }
+    return false;
+}
+
+// v1's memory.stat "hierarchical_memory_limit N": the limit that binds the cgroup, its ancestors' included where
+// they count (use_hierarchy) and parents above the mount (a container's) too; 0 when unlimited, nullopt when the
+// file or the line is missing.
+std::optional<double> hierarchical_limit(const std::optional<std::string>& memory_stat) {
+    if (!memory_stat) return std::nullopt;
+    constexpr std::string_view kKey = "hierarchical_memory_limit ";
+    std::string_view text = *memory_stat;
+    while (!text.empty()) {
+        const auto end = text.find('\n');
+        const std::string_view line = text.substr(0, end);
+        if (line.substr(0, kKey.size()) == kKey) return limit_value(std::string(line.substr(kKey.size())));
+        text.remove_prefix(end == std::string_view::npos ? text.size() : end + 1);
+    }
+    return std::nullopt;
+}
+
 // The cgroup directories from `cgroup_dir` (a path inside `mount`, "/" at the root) up to the root, deepest first.
 std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::string_view cgroup_dir) {
-    // Paths never hold ".." from the kernel; refuse one rather than read outside the mount.
-    if (cgroup_dir.empty() || cgroup_dir.front() != '/' || cgroup_dir.find("..") != std::string_view::npos) cgroup_dir = {};
+    // Paths never hold a ".." component from the kernel; refuse one rather than read outside the mount.
+    if (cgroup_dir.empty() || cgroup_dir.front() != '/' || has_parent_component(cgroup_dir)) cgroup_dir = {};
     std::vector<std::string> dirs;
     for (;;) {
         while (!cgroup_dir.empty() && cgroup_dir.back() == '/') cgroup_dir.remove_suffix(1);
@@ -133,8 +160,16 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
         if (line.substr(0, first) == "0" && controllers.empty()) {
             for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup", path)) consider(dir + "/memory.max");
         } else if (names_memory_controller(controllers)) {
-            for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup/memory", path))
-                consider(dir + "/memory.limit_in_bytes");
+            // v1: the deepest cgroup's hierarchical limit where its memory.stat can be read, else each limit up
+            // to the root (an ancestor's binds only with use_hierarchy, so that may be lower than what binds).
+            const std::vector<std::string> dirs = cgroup_and_ancestors("/sys/fs/cgroup/memory", path);
+            std::optional<double> hierarchical;
+            for (auto dir = dirs.begin(); dir != dirs.end() && !hierarchical; ++dir) hierarchical = hierarchical_limit(read_file(*dir + "/memory.stat"));
+            if (hierarchical) {
+                if (*hierarchical > 0.0 && (lowest == 0.0 || *hierarchical < lowest)) lowest = *hierarchical;
+            } else {
+                for (const auto& dir : dirs) consider(dir + "/memory.limit_in_bytes");
+            }
         }
     }
     return lowest;

@@ -1,6 +1,7 @@
 // The program's heap tuning (filter/process_heap.h): each case runs in a child process of its own, because
 // malloc's settings are the whole process's.
 #include <filter/process_heap.h>
+#include <optics/memory_budget.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -149,6 +150,7 @@ bool kernel_populates() {
 // headers may fault in where transparent huge pages are always on).
 TEST(ProcessHeap, TheWarmerMakesWhatTheHeapGrowsByResident) {
     if (!kernel_populates()) GTEST_SKIP() << "the kernel lacks MADV_POPULATE_WRITE (Linux 5.14): the warmer does nothing";
+    if (lensfx::cgroup_memory_limit() > 0.0) GTEST_SKIP() << "under a cgroup memory limit the warmer stays off";
     EXPECT_EQ(in_child([] {
         const HeapTuning tuning = tune_process_heap();
         if (!tuning.tuned) return 2;

@@ -147,8 +147,9 @@ TEST(MemoryBudget, DefaultIsHalfOfTheProcessLimit) {
 // v1's "no limit" (2^63 rounded to pages) do not; a path with ".." is not followed out of the mount.
 TEST(MemoryBudget, CgroupLimitOfAChildCgroupAndItsAncestors) {
     std::map<std::string, std::string> files;
+    // Paths normalised as the file system would resolve them, so a ".." that escaped the mount would be found.
     const auto reader = [&](const std::string& path) -> std::optional<std::string> {
-        const auto found = files.find(path);
+        const auto found = files.find(std::filesystem::path(path).lexically_normal().string());
         return found == files.end() ? std::nullopt : std::optional<std::string>(found->second);
     };
     // v2: the job's own limit, under an unlimited root.
@@ -168,9 +169,22 @@ TEST(MemoryBudget, CgroupLimitOfAChildCgroupAndItsAncestors) {
     files = {{"/sys/fs/cgroup/memory.max", "4294967296"}};
     EXPECT_EQ(cgroup_memory_limit("", reader), 4294967296.0);
     EXPECT_EQ(cgroup_memory_limit("0::/\n", reader), 4294967296.0);
-    // Hostile text: no ".." out of the mount, garbage values ignored.
-    files = {{"/sys/fs/memory.max", "1000"}, {"/sys/fs/cgroup/a/memory.max", "12abc"}};
-    EXPECT_EQ(cgroup_memory_limit("0::/../..\n0::/a\nnonsense\n::::\n", reader), 0.0);
+    // v1 with memory.stat: its hierarchical limit is what binds (an ancestor's limit without use_hierarchy does
+    // not, a container's parent above the mount does); the deepest readable memory.stat decides, unlimited too.
+    files = {{"/sys/fs/cgroup/memory/job/memory.limit_in_bytes", "3000000000"},
+             {"/sys/fs/cgroup/memory/job/memory.stat", "cache 0\nhierarchical_memory_limit 1500000000\nrss 12\n"}};
+    EXPECT_EQ(cgroup_memory_limit("4:memory:/job\n", reader), 1.5e9);
+    files = {{"/sys/fs/cgroup/memory/memory.limit_in_bytes", "2000000000"},
+             {"/sys/fs/cgroup/memory/job/memory.stat", "hierarchical_memory_limit 9223372036854771712\n"}};
+    EXPECT_EQ(cgroup_memory_limit("4:memory:/job\n", reader), 2e9);  // the root file still counts
+    files = {{"/sys/fs/cgroup/memory/outer/memory.limit_in_bytes", "2000000000"},
+             {"/sys/fs/cgroup/memory/outer/job/memory.stat", "hierarchical_memory_limit 9223372036854771712\n"}};
+    EXPECT_EQ(cgroup_memory_limit("4:memory:/outer/job\n", reader), 0.0);  // use_hierarchy 0: outer's does not bind
+    // Hostile text: no ".." out of the mount (the escape's target holds a limit), garbage values ignored; a name
+    // with dots in it is a name.
+    files = {{"/sys/fs/memory.max", "1000"}, {"/sys/fs/cgroup/a/memory.max", "12abc"}, {"/sys/fs/cgroup/x..y/memory.max", "5000"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/../..\n0::/a/../../..\n0::/a\nnonsense\n::::\n", reader), 0.0);
+    EXPECT_EQ(cgroup_memory_limit("0::/x..y\n", reader), 5000.0);
 }
 
 // The tables of a lens grow with the cube of its surfaces (ghosts by the square, their sequences by the
