@@ -84,13 +84,13 @@ double limit_value(const std::optional<std::string>& text) {
     }
 }
 
-// Whether a path has a component that is exactly "..".
-bool has_parent_component(std::string_view path) {
-    while (!path.empty()) {
-        const auto slash = path.find('/');
-        if (path.substr(0, slash) == "..") return true;
-        if (slash == std::string_view::npos) break;
-        path.remove_prefix(slash + 1);
+// Whether `list`, split at `delimiter`, has an item that is exactly `item` (a path's "..", v1's "memory").
+bool has_item(std::string_view list, char delimiter, std::string_view item) {
+    while (!list.empty()) {
+        const auto cut = list.find(delimiter);
+        if (list.substr(0, cut) == item) return true;
+        if (cut == std::string_view::npos) break;
+        list.remove_prefix(cut + 1);
     }
     return false;
 }
@@ -114,7 +114,7 @@ std::optional<double> hierarchical_limit(const std::optional<std::string>& memor
 // The cgroup directories from `cgroup_dir` (a path inside `mount`, "/" at the root) up to the root, deepest first.
 std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::string_view cgroup_dir) {
     // Paths never hold a ".." component from the kernel; refuse one rather than read outside the mount.
-    if (cgroup_dir.empty() || cgroup_dir.front() != '/' || has_parent_component(cgroup_dir)) cgroup_dir = {};
+    if (cgroup_dir.empty() || cgroup_dir.front() != '/' || has_item(cgroup_dir, '/', "..")) cgroup_dir = {};
     std::vector<std::string> dirs;
     for (;;) {
         while (!cgroup_dir.empty() && cgroup_dir.back() == '/') cgroup_dir.remove_suffix(1);
@@ -123,17 +123,6 @@ std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::str
         cgroup_dir = cgroup_dir.substr(0, cgroup_dir.find_last_of('/'));
     }
     return dirs;
-}
-
-// Whether a v1 line's comma-separated controller list names the memory controller.
-bool names_memory_controller(std::string_view controllers) {
-    while (!controllers.empty()) {
-        const auto comma = controllers.find(',');
-        if (controllers.substr(0, comma) == "memory") return true;
-        if (comma == std::string_view::npos) break;
-        controllers.remove_prefix(comma + 1);
-    }
-    return false;
 }
 
 }  // namespace
@@ -159,7 +148,7 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
         const std::string_view path = line.substr(second + 1);
         if (line.substr(0, first) == "0" && controllers.empty()) {
             for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup", path)) consider(dir + "/memory.max");
-        } else if (names_memory_controller(controllers)) {
+        } else if (has_item(controllers, ',', "memory")) {
             // v1: the deepest cgroup's hierarchical limit where its memory.stat can be read, else each limit up
             // to the root (an ancestor's binds only with use_hierarchy, so that may be lower than what binds).
             const std::vector<std::string> dirs = cgroup_and_ancestors("/sys/fs/cgroup/memory", path);
