@@ -95,6 +95,14 @@ bool has_item(std::string_view list, char delimiter, std::string_view item) {
     return false;
 }
 
+// The first line of `text` (without its newline), which it then drops.
+std::string_view take_line(std::string_view& text) {
+    const auto end = text.find('\n');
+    const std::string_view line = text.substr(0, end);
+    text.remove_prefix(end == std::string_view::npos ? text.size() : end + 1);
+    return line;
+}
+
 // v1's memory.stat "hierarchical_memory_limit N": the limit that binds the cgroup, its ancestors' included where
 // they count (use_hierarchy) and parents above the mount (a container's) too; 0 when unlimited, nullopt when the
 // file or the line is missing.
@@ -103,10 +111,8 @@ std::optional<double> hierarchical_limit(const std::optional<std::string>& memor
     constexpr std::string_view kKey = "hierarchical_memory_limit ";
     std::string_view text = *memory_stat;
     while (!text.empty()) {
-        const auto end = text.find('\n');
-        const std::string_view line = text.substr(0, end);
+        const std::string_view line = take_line(text);
         if (line.substr(0, kKey.size()) == kKey) return limit_value(std::string(line.substr(kKey.size())));
-        text.remove_prefix(end == std::string_view::npos ? text.size() : end + 1);
     }
     return std::nullopt;
 }
@@ -129,18 +135,17 @@ std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::str
 
 double cgroup_memory_limit(std::string_view proc_self_cgroup,
                            const std::function<std::optional<std::string>(const std::string& path)>& read_file) {
-    double lowest = 0.0;
-    const auto consider = [&](const std::string& file) {
-        if (const double bytes = limit_value(read_file(file)); bytes > 0.0 && (lowest == 0.0 || bytes < lowest)) lowest = bytes;
+    double lowest = 0.0;  // 0: none yet
+    const auto lower_to = [&](double bytes) {
+        if (bytes > 0.0 && (lowest == 0.0 || bytes < lowest)) lowest = bytes;
     };
+    const auto consider = [&](const std::string& file) { lower_to(limit_value(read_file(file))); };
     // The hierarchy roots, read even when /proc/self/cgroup is missing or names paths this mount does not show.
     consider("/sys/fs/cgroup/memory.max");
     consider("/sys/fs/cgroup/memory/memory.limit_in_bytes");
     // Each line: "hierarchy-id:controllers:/path" (v2: "0::/path").
     while (!proc_self_cgroup.empty()) {
-        const auto end = proc_self_cgroup.find('\n');
-        const std::string_view line = proc_self_cgroup.substr(0, end);
-        proc_self_cgroup.remove_prefix(end == std::string_view::npos ? proc_self_cgroup.size() : end + 1);
+        const std::string_view line = take_line(proc_self_cgroup);
         const auto first = line.find(':');
         const auto second = first == std::string_view::npos ? first : line.find(':', first + 1);
         if (second == std::string_view::npos) continue;
@@ -155,7 +160,7 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
             std::optional<double> hierarchical;
             for (auto dir = dirs.begin(); dir != dirs.end() && !hierarchical; ++dir) hierarchical = hierarchical_limit(read_file(*dir + "/memory.stat"));
             if (hierarchical) {
-                if (*hierarchical > 0.0 && (lowest == 0.0 || *hierarchical < lowest)) lowest = *hierarchical;
+                lower_to(*hierarchical);
             } else {
                 for (const auto& dir : dirs) consider(dir + "/memory.limit_in_bytes");
             }
