@@ -10,6 +10,7 @@
 #include <thread>
 
 #include <fmt/core.h>
+#include <optics/memory_budget.h>
 #include <sys/resource.h>
 
 namespace lensfx::gpu {
@@ -69,5 +70,15 @@ void require_address_space() {
         "below it the GL driver and FFTW abort instead of failing; raise ulimit -v",
         limit.rlim_cur / kMiB, limit.rlim_cur / 1024, needed / kMiB, threads));
 }
+
+void require_cgroup_memory(double cgroup_limit) {
+    if (!(cgroup_limit > 0.0) || cgroup_limit >= static_cast<double>(kContextMemoryFloor)) return;
+    throw std::runtime_error(fmt::format(
+        "the memory limit of this process's cgroup is {} MiB, under the {} MiB a GL context needs to start: below it the "
+        "kernel ends the process while the driver loads; give the job more memory (sbatch --mem, systemd MemoryMax)",
+        static_cast<std::size_t>(cgroup_limit) / kMiB, kContextMemoryFloor / kMiB));
+}
+
+void require_cgroup_memory() { require_cgroup_memory(cgroup_memory_limit()); }
 
 }  // namespace lensfx::gpu

@@ -226,6 +226,7 @@ std::string_view platform_name(Platform platform) {
 
 Context::Context(Platform requested) {
     require_address_space();  // below it llvmpipe aborts the process instead of failing
+    require_cgroup_memory();   // below it the kernel kills the process
     const OpenDisplay opened = open_display(requested);
     const Platform used = opened.platform;
     info_.platform = used;

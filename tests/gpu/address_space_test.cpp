@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
@@ -12,7 +14,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fmt/core.h>
+
 #include <gpu/address_space.h>
+#include <gpu/context.h>
 
 namespace lensfx::gpu {
 namespace {
@@ -53,6 +58,66 @@ TEST(AddressSpace, ALimitUnderTheNeedIsRefusedInWords) {
     if (::getrlimit(RLIMIT_AS, &own) == 0 && own.rlim_cur == RLIM_INFINITY) {
         EXPECT_NO_THROW(require_address_space()) << "no limit: nothing to check";
     }
+}
+
+// A cgroup memory limit under the floor a GL context needs is refused in words naming both; none, or one at the
+// floor or above, passes.
+TEST(AddressSpace, ACgroupLimitUnderTheContextFloorIsRefusedInWords) {
+    const double mib = 1 << 20;
+    try {
+        require_cgroup_memory(64 * mib);
+        ADD_FAILURE() << "a 64 MiB cgroup limit passed";
+    } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("64 MiB"), std::string::npos) << what;
+        EXPECT_NE(what.find(fmt::format("{} MiB", kContextMemoryFloor >> 20)), std::string::npos) << what;
+        EXPECT_NE(what.find("cgroup"), std::string::npos) << what;
+    }
+    EXPECT_THROW(require_cgroup_memory(static_cast<double>(kContextMemoryFloor) - 4096), std::runtime_error);
+    EXPECT_NO_THROW(require_cgroup_memory(0.0)) << "no limit";
+    EXPECT_NO_THROW(require_cgroup_memory(static_cast<double>(kContextMemoryFloor)));
+    EXPECT_NO_THROW(require_cgroup_memory(8.0 * 1024 * mib));
+}
+
+// A child cgroup limited to `bytes` (a v1 memory hierarchy, else v2 with the memory controller on for the root's
+// children), or "" where this process may not make one (not root, cgroupfs read-only, no memory controller).
+std::string limited_cgroup(std::size_t bytes) {
+    namespace fs = std::filesystem;
+    const std::string name = fmt::format("lensfx-test-{}", ::getpid());
+    for (const auto& [root, limit_file] : {std::pair{"/sys/fs/cgroup/memory", "memory.limit_in_bytes"}, std::pair{"/sys/fs/cgroup", "memory.max"}}) {
+        const fs::path dir = fs::path(root) / name;
+        std::error_code ec;
+        if (!fs::create_directory(dir, ec) || ec) continue;
+        std::ofstream(dir / limit_file) << bytes;
+        std::ifstream in(dir / limit_file);
+        std::size_t set = 0;
+        if (in >> set && set <= bytes && set > bytes / 2) return dir.string();
+        fs::remove(dir, ec);
+    }
+    return "";
+}
+
+// The same in a real cgroup: a child moved into one limited to 64 MiB is refused a GL context in words before the
+// driver loads; the kernel would otherwise end it (exit 137, no message) while llvmpipe starts.
+TEST(AddressSpace, AContextInACgroupUnderTheFloorIsRefusedBeforeTheDriverLoads) {
+    const std::string cgroup = limited_cgroup(std::size_t{64} << 20);
+    if (cgroup.empty()) GTEST_SKIP() << "no child cgroup with a memory limit can be made here (needs root and a writable cgroupfs)";
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        if (!(std::ofstream(cgroup + "/cgroup.procs") << 0)) ::_exit(3);
+        try {
+            Context context(Platform::Auto);
+        } catch (const std::runtime_error& e) {
+            ::_exit(std::string(e.what()).find("cgroup is 64 MiB") != std::string::npos ? 1 : 2);
+        }
+        ::_exit(0);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    std::error_code ec;
+    std::filesystem::remove(cgroup, ec);
+    ASSERT_TRUE(WIFEXITED(status)) << "the child was killed (signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0) << ")";
+    EXPECT_EQ(WEXITSTATUS(status), 1) << "0: a context was made; 2: refused for another reason; 3: could not join the cgroup";
 }
 
 // lensfx's default llvmpipe threads (the cores and two more) are set where the user set none, a user's value

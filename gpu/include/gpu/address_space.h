@@ -1,4 +1,4 @@
-// The address space a render needs at the least. Under a lower `ulimit -v` (RLIMIT_AS), Mesa's llvmpipe
+// The address space and the memory a render needs at the least. Under a lower `ulimit -v` (RLIMIT_AS), Mesa's llvmpipe
 // aborts the process from its JIT ("LLVM ERROR: Unable to allocate section memory"), crashes in the code it
 // generated, or fails to open libGL, and FFTW aborts when its malloc fails: none of them reports an error
 // that could become one `lensfx:` line. So a render checks the limit before it starts.
@@ -31,5 +31,16 @@ void set_default_llvmpipe_threads();
 // Throws std::runtime_error naming the limit, the need and `ulimit -v` when the process's address space is
 // limited below address_space_needed(llvmpipe_threads()); returns at once when it is not limited.
 void require_address_space();
+
+// The least cgroup memory limit under which a GL context starts: below it the kernel's OOM killer ends the process
+// (exit 137, no message) while the driver loads. Mesa's llvmpipe on a 64x36 frame, a v1 child cgroup's
+// memory.limit_in_bytes swept (docs/DESIGN.md's Memory section): with the page cache cold it ran at 72 MiB and was
+// killed at 64; warm at 60 and not at 56 (its libraries were charged elsewhere). This adds a third.
+inline constexpr std::size_t kContextMemoryFloor = std::size_t{96} << 20;
+
+// Throws std::runtime_error naming the limit and the floor when `cgroup_limit` (bytes; 0: none) is under
+// kContextMemoryFloor. The other form checks this process's (cgroup_memory_limit).
+void require_cgroup_memory(double cgroup_limit);
+void require_cgroup_memory();
 
 }  // namespace lensfx::gpu
