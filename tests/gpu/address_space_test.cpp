@@ -117,7 +117,10 @@ TEST(AddressSpace, AContextInACgroupUnderTheFloorIsRefusedBeforeTheDriverLoads) 
     std::error_code ec;
     std::filesystem::remove(cgroup, ec);
     ASSERT_TRUE(WIFEXITED(status)) << "the child was killed (signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0) << ")";
-    EXPECT_EQ(WEXITSTATUS(status), 1) << "0: a context was made; 2: refused for another reason; 3: could not join the cgroup";
+    // A cgroup that cannot be joined (v2's rule that a cgroup with controllers on holds no processes, in a container)
+    // tests nothing.
+    if (WEXITSTATUS(status) == 3) GTEST_SKIP() << "the child could not join " << cgroup;
+    EXPECT_EQ(WEXITSTATUS(status), 1) << "0: a context was made; 2: refused for another reason";
 }
 
 // lensfx's default llvmpipe threads (the cores and two more) are set where the user set none, a user's value
