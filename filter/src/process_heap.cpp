@@ -10,18 +10,18 @@
 // and bands) stay mappings of their own, given back at free, and the heap gives back what is free at its top
 // above 288 MiB.
 //
-// The heap is not advised to use transparent huge pages (it was until the twentieth stop). On a virtual machine
-// whose balloon reports free memory to its host, free 2 MiB blocks are the memory the host has taken back: a
-// huge page is made again by the host on first touch, about 0.5 GB/s against 2.6 GB/s for 4 KiB pages from the
-// guest's own free lists (256 MiB touched: 490-570 ms against 100 ms, runs 3 s apart). canon-70-200 on a 1080p
-// frame run 3 s after the last: 1.22 s with huge pages, 1.09 s without; back to back, where the last run's
-// pages are still warm, 1.01-1.06 s against 1.06 s (docs/benchmarks.md, twentieth stop).
-//
-// What the heap grows by is made resident ahead of use by HeapWarmer (twenty-first stop). On another such
-// machine a page's first touch cost 12 us whatever its size (0.35 GB/s for 4 KiB pages, 0.7 GB/s for a huge
-// page never touched before): canon-70-200's 1080p run faulted 44,000 pages, 0.36 of its 1.99 CPU seconds in
-// the kernel. MADV_POPULATE_WRITE made 2 MiB resident in one call of 0.3-0.7 ms, a tenth of the faults' cost:
-// 0.16 system seconds, 1.205 s instead of 1.32 (medians of 10, interleaved).
+// The heap's first 192 MiB (what a 1080p job's heap holds at its peak) are advised to use transparent huge
+// pages (tune_process_heap reserves them up front). They were until the twentieth stop and are again since the
+// twenty-fourth; which is faster depends on the virtual machine. On the twentieth stop's, whose balloon reported
+// free memory to its host, a cold 2 MiB page was made again by the host on first touch at about 0.5 GB/s
+// against 2.6 GB/s for 4 KiB pages (canon-70-200 on a 1080p frame run 3 s after the last: 1.22 s with huge
+// pages, 1.09 s without). On the machines of the twenty-first to twenty-fourth stops a 4 KiB page's first touch
+// costs 12 us (0.28 GB/s: 32 MiB in 115-130 ms, 42-57 ms after MADV_POPULATE_WRITE) and a huge page 59 ms per
+// 32 MiB cold, 2.6 ms when the host made it less than a few seconds before (perhaps too, not measured, llvmpipe's
+// 64 x 64 tiles of a 1080p RGBA float target, 64 rows 30 KiB apart, miss the TLB less). canon-70-200 on a 1080p
+// frame (medians of 10 interleaved runs): culled 1.680 -> 1.585 s (2.66 -> 2.37 CPU s), unculled 6.69 -> 5.98 s
+// (3 runs), CandleGlass 0.825 -> 0.815 s (1.32 -> 1.21 CPU s); peak RSS 306 -> 260 MB, as the warmer no longer
+// makes a 1080p run's pad resident (docs/benchmarks.md, twenty-fourth stop).
 
 #include <filter/process_heap.h>
 
@@ -48,10 +48,13 @@ namespace lensfx::filter {
 namespace {
 
 #if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)  // under ASan tune_process_heap uses none of these
+constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for huge pages up front: a 1080p job's peak heap
+constexpr std::size_t kHugePage = std::size_t{2} << 20;     // x86-64's and arm64's (4 KiB granule) THP size
 constexpr int kTopPad = 64 << 20;                            // each heap growth at least this much
 constexpr int kHeapBlockLimit = 32 << 20;  // glibc's largest mmap threshold: a 1080p RGBA float target fits under it
-// The heap gives memory back only when more than this is free at its top: more than a 1080p job's peak heap
-// and its pad, so that such a job never shrinks it; an 8K frame's freed buffers do.
+constexpr int kDefaultMmapMax = 65536;     // glibc's default M_MMAP_MAX
+// The heap gives memory back only when more than this is free at its top: more than the reservation and its
+// pad, so that a 1080p job never shrinks it; an 8K frame's freed buffers do.
 constexpr int kTrimThreshold = 288 << 20;
 
 // A capped address space or data segment: every thread's arena (64 MiB of address space each, one per thread
@@ -74,6 +77,22 @@ std::string reason_to_leave_heap() {
     // Strict overcommit (mode 2) commits the heap's pad as if it were used.
     if (std::ifstream("/proc/sys/vm/overcommit_memory") >> overcommit; overcommit == 2) return "strict overcommit (vm.overcommit_memory = 2)";
     return "";
+}
+
+// Grows the heap by kReserve (and the pad), advises its whole 2 MiB pages to be huge and frees it back into the
+// heap's top, where later blocks are carved from. Untouched, it costs address space, not memory. True when the
+// kernel took the advice (false without transparent huge pages, where it is harmless).
+bool reserve_huge_page_heap() {
+    mallopt(M_MMAP_MAX, 0);  // the reservation itself from the heap
+    void* block = std::malloc(kReserve);
+    mallopt(M_MMAP_MAX, kDefaultMmapMax);
+    if (block == nullptr) return false;
+    const auto start = reinterpret_cast<std::uintptr_t>(block);
+    const std::uintptr_t first = (start + kHugePage - 1) & ~(kHugePage - 1);
+    const std::uintptr_t last = (start + kReserve) & ~(kHugePage - 1);
+    const bool advised = last > first && madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE) == 0;
+    std::free(block);
+    return advised;
 }
 
 #endif
@@ -167,8 +186,9 @@ HeapTuning tune_process_heap() {
     mallopt(M_TRIM_THRESHOLD, kTrimThreshold);  // a freed frame is the next frame's memory, unless it is huge
     mallopt(M_ARENA_MAX, 1);               // worker threads' blocks from this heap too (small ones stay in tcache)
     mallopt(M_TOP_PAD, kTopPad);
+    const bool huge_pages = reserve_huge_page_heap();
     mallopt(M_MMAP_THRESHOLD, kHeapBlockLimit);  // bigger blocks (4K, 8K) stay mappings given back at free
-    return {true, "", true};
+    return {true, "", true, huge_pages};
 #else
     return {false, "not glibc"};
 #endif
