@@ -131,6 +131,86 @@ std::vector<std::string> cgroup_and_ancestors(const std::string& mount, std::str
     return dirs;
 }
 
+// Where a cgroup hierarchy is mounted, and which cgroup the mount's root shows ("/" unless it was bind-mounted
+// from deeper down, as some container runtimes do).
+struct CgroupMount {
+    std::string point;
+    std::string root = "/";
+};
+
+// The cgroup v2 hierarchy's mount and the v1 memory controller's; where /proc/self/mountinfo shows none, the
+// usual places.
+struct CgroupMounts {
+    CgroupMount v2{"/sys/fs/cgroup"};
+    CgroupMount v1_memory{"/sys/fs/cgroup/memory"};
+};
+
+// Whether field[i] starts an octal escape: a backslash and three octal digits.
+bool octal_escape_at(std::string_view field, std::size_t i) {
+    const auto digit = [](char c) { return c >= '0' && c <= '7'; };
+    return field[i] == '\\' && i + 3 < field.size() && digit(field[i + 1]) && digit(field[i + 2]) && digit(field[i + 3]);
+}
+
+// A mountinfo path field with its octal escapes (a space is \040, a backslash \134) decoded.
+std::string unescaped(std::string_view field) {
+    std::string out;
+    for (std::size_t i = 0; i < field.size(); ++i) {
+        if (!octal_escape_at(field, i)) {
+            out += field[i];
+            continue;
+        }
+        out += static_cast<char>(((field[i + 1] - '0') << 6) | ((field[i + 2] - '0') << 3) | (field[i + 3] - '0'));
+        i += 3;
+    }
+    return out;
+}
+
+// The space-separated fields of a line.
+std::vector<std::string_view> fields_of(std::string_view line) {
+    std::vector<std::string_view> fields;
+    while (!line.empty()) {
+        const auto end = line.find(' ');
+        if (end != 0) fields.push_back(line.substr(0, end));
+        line.remove_prefix(end == std::string_view::npos ? line.size() : end + 1);
+    }
+    return fields;
+}
+
+// The cgroup mounts /proc/self/mountinfo's text shows ("id parent dev root point options [tags] - type source
+// superoptions" a line): the first cgroup2 mount, and the first v1 mount with the memory controller among its
+// super options (alone, or with others: "cpu,memory").
+CgroupMounts cgroup_mounts(std::string_view mountinfo) {
+    CgroupMounts mounts;
+    bool v2 = false, v1 = false;
+    while (!mountinfo.empty()) {
+        const std::string_view line = take_line(mountinfo);
+        const auto dash = line.find(" - ");
+        if (dash == std::string_view::npos) continue;
+        const std::vector<std::string_view> before = fields_of(line.substr(0, dash));
+        const std::vector<std::string_view> after = fields_of(line.substr(dash + 3));
+        if (before.size() < 5 || after.size() < 3 || before[3].front() != '/' || before[4].front() != '/') continue;
+        const CgroupMount mount{unescaped(before[4]), unescaped(before[3])};
+        if (after[0] == "cgroup2" && !v2) {
+            mounts.v2 = mount;
+            v2 = true;
+        } else if (after[0] == "cgroup" && has_item(after[2], ',', "memory") && !v1) {
+            mounts.v1_memory = mount;
+            v1 = true;
+        }
+    }
+    return mounts;
+}
+
+// Cgroup `path` (as /proc/self/cgroup names it) below what `mount` shows: the mount's root taken off its front.
+// A path outside the mount's root (the mount shows a cgroup deeper than the process's) is the mount's root itself.
+std::string_view below_mount_root(const CgroupMount& mount, std::string_view path) {
+    std::string_view root = mount.root;
+    while (!root.empty() && root.back() == '/') root.remove_suffix(1);
+    if (root.empty()) return path;
+    const bool inside = path.substr(0, root.size()) == root && (path.size() == root.size() || path[root.size()] == '/');
+    return inside ? path.substr(root.size()) : std::string_view("/");
+}
+
 }  // namespace
 
 double cgroup_memory_limit(std::string_view proc_self_cgroup,
@@ -140,9 +220,11 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
         if (bytes > 0.0 && (lowest == 0.0 || bytes < lowest)) lowest = bytes;
     };
     const auto consider = [&](const std::string& file) { lower_to(limit_value(read_file(file))); };
+    // Where the hierarchies are (/sys/fs/cgroup and /sys/fs/cgroup/memory unless mountinfo says otherwise).
+    const CgroupMounts mounts = cgroup_mounts(read_file("/proc/self/mountinfo").value_or(""));
     // The hierarchy roots, read even when /proc/self/cgroup is missing or names paths this mount does not show.
-    consider("/sys/fs/cgroup/memory.max");
-    consider("/sys/fs/cgroup/memory/memory.limit_in_bytes");
+    consider(mounts.v2.point + "/memory.max");
+    consider(mounts.v1_memory.point + "/memory.limit_in_bytes");
     // Each line: "hierarchy-id:controllers:/path" (v2: "0::/path").
     while (!proc_self_cgroup.empty()) {
         const std::string_view line = take_line(proc_self_cgroup);
@@ -152,11 +234,11 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
         const std::string_view controllers = line.substr(first + 1, second - first - 1);
         const std::string_view path = line.substr(second + 1);
         if (line.substr(0, first) == "0" && controllers.empty()) {
-            for (const auto& dir : cgroup_and_ancestors("/sys/fs/cgroup", path)) consider(dir + "/memory.max");
+            for (const auto& dir : cgroup_and_ancestors(mounts.v2.point, below_mount_root(mounts.v2, path))) consider(dir + "/memory.max");
         } else if (has_item(controllers, ',', "memory")) {
             // v1: the deepest cgroup's hierarchical limit where its memory.stat can be read, else each limit up
             // to the root (an ancestor's binds only with use_hierarchy, so that may be lower than what binds).
-            const std::vector<std::string> dirs = cgroup_and_ancestors("/sys/fs/cgroup/memory", path);
+            const std::vector<std::string> dirs = cgroup_and_ancestors(mounts.v1_memory.point, below_mount_root(mounts.v1_memory, path));
             std::optional<double> hierarchical;
             for (auto dir = dirs.begin(); dir != dirs.end() && !hierarchical; ++dir) hierarchical = hierarchical_limit(read_file(*dir + "/memory.stat"));
             if (hierarchical) {

@@ -192,6 +192,45 @@ TEST(MemoryBudget, CgroupLimitOfAChildCgroupAndItsAncestors) {
     EXPECT_EQ(cgroup_memory_limit("0::/x..y\n", reader), 5000.0);
 }
 
+// The hierarchies are found where /proc/self/mountinfo says: a cgroup v2 mount elsewhere than /sys/fs/cgroup, a
+// v1 memory controller mounted with another ("cpu,memory"), a mount whose root is a deeper cgroup (a container's
+// bind mount), and octal escapes in mount points. Files at the usual places then do not count.
+TEST(MemoryBudget, CgroupHierarchiesAreWhereMountinfoSays) {
+    std::map<std::string, std::string> files;
+    const auto reader = [&](const std::string& path) -> std::optional<std::string> {
+        const auto found = files.find(std::filesystem::path(path).lexically_normal().string());
+        return found == files.end() ? std::nullopt : std::optional<std::string>(found->second);
+    };
+    const std::string decoy = "1000";  // a limit at the usual place, which these mounts make the wrong one
+    files = {{"/proc/self/mountinfo", "22 1 0:21 / /proc rw - proc proc rw\n"
+                                      "30 22 0:26 / /run/cg rw,nosuid shared:9 - cgroup2 cgroup2 rw,nsdelegate\n"},
+             {"/sys/fs/cgroup/job/memory.max", decoy},
+             {"/run/cg/job/memory.max", "2000000000\n"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/job\n", reader), 2e9);
+    // v1: the memory controller mounted with cpu, after a mount of another controller.
+    files = {{"/proc/self/mountinfo", "31 25 0:27 / /cgroup/cpuset rw - cgroup cgroup rw,cpuset\n"
+                                      "32 25 0:28 / /cgroup/cpu,memory rw - cgroup cgroup rw,cpu,memory\n"},
+             {"/sys/fs/cgroup/memory/job/memory.limit_in_bytes", decoy},
+             {"/cgroup/cpu,memory/job/memory.limit_in_bytes", "3000000000"}};
+    EXPECT_EQ(cgroup_memory_limit("5:cpu,memory:/job\n", reader), 3e9);
+    // A container's bind mount whose root is the process's own cgroup: its path shows through the mount's root.
+    files = {{"/proc/self/mountinfo", "40 35 0:30 /kubepods/pod1/c2 /sys/fs/cgroup ro - cgroup2 cgroup rw\n"},
+             {"/sys/fs/cgroup/kubepods/pod1/c2/memory.max", decoy},
+             {"/sys/fs/cgroup/memory.max", "500000000\n"},
+             {"/sys/fs/cgroup/sub/memory.max", "400000000\n"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/kubepods/pod1/c2\n", reader), 5e8);
+    EXPECT_EQ(cgroup_memory_limit("0::/kubepods/pod1/c2/sub\n", reader), 4e8);
+    EXPECT_EQ(cgroup_memory_limit("0::/kubepods/pod1/c22\n", reader), 5e8);  // not under the root: the mount's own
+    // A mount point with a space (\040 in mountinfo).
+    files = {{"/proc/self/mountinfo", "30 1 0:26 / /mnt/c\\040g rw - cgroup2 none rw\n"}, {"/mnt/c g/j/memory.max", "6000"}};
+    EXPECT_EQ(cgroup_memory_limit("0::/j\n", reader), 6000.0);
+    // Mountinfo without cgroup mounts, or garbage: the usual places.
+    for (const char* text : {"22 1 0:21 / /proc rw - proc proc rw\n", " - \n - cgroup2\n1 2 3 x y - cgroup2 a b\n\\\n"}) {
+        files = {{"/proc/self/mountinfo", text}, {"/sys/fs/cgroup/job/memory.max", "7000"}};
+        EXPECT_EQ(cgroup_memory_limit("0::/job\n", reader), 7000.0) << text;
+    }
+}
+
 // The tables of a lens grow with the cube of its surfaces (ghosts by the square, their sequences by the
 // surfaces); the estimate follows. The coating tables are shared by the steps (one per surface and way),
 // so 100 surfaces need some 0.2 GB, not the 5.5 GB they once did. What cannot be drawn with fewer ghosts,

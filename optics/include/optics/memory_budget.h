@@ -41,11 +41,12 @@ MemoryBudget parse_memory_limit(std::string_view text);
 // The cgroup memory limit of this process in bytes, 0 when none is set: the lowest memory.max (v2) or
 // memory.limit_in_bytes (v1) over the cgroups /proc/self/cgroup names and their ancestors, so that a limit on a
 // child cgroup (a Slurm job's, a systemd slice's) counts as well as one seen at the hierarchy's root; on v1 the
-// deepest readable memory.stat's hierarchical_memory_limit, which is what binds there.
+// deepest readable memory.stat's hierarchical_memory_limit, which is what binds there. The hierarchies are where
+// /proc/self/mountinfo says (/sys/fs/cgroup and /sys/fs/cgroup/memory where it shows none).
 double cgroup_memory_limit();
 
-// The same, from /proc/self/cgroup's text and a reader of cgroupfs files (nullopt where a file cannot be read),
-// to be tested without the machine's cgroups.
+// The same, from /proc/self/cgroup's text and a reader of files (/proc/self/mountinfo and cgroupfs files;
+// nullopt where a file cannot be read), to be tested without the machine's cgroups.
 double cgroup_memory_limit(std::string_view proc_self_cgroup,
                            const std::function<std::optional<std::string>(const std::string& path)>& read_file);
 
