@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <optional>
 #include <span>
 #include <stdexcept>
+#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -129,6 +131,8 @@ std::pair<int, int> reaching(const std::vector<BilinearTap>& taps, int s0, int s
     return {first, end};
 }
 
+constexpr int kSplitRows = 256;  // add_resized_each splits its rows over two threads from this many on
+
 // One source of add_resized_each: its taps, the output rows and columns it reaches (r), and its widened rows.
 struct Resize {
     Region r;
@@ -185,10 +189,32 @@ void add_resized_each(const RgbView& dst, std::span<const ConstRgbView> srcs, st
         resizes.push_back(std::move(*z));
     }
     // Row by row, each source in turn: a frame row stays in cache while every source adds to it (each pixel's
-    // sums in the sources' order, as one add_resized after another).
-    for (int y = rows.y0; y < rows.y1; ++y)
-        for (Resize& z : resizes)
-            if (y >= z.r.y0 && y < z.r.y1) add_row(dst, z, y);
+    // sums in the sources' order, as one add_resized after another). Each half of the rows widens the sources'
+    // rows in a copy of its own of `resizes`, which holds no widened row yet.
+    split_rows(rows.y0, rows.y1, kSplitRows, [&](int y0, int y1) {
+        std::vector<Resize> own = resizes;
+        for (int y = y0; y < y1; ++y)
+            for (Resize& z : own)
+                if (y >= z.r.y0 && y < z.r.y1) add_row(dst, z, y);
+    });
+}
+
+void split_rows(int y0, int y1, int min_rows, const std::function<void(int, int)>& body) {
+    if (y1 - y0 < std::max(min_rows, 2)) return body(y0, y1);
+    const int middle = y0 + (y1 - y0) / 2;
+    std::future<void> second;
+    try {
+        second = std::async(std::launch::async, body, middle, y1);
+    } catch (const std::system_error&) {  // no thread to be had: this one does every row
+        return body(y0, y1);
+    }
+    try {
+        body(y0, middle);
+    } catch (...) {
+        second.wait();  // body's captures stay alive until the other half is done with them
+        throw;
+    }
+    second.get();
 }
 
 void reduce_area(const RgbView& dst, const ConstRgbView& src, int factor) {

@@ -572,6 +572,20 @@ public:
     int width() const { return target_->width(); }
     int height() const { return target_->height(); }
     const TexelRect& window() const { return window_; }
+    // Bytes the whole window takes read at once (read_all).
+    std::size_t window_bytes() const {
+        return static_cast<std::size_t>(width()) * 4 * sizeof(float) * static_cast<std::size_t>(window_.y1 - window_.y0);
+    }
+    // The whole window read at once: row() then reads nothing more and changes nothing, so threads may share
+    // the reader (add_targets' rows split over two).
+    void read_all() {
+        const auto w4 = static_cast<std::size_t>(width()) * 4;
+        zeros_.assign(w4, 0.0f);
+        first_ = window_.y0;
+        rows_ = window_.y1 - window_.y0;
+        band_.assign(w4 * static_cast<std::size_t>(rows_), 0.0f);  // the columns beyond the window stay zero
+        target_->read_rgba_rect(window_, band_.data());
+    }
     const float* row(int r) {
         const auto w4 = static_cast<std::size_t>(width()) * 4;
         if (r < window_.y0 || r >= window_.y1) {
@@ -685,20 +699,12 @@ void blend_rows(const float* const (&a)[4], const float (&f)[4], float* out, std
     }
 }
 
-// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, enlarged with the Mitchell
-// cubic (flare::mitchell_taps: pixel centres aligned, edge pixels repeated beyond the border; what each target
-// adds is clamped at 0, so the lobes never darken the plate). Cooke-triplet at (14, 9), 960x640 (bench_flare):
-// structure error 0.732, against bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render
-// time the same within noise. Separably, and every target per output row, so the image is read and written
-// once: each output row adds, for every target, a blend of four widened rows (a loop the compiler vectorises).
-// Only the part of the image each target's lit window reaches is visited: an extended light's groups light a
-// few ghosts each. Not flare::add_resized: the targets are read from GL in bands, never whole (the 1/2 target
-// of an 8K frame is 127 MB).
-void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h) {
+// Rows [y0, y1) of add_targets' image, each target widened through four rows of its own held here.
+void add_target_rows(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h, int y0, int y1) {
     std::vector<WidenedTarget> srcs;
     for (BandReader& r : sources) srcs.emplace_back(r, w, h);
     const std::size_t row_values = static_cast<std::size_t>(w) * 3;
-    for (int y = 0; y < h; ++y) {
+    for (int y = y0; y < y1; ++y) {
         float* out = rgb.data() + static_cast<std::size_t>(y) * row_values;
         for (WidenedTarget& src : srcs) {
             if (!src.reaches_row(y)) continue;
@@ -719,6 +725,30 @@ void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int 
             }
         }
     }
+}
+
+// Reduced targets whose lit windows take at most this are read whole and widened on two threads (the 1/2 target
+// of a 1080p frame: 8 MB; GpuFlareOptions::split_read_back); larger ones (4K and up) a band at a time on this thread.
+constexpr std::size_t kWholeReadBytes = std::size_t{16} << 20;
+constexpr int kSplitRows = 128;  // images with fewer rows are not split
+
+// Adds reduced targets (read back in bands) into a top-down RGB image of w x h, enlarged with the Mitchell
+// cubic (flare::mitchell_taps: pixel centres aligned, edge pixels repeated beyond the border; what each target
+// adds is clamped at 0, so the lobes never darken the plate). Cooke-triplet at (14, 9), 960x640 (bench_flare):
+// structure error 0.732, against bilinear's 0.741, Catmull-Rom's 0.733 and the cubic B-spline's 0.771; render
+// time the same within noise. Separably, and every target per output row, so the image is read and written
+// once: each output row adds, for every target, a blend of four widened rows (a loop the compiler vectorises).
+// Only the part of the image each target's lit window reaches is visited: an extended light's groups light a
+// few ghosts each. Not flare::add_resized: the targets are read from GL in bands, whole only when small (the 1/2
+// target of an 8K frame is 127 MB). Small ones (kWholeReadBytes) are widened on two threads, half the rows each:
+// every output row takes each target's blend in the targets' order whichever thread adds it, so the image is
+// the same split or not; the GL is read on this thread only (read_all, before the split).
+void add_targets(std::vector<BandReader>& sources, std::vector<float>& rgb, int w, int h, bool split) {
+    std::size_t bytes = 0;
+    for (const BandReader& r : sources) bytes += r.window_bytes();
+    if (!split || sources.empty() || bytes > kWholeReadBytes || h < kSplitRows) return add_target_rows(sources, rgb, w, h, 0, h);
+    for (BandReader& r : sources) r.read_all();
+    flare::split_rows(0, h, kSplitRows, [&](int y0, int y1) { add_target_rows(sources, rgb, w, h, y0, y1); });
 }
 
 // One light's pass being drawn: what the trace and raster steps of its batches read.
@@ -1521,7 +1551,8 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
             s_.targets.lit_within(static_cast<std::size_t>(slot), lit);
             if (!lit.empty()) readbacks.emplace_back(t, lit);
         }
-        add_targets(readbacks, rgb, flare::reduced_side(view_.width, image_level_), flare::reduced_side(view_.height, image_level_));
+        add_targets(readbacks, rgb, flare::reduced_side(view_.width, image_level_), flare::reduced_side(view_.height, image_level_),
+                    options_.split_read_back);
     }
     glUseProgram(0);
     glBindVertexArray(0);

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include <atomic>
 #include <gtest/gtest.h>
 
 #include <flare/image_ops.h>
@@ -252,6 +253,40 @@ TEST(ImageOps, AddResizedEachIsEachAddResizedInTurn) {
     ASSERT_EQ(each.size(), turn.size());
     for (std::size_t i = 0; i < each.size(); ++i) ASSERT_EQ(std::bit_cast<std::uint32_t>(each[i]), std::bit_cast<std::uint32_t>(turn[i])) << i;
     EXPECT_THROW(add_resized_each(RgbView{each.data(), 0, 0, w, h}, srcs, std::span(regions).first(2)), std::invalid_argument);
+}
+
+// From 256 rows on, add_resized_each adds half the rows on a second thread: bit for bit what the frame's two
+// halves get when each is a view of its own (under 256 rows, added on one thread).
+TEST(ImageOps, AddResizedEachSplitOverTwoThreadsIsTheSame) {
+    const int w = 97, h = 400;
+    const std::vector<float> a = image_of(13, 9, [](int x, int y, int c) { return std::sin(0.7f * x + 0.3f * y + c) * 2.0f + 2.5f; });
+    const std::vector<float> b = image_of(6, 40, [](int x, int y, int c) { return 1e-2f * (x + y + c); });
+    const std::vector<ConstRgbView> srcs{ConstRgbView{a.data(), 0, 0, 13, 9}, ConstRgbView{b.data(), 0, 0, 6, 40}};
+    const std::vector<Region> regions{Region{0, 0, w, h}, Region{-20, 150, 60, 380}};
+    std::vector<float> whole = image_of(w, h, [](int x, int y, int c) { return 0.01f * (x - y) + c; }), halves = whole;
+    add_resized_each(RgbView{whole.data(), 0, 0, w, h}, srcs, regions);
+    for (const int y0 : {0, 200})
+        add_resized_each(RgbView{halves.data() + static_cast<std::size_t>(y0) * w * 3, 0, y0, w, 200}, srcs, regions);
+    for (std::size_t i = 0; i < whole.size(); ++i) ASSERT_EQ(std::bit_cast<std::uint32_t>(whole[i]), std::bit_cast<std::uint32_t>(halves[i])) << i;
+}
+
+// split_rows visits every row once, on two threads from min_rows rows on, and passes on what the body throws.
+TEST(ImageOps, SplitRowsVisitsEveryRowOnceAndPassesErrorsOn) {
+    for (const int rows : {0, 1, 7, 300}) {
+        std::vector<int> seen(static_cast<std::size_t>(rows), 0);
+        std::atomic<int> calls = 0;
+        split_rows(0, rows, 256, [&](int y0, int y1) {
+            ++calls;
+            for (int y = y0; y < y1; ++y) ++seen[static_cast<std::size_t>(y)];
+        });
+        EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](int n) { return n == 1; })) << rows;
+        EXPECT_EQ(calls.load(), rows >= 256 ? 2 : 1) << rows;
+    }
+    for (const int failing : {0, 200})  // the first half's thread or the second's
+        EXPECT_THROW(split_rows(0, 400, 256, [&](int y0, int) {
+                         if (y0 == failing) throw std::runtime_error("row");
+                     }),
+                     std::runtime_error);
 }
 
 }  // namespace

@@ -457,6 +457,21 @@ struct FaintTriplet {
     }
 };
 
+// Reduced targets read back whole and widened on two threads, half the rows each, make the image the banded
+// read-back on one thread makes, bit for bit: faint ghosts at 1/2 .. 1/32 of a frame 200 rows high (split at row
+// 100, through the Mitchell taps' reach), two lights, the full-size target in bands beside them.
+TEST(SplitReadBack, SameImageAsBandsOnOneThread) {
+    FaintTriplet t;
+    t.options.full_target_bytes = 16.0 * t.view.width * t.view.height / 3.0;
+    const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
+    const std::vector<float> split = t.image(lights);
+    EXPECT_GT(t.renderer.last_stats().ghosts_reduced, 10);
+    t.options.split_read_back = false;
+    const std::vector<float> bands = t.image(lights);
+    ASSERT_GT(*std::max_element(bands.begin(), bands.end()), 0.0f);
+    EXPECT_EQ(split, bands);
+}
+
 // The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
 // image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
 // the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).

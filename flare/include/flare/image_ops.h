@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -80,7 +81,13 @@ void add_enlarged(const RgbView& dst, const ConstRgbView& src, int factor);
 // Only the pixels the source's nonzero region reaches are visited: the others are left as they were, bit for bit.
 void add_resized(const RgbView& dst, const ConstRgbView& src, const Region& region);
 // add_resized of each source over its region in turn, done row by row (a frame row stays in cache while they
-// all add to it): the same sums in the same order, for the cost of one pass over dst.
+// all add to it): the same sums in the same order, for the cost of one pass over dst. From 256 rows on, half
+// the rows are added on a second thread (split_rows): the same image.
 void add_resized_each(const RgbView& dst, std::span<const ConstRgbView> srcs, std::span<const Region> regions);
+
+// A loop over rows [y0, y1) whose rows do not depend on each other, split in two: body(y0, middle) on this
+// thread while body(middle, y1) runs on another, or body(y0, y1) here alone when there are fewer than min_rows
+// rows or no thread to be had. What body throws on either thread is thrown here, after both halves end.
+void split_rows(int y0, int y1, int min_rows, const std::function<void(int, int)>& body);
 
 }  // namespace lensfx::flare

@@ -48,6 +48,10 @@ struct GpuFlareOptions {
     // A faint ghost whose passes land within kMergeShiftPx (2) pixels of its level of each other drawn once
     // for all of them (merge_faint_passes); false: once per pass (for tests and measurements).
     bool merge_faint = true;
+    // Reduced targets whose lit windows take at most 16 MiB (a 1080p frame's) read back whole and widened into
+    // the image on two threads, half its rows each; false: a band of rows at a time on the drawing thread
+    // (the same image, bit for bit; for tests and measurements).
+    bool split_read_back = true;
 };
 
 // Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
