@@ -19,9 +19,8 @@
 // costs 12 us (0.28 GB/s: 32 MiB in 115-130 ms, 42-57 ms after MADV_POPULATE_WRITE) and a huge page 59 ms per
 // 32 MiB cold, 2.6 ms when the host made it less than a few seconds before (perhaps too, not measured, llvmpipe's
 // 64 x 64 tiles of a 1080p RGBA float target, 64 rows 30 KiB apart, miss the TLB less). canon-70-200 on a 1080p
-// frame (medians of 10 interleaved runs): culled 1.680 -> 1.585 s (2.66 -> 2.37 CPU s), unculled 6.69 -> 5.98 s
-// (3 runs), CandleGlass 0.825 -> 0.815 s (1.32 -> 1.21 CPU s); peak RSS 306 -> 260 MB, as the warmer no longer
-// makes a 1080p run's pad resident (docs/benchmarks.md, twenty-fourth stop).
+// frame, culled (medians of 10 runs each, in A B B A order): 1.570 -> 1.415 s (2.44 -> 2.18 CPU s); peak RSS
+// 306 -> 260 MB, as the warmer no longer makes a 1080p run's pad resident (docs/benchmarks.md, twenty-fourth stop).
 
 #include <filter/process_heap.h>
 
