@@ -148,8 +148,8 @@ bool kernel_populates() {
 }
 
 // Frame-sized blocks beyond the heap's reservation and pad (it grows) are made resident by the warmer before
-// anything touches them; without the warmer, an untouched block's pages are not resident (but for the huge pages glibc's chunk
-// headers may fault in where transparent huge pages are always on).
+// anything touches them; without the warmer, an untouched block's pages are not resident (but for the huge
+// pages glibc's chunk headers may fault in).
 TEST(ProcessHeap, TheWarmerMakesWhatTheHeapGrowsByResident) {
     if (!kernel_populates()) GTEST_SKIP() << "the kernel lacks MADV_POPULATE_WRITE (Linux 5.14): the warmer does nothing";
     if (lensfx::cgroup_memory_limit() > 0.0) GTEST_SKIP() << "under a cgroup memory limit the warmer stays off";

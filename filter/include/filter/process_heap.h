@@ -15,7 +15,7 @@ struct HeapTuning {
     bool tuned = false;
     std::string reason;      // why not, when not ("" when tuned)
     bool one_arena = false;  // every thread allocates from the one heap (tuned, or under ulimit -v / -d)
-    bool huge_pages = false; // the heap's first 192 MiB advised to use transparent huge pages (tuned, and the kernel has them)
+    bool huge_pages = false; // the heap's first 192 MiB advised to use transparent huge pages (the kernel has them)
 };
 
 // On glibc, with an unlimited address space and data segment and no strict overcommit: frame-sized blocks
@@ -32,8 +32,9 @@ HeapTuning tune_process_heap();
 // the twenty-first stop's, and a 1080p run touches about 150 MB for the first time (its frame, the flare's
 // images, the GL driver's render targets). What tune_process_heap reserved in huge pages is left to fault in
 // (512 times fewer faults): beyond it, the heap grows by the block asked for and 64 MiB more (the pad), and the
-// thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a tenth of the faults' cost there. All of it becomes resident, touched or not: the rest of the pad and room
-// reserved but never used (at most the pad and the largest reservation more than a run would touch).
+// thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a tenth of the faults' cost there. All
+// of it becomes resident, touched or not: the rest of the pad and room reserved but never used (at most the
+// pad and the largest reservation more than a run would touch).
 // Inert (warms nothing) where the heap is not tuned, under a cgroup's memory limit (what it makes resident
 // unused could take the run over it) or where the kernel lacks MADV_POPULATE_WRITE (before Linux 5.14).
 // Told to stop when destroyed, and not waited for (it may be asleep for 64 ms): it touches nothing but the
