@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
     using namespace lensfx::filter;
     keep_standard_streams_open();
     report_broken_pipes();
+    handle_stopping_signals();  // one line on SIGINT/SIGTERM, whatever the command is doing
     const HeapTuning heap = tune_process_heap();  // before the first frame-sized allocation
     lensfx::gpu::set_default_llvmpipe_threads();  // before any thread and the GL driver
     const HeapWarmer warmer(heap);

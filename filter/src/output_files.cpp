@@ -40,10 +40,33 @@ struct Slot {
 Slot g_slots[kSlots];
 static_assert(std::atomic<int>::is_always_lock_free);
 
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
+std::atomic<bool> g_stop_said{false};  // the stopping line is written once, whichever thread the signal lands on
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+// The program's one line on a stopping signal, written with write(2) alone (async-signal-safe).
+template <std::size_t N>
+void write_line(const char (&line)[N]) {
+    if (::write(STDERR_FILENO, line, N - 1) < 0) return;  // a stderr that cannot take it changes nothing
+}
+
+void say_stopped_by(int sig) {
+    if (g_stop_said.exchange(true)) return;
+    switch (sig) {
+        case SIGINT: return write_line("lensfx: stopped by SIGINT (no output file is left half-written)\n");
+        case SIGTERM: return write_line("lensfx: stopped by SIGTERM (no output file is left half-written)\n");
+        case SIGHUP: return write_line("lensfx: stopped by SIGHUP (no output file is left half-written)\n");
+        default: return write_line("lensfx: stopped by SIGQUIT (no output file is left half-written)\n");
+    }
+}
+
+// The temporaries removed and the line written, then the signal's default action: the caller (a shell running
+// a loop of lensfx commands) sees the program killed by that signal and stops too.
 extern "C" void remove_temporaries_and_die(int sig) {
     for (Slot& s : g_slots) {
         if (s.state.load() == kReady) ::unlink(s.path);
     }
+    say_stopped_by(sig);
     std::signal(sig, SIG_DFL);
     std::raise(sig);
 }
@@ -51,13 +74,14 @@ extern "C" void remove_temporaries_and_die(int sig) {
 void install_handlers_once() {
     static std::once_flag once;
     std::call_once(once, [] {
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
+        struct sigaction sa {};
+        sa.sa_handler = remove_temporaries_and_die;
+        sigemptyset(&sa.sa_mask);
+        for (int sig : kStopSignals) sigaddset(&sa.sa_mask, sig);  // one stopping signal handled at a time
+        for (int sig : kStopSignals) {
             struct sigaction old {};
             ::sigaction(sig, nullptr, &old);
             if (old.sa_handler == SIG_IGN) continue;  // nohup: an ignored signal stays ignored
-            struct sigaction sa {};
-            sa.sa_handler = remove_temporaries_and_die;
-            sigemptyset(&sa.sa_mask);
             ::sigaction(sig, &sa, nullptr);
         }
     });
@@ -65,7 +89,7 @@ void install_handlers_once() {
 
 // A slot holding `path`, or -1 when all are taken (the file is then only removed by a later run).
 int register_temporary(const std::string& path) {
-    install_handlers_once();
+    install_handlers_once();  // also at the start of main (handle_stopping_signals); here for library users
     if (path.size() >= kPathMax) return -1;
     for (int i = 0; i < kSlots; ++i) {
         int expected = kFree;
@@ -77,6 +101,12 @@ int register_temporary(const std::string& path) {
     }
     return -1;
 }
+
+}  // namespace
+
+void handle_stopping_signals() { install_handlers_once(); }
+
+namespace {
 
 void unregister_temporary(int slot) {
     if (slot < 0) return;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -17,6 +18,7 @@
 #include <fmt/core.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 #include <sys/wait.h>
@@ -351,6 +353,46 @@ TEST(Hostile, SignalsLeaveNoTemporaries) {
     ASSERT_EQ(run(fmt::format("{} -i {}/s.0001.exr -o {}/one.exr", lensfx_cmd(), dir.string(), out.string())).exit_code, 0);
     EXPECT_FALSE(fs::exists(out / fmt::format(".o.0001.lensfx-{}.tif", gone)));
     EXPECT_TRUE(fs::exists(out / fmt::format(".o.0002.lensfx-{}.tif", ::getpid())));
+    fs::remove_all(dir);
+}
+
+// Class 7: a stopping signal says so in one line (on stderr, however the frame was being made), and the program
+// still ends killed by that signal, so that a shell loop running it stops too. Sent once the first frame is
+// written, while the sequence is being worked through.
+TEST(Hostile, StoppingSignalsSayOneLine) {
+    const auto dir = scratch_dir("hostile-signal-line");
+    write_image(dir / "s.0001.exr", {"R", "G", "B"}, OIIO::TypeFloat, 512, 512, 0.0, 0.0, true);
+    for (int f = 2; f <= 400; ++f) fs::create_hard_link(dir / "s.0001.exr", dir / fmt::format("s.{:04}.exr", f));
+    const fs::path out = dir / "out";
+    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
+        fs::remove_all(out);
+        fs::create_directories(out);
+        const fs::path err = dir / "stderr.txt";
+        const pid_t pid = ::fork();
+        ASSERT_GE(pid, 0);
+        if (pid == 0) {
+            const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            if (fd < 0 || ::dup2(fd, STDERR_FILENO) < 0) ::_exit(126);
+            for (int s : {SIGINT, SIGQUIT}) std::signal(s, SIG_DFL);  // as a terminal's foreground job has them
+            ::execl(LENSFX_BINARY, LENSFX_BINARY, "-i", (dir / "s.####.exr").c_str(), "-o", (out / "o.####.exr").c_str(), "-q",
+                    static_cast<char*>(nullptr));
+            ::_exit(127);
+        }
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while (!fs::exists(out / "o.0001.exr") && std::chrono::steady_clock::now() < deadline)
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        ASSERT_TRUE(fs::exists(out / "o.0001.exr")) << "no frame written within a minute";
+        ::kill(pid, sig);
+        int status = 0;
+        ::waitpid(pid, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status)) << "signal " << sig << ": exit status " << status;
+        EXPECT_EQ(WTERMSIG(status), sig);
+        const std::string said = slurp(err);
+        EXPECT_EQ(std::count(said.begin(), said.end(), '\n'), 1) << said;
+        EXPECT_EQ(said.rfind(fmt::format("lensfx: stopped by SIG{} ", sigabbrev_np(sig)), 0), 0u) << said;
+        EXPECT_FALSE(fs::exists(out / "o.0400.exr")) << "the sequence ran to its end: the signal came too late to test";
+        for (const auto& e : fs::directory_iterator(out)) EXPECT_EQ(e.path().filename().string().find(".lensfx-"), std::string::npos) << e.path();
+    }
     fs::remove_all(dir);
 }
 

@@ -42,6 +42,11 @@ void write_stdout(std::string_view bytes);
 // is caught in main, so a closed pipe is an error like any other).
 std::string write_failure(int error);
 
+// From here on SIGINT, SIGTERM, SIGHUP and SIGQUIT (those not ignored) remove the temporaries being written, leave
+// one "lensfx: stopped by SIG..." line on stderr and then take their default action (the program ends killed by
+// the signal). Called at the start of main; TempFile calls it too.
+void handle_stopping_signals();
+
 // Removes the temporaries (TempFile's names) in `dir` left by processes that no longer run. Returns how
 // many were removed.
 std::size_t remove_stale_temporaries(const std::string& dir);
