@@ -251,16 +251,23 @@ double cgroup_memory_limit(std::string_view proc_self_cgroup,
     return lowest;
 }
 
+std::optional<std::string> read_proc_file(const std::string& path, std::size_t max_bytes) {
+    std::ifstream in(path);
+    if (!in) return std::nullopt;
+    // procfs files have no size to ask for: read in chunks until the end (or the cap).
+    constexpr std::size_t kChunk = 64 * 1024;
+    std::string text;
+    while (in && text.size() < max_bytes) {
+        const std::size_t had = text.size();
+        text.resize(std::min(max_bytes, had + kChunk));
+        in.read(text.data() + had, static_cast<std::streamsize>(text.size() - had));
+        text.resize(had + static_cast<std::size_t>(in.gcount()));
+    }
+    return text;
+}
+
 double cgroup_memory_limit() {
-    // A whole small file (cgroupfs and procfs files are a few lines); nullopt where it cannot be opened.
-    const auto read_file = [](const std::string& path) -> std::optional<std::string> {
-        std::ifstream in(path);
-        if (!in) return std::nullopt;
-        std::string text(64 * 1024, '\0');
-        in.read(text.data(), static_cast<std::streamsize>(text.size()));
-        text.resize(static_cast<std::size_t>(in.gcount()));
-        return text;
-    };
+    const auto read_file = [](const std::string& path) { return read_proc_file(path, kProcFileCap); };
     return cgroup_memory_limit(read_file("/proc/self/cgroup").value_or(""), read_file);
 }
 

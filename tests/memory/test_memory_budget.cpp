@@ -195,6 +195,29 @@ TEST(MemoryBudget, CgroupLimitOfAChildCgroupAndItsAncestors) {
 // The hierarchies are found where /proc/self/mountinfo says: a cgroup v2 mount elsewhere than /sys/fs/cgroup, a
 // v1 memory controller mounted with another ("cpu,memory"), a mount whose root is a deeper cgroup (a container's
 // bind mount), and octal escapes in mount points. Files at the usual places then do not count.
+// A host with thousands of mounts has a mountinfo of hundreds of KiB, its cgroup mounts perhaps last: the file is
+// read whole (in chunks: procfs reports no size), and the cgroup2 mount on its last line is found.
+TEST(MemoryBudget, LongMountinfoIsReadToItsEnd) {
+    const auto dir = std::filesystem::temp_directory_path() / fmt::format("lensfx-mountinfo-{}", ::getpid());
+    std::filesystem::create_directories(dir);
+    std::string mountinfo;
+    for (int i = 0; mountinfo.size() < 300 * 1024; ++i)
+        mountinfo += fmt::format("{} 1 0:{} / /var/lib/containers/overlay/{:06} rw - overlay overlay rw\n", 100 + i, 50 + i, i);
+    mountinfo += "9999 1 0:26 / /run/cg rw - cgroup2 cgroup2 rw\n";
+    std::ofstream(dir / "mountinfo") << mountinfo;
+    EXPECT_EQ(lensfx::read_proc_file((dir / "mountinfo").string()), mountinfo);
+    EXPECT_EQ(lensfx::read_proc_file((dir / "mountinfo").string(), 1000), mountinfo.substr(0, 1000));  // the cap holds
+    EXPECT_EQ(lensfx::read_proc_file((dir / "none").string()), std::nullopt);
+    const std::map<std::string, std::string> files = {{"/run/cg/job/memory.max", "7000000\n"}};
+    const auto reader = [&](const std::string& path) -> std::optional<std::string> {
+        if (path == "/proc/self/mountinfo") return lensfx::read_proc_file((dir / "mountinfo").string());
+        const auto found = files.find(path);
+        return found == files.end() ? std::nullopt : std::optional<std::string>(found->second);
+    };
+    EXPECT_EQ(lensfx::cgroup_memory_limit("0::/job\n", reader), 7e6);
+    std::filesystem::remove_all(dir);
+}
+
 TEST(MemoryBudget, CgroupHierarchiesAreWhereMountinfoSays) {
     std::map<std::string, std::string> files;
     const auto reader = [&](const std::string& path) -> std::optional<std::string> {

@@ -50,6 +50,12 @@ double cgroup_memory_limit();
 double cgroup_memory_limit(std::string_view proc_self_cgroup,
                            const std::function<std::optional<std::string>(const std::string& path)>& read_file);
 
+// A procfs or cgroupfs file whole, up to max_bytes (they report no size); nullopt where it cannot be opened.
+// /proc/self/mountinfo runs to hundreds of KiB on a host with thousands of mounts (containers, Kubernetes),
+// and the cgroup mounts may be listed last.
+inline constexpr std::size_t kProcFileCap = std::size_t{4} << 20;
+std::optional<std::string> read_proc_file(const std::string& path, std::size_t max_bytes = kProcFileCap);
+
 // The default budget: half of the machine's memory (the physical memory, or the cgroup's limit or the process's
 // address-space or data limit when lower), so one run never takes the machine down with it.
 MemoryBudget default_memory_budget();
