@@ -258,16 +258,16 @@ void write_strips(OIIO::ImageOutput& out, const OIIO::ImageSpec& s, int strip_ro
     }
 }
 
-void write(const std::string& path, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
+void write(const std::string& path, const std::string& format, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
     // Writers that take an I/O proxy write through a checked file; the others into a memory file (memfd)
     // by its /proc path, copied with every write checked. Both outlive the writer, which may close on
     // destruction.
     std::optional<CheckedFileProxy> proxy;
     std::optional<MemoryFile> memfile;
-    auto out = OIIO::ImageOutput::create(path);
+    auto out = OIIO::ImageOutput::create(format);
     if (!out) {
         (void)OIIO::geterror();
-        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", path));
+        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for the format \"{}\"", path, format));
     }
     const OIIO::ImageSpec s = oiio_spec(spec);
     if (out->supports("ioproxy")) {

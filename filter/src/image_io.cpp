@@ -45,12 +45,10 @@ std::string lower_extension(const std::string& path) {
 }
 
 void write_pfm_file(const Frame& frame, const std::string& path, const WriteOptions& options) {
-    TempFile tmp(path);
-    File f(std::fopen(tmp.path().c_str(), "wb"));
-    if (!f) throw std::runtime_error(fmt::format("cannot create {}: {}", tmp.path(), std::strerror(errno)));
+    File f(std::fopen(path.c_str(), "wb"));
+    if (!f) throw std::runtime_error(fmt::format("cannot create {}: {}", path, std::strerror(errno)));
     write_pfm(f.get(), frame, options.pfm_order == PfmOrder::top_first, options.memory);
-    if (std::fclose(f.release()) != 0) throw std::runtime_error(fmt::format("cannot write {}", tmp.path()));
-    tmp.commit();
+    if (std::fclose(f.release()) != 0) throw std::runtime_error(fmt::format("cannot write {}", path));
 }
 
 bool is_exr_extension(const std::string& ext) { return ext == ".exr" || ext == ".sxr" || ext == ".mxr"; }
@@ -147,16 +145,21 @@ bool is_known_output_format(const std::string& path) {
 }
 
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options) {
+    TempFile file(path);
+    write_image(frame, file, options);
+    file.commit();
+}
+
+void write_image(const Frame& frame, TempFile& file, const WriteOptions& options) {
+    const std::string& path = file.name();
     const std::string ext = lower_extension(path);
     if (ext == ".pfm") {
-        write_pfm_file(frame, path, options);
+        file.write([&](const std::string& to) { write_pfm_file(frame, to, options); });
         return;
     }
     if (is_exr_extension(ext)) {
         const std::string compression = output_compression(frame, options);
-        TempFile tmp(path);
-        write_exr(frame, tmp.path(), compression, options.memory);
-        tmp.commit();
+        file.write([&](const std::string& to) { write_exr(frame, to, compression, options.memory); });
         return;
     }
     const OiioModule& oiio = oiio_module();
@@ -198,9 +201,7 @@ void write_image(const Frame& frame, const std::string& path, const WriteOptions
         rows = wide ? quantised_rows<std::uint16_t>(frame, channels, options) : quantised_rows<std::uint8_t>(frame, channels, options);
     }
 
-    TempFile tmp(path);
-    oiio.write(tmp.path(), spec, kStripRows, rows);
-    tmp.commit();
+    file.write([&](const std::string& to) { oiio.write(to, format, spec, kStripRows, rows); });
 }
 
 }  // namespace lensfx::filter

@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -11,10 +12,13 @@
 #include <optional>
 #include <utility>
 #include <stdexcept>
+#include <thread>
 
 #include <fcntl.h>
 #include <fmt/core.h>
+#include <pthread.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <filter/sequence.h>
@@ -44,6 +48,19 @@ constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 std::atomic<bool> g_stop_said{false};  // the stopping line is written once, whichever thread the signal lands on
 static_assert(std::atomic<bool>::is_always_lock_free);
 
+// A file written unnamed (O_TMPFILE) is named only in commit(), for the two calls that link it under its temporary
+// name and rename that onto the target. The handler marks the program stopping, then waits for the commits under way
+// (g_naming) before it removes the temporaries; a commit that starts after the mark waits for the end (seq_cst: either
+// the commit sees the mark or the handler sees the commit).
+std::atomic<bool> g_stopping{false};
+std::atomic<int> g_naming{0};
+
+// The handler's wait for the commits under way: bounded (two system calls each), never forever.
+void wait_for_commits_under_way() {
+    const struct timespec ms{0, 1'000'000};
+    for (int waited = 0; g_naming.load() > 0 && waited < 2000; ++waited) ::nanosleep(&ms, nullptr);
+}
+
 // The program's one line on a stopping signal, written with write(2) alone (async-signal-safe).
 template <std::size_t N>
 void write_line(const char (&line)[N]) {
@@ -63,6 +80,8 @@ void say_stopped_by(int sig) {
 // The temporaries removed and the line written, then the signal's default action: the caller (a shell running
 // a loop of lensfx commands) sees the program killed by that signal and stops too.
 extern "C" void remove_temporaries_and_die(int sig) {
+    g_stopping.store(true);
+    wait_for_commits_under_way();
     for (Slot& s : g_slots) {
         if (s.state.load() == kReady) ::unlink(s.path);
     }
@@ -89,7 +108,6 @@ void install_handlers_once() {
 
 // A slot holding `path`, or -1 when all are taken (the file is then only removed by a later run).
 int register_temporary(const std::string& path) {
-    install_handlers_once();  // also at the start of main (handle_stopping_signals); here for library users
     if (path.size() >= kPathMax) return -1;
     for (int i = 0; i < kSlots; ++i) {
         int expected = kFree;
@@ -101,12 +119,6 @@ int register_temporary(const std::string& path) {
     }
     return -1;
 }
-
-}  // namespace
-
-void handle_stopping_signals() { install_handlers_once(); }
-
-namespace {
 
 void unregister_temporary(int slot) {
     if (slot < 0) return;
@@ -196,7 +208,70 @@ std::string written_path(const std::string& path) {
 
 }  // namespace
 
-TempFile::TempFile(const std::string& target) : target_(written_path(target)) {
+namespace {
+
+// An unnamed file (O_TMPFILE) in `dir` that the writers can open again by /proc/self/fd/N (returned in `reopen`), or -1
+// where the file system or the system cannot (NFS, no /proc, a umask that takes the owner's write permission away).
+int open_unnamed(const std::string& dir, std::string& reopen) {
+    const int fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+    if (fd < 0) return -1;
+    reopen = fmt::format("/proc/self/fd/{}", fd);
+    if (::access(reopen.c_str(), W_OK) == 0) return fd;
+    ::close(fd);
+    return -1;
+}
+
+// The stopping signals held off on this thread while it lives: the handler then runs on another thread, which
+// can wait for this one.
+class StopSignalsHeld {
+public:
+    StopSignalsHeld() {
+        sigset_t set;
+        sigemptyset(&set);
+        for (int sig : kStopSignals) sigaddset(&set, sig);
+        ::pthread_sigmask(SIG_BLOCK, &set, &old_);
+    }
+    ~StopSignalsHeld() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+    StopSignalsHeld(const StopSignalsHeld&) = delete;
+    StopSignalsHeld& operator=(const StopSignalsHeld&) = delete;
+
+private:
+    sigset_t old_{};
+};
+
+// A commit under way, which the signal handler waits for. Once the program is stopping, no commit starts: this
+// thread waits for the handler to end the program (bounded, then "stopped" is thrown).
+class NamingUnderWay {
+public:
+    NamingUnderWay() {
+        g_naming.fetch_add(1);
+        if (!g_stopping.load()) return;
+        g_naming.fetch_sub(1);
+        std::this_thread::sleep_for(std::chrono::seconds(10));
+        throw std::runtime_error("stopped by a signal");
+    }
+    ~NamingUnderWay() { g_naming.fetch_sub(1); }
+    NamingUnderWay(const NamingUnderWay&) = delete;
+    NamingUnderWay& operator=(const NamingUnderWay&) = delete;
+};
+
+// Links the unnamed file `reopen` names (/proc/self/fd/N) as `path`; one left there by a dead process with this
+// PID is replaced.
+void link_unnamed(const std::string& reopen, const std::string& path) {
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        if (::linkat(AT_FDCWD, reopen.c_str(), AT_FDCWD, path.c_str(), AT_SYMLINK_FOLLOW) == 0) return;
+        if (errno != EEXIST) break;
+        ::unlink(path.c_str());
+    }
+    throw std::runtime_error(fmt::format("cannot name the written file {}: {}", path, std::strerror(errno)));
+}
+
+}  // namespace
+
+void handle_stopping_signals() { install_handlers_once(); }
+
+TempFile::TempFile(const std::string& target) : name_(target), target_(written_path(target)) {
+    install_handlers_once();  // also at the start of main (handle_stopping_signals); here for library users
     // A device, named pipe or directory is never replaced by a file (as root, /dev/null could be).
     if (const char* kind = special_kind(target_)) {
         const std::string link = target_ == target ? std::string() : fmt::format(" (a link to {})", target_);
@@ -205,15 +280,30 @@ TempFile::TempFile(const std::string& target) : target_(written_path(target)) {
     const fs::path t(target_);
     const std::string name = fmt::format(".{}{}{}{}", t.stem().string(), kTempTag, ::getpid(), t.extension().string());
     path_ = (t.parent_path() / name).string();
+    fd_ = open_unnamed(t.parent_path().empty() ? "." : t.parent_path().string(), write_path_);
+    if (fd_ >= 0) return;
+    write_path_ = path_;  // a named temporary from the start, in the handler's registry
     slot_ = register_temporary(path_);
 }
 
 TempFile::~TempFile() {
-    if (!committed_) {
+    if (fd_ >= 0) ::close(fd_);  // an unnamed file not committed is gone with its last descriptor
+    if (!committed_ && fd_ < 0) {
         std::error_code ec;
         fs::remove(path_, ec);
     }
     unregister_temporary(slot_);
+}
+
+void TempFile::write(const std::function<void(const std::string&)>& write_to) {
+    try {
+        write_to(write_path_);
+    } catch (const std::exception& e) {
+        std::string message = e.what();
+        for (auto at = message.find(write_path_); at != std::string::npos; at = message.find(write_path_, at + name_.size()))
+            message.replace(at, write_path_.size(), name_);
+        throw std::runtime_error(message);
+    }
 }
 
 void TempFile::commit() {
@@ -221,10 +311,33 @@ void TempFile::commit() {
     struct stat st {};
     if (::lstat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
         throw std::runtime_error(fmt::format("{}: {} now, not a regular file; left as it is", target_, kind_of(st.st_mode)));
-    std::error_code ec;
-    fs::rename(path_, target_, ec);
-    if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
+    if (fd_ >= 0) {
+        name_onto_target();
+    } else {
+        std::error_code ec;
+        fs::rename(path_, target_, ec);
+        if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
+    }
     committed_ = true;
+}
+
+void TempFile::name_onto_target() {
+    const StopSignalsHeld held;
+    const NamingUnderWay naming;
+    const int slot = register_temporary(path_);  // for a handler that gave up waiting
+    try {
+        link_unnamed(write_path_, path_);
+        std::error_code ec;
+        fs::rename(path_, target_, ec);
+        if (ec) {
+            fs::remove(path_, ec);
+            throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
+        }
+    } catch (...) {
+        unregister_temporary(slot);
+        throw;
+    }
+    unregister_temporary(slot);
 }
 
 void write_file(const std::string& path, std::string_view bytes) {

@@ -450,9 +450,9 @@ void read_frames(const FrameSource& source, ReadBudget& budget, BoundedQueue<Ite
 }
 
 // One frame to stdout (the plan's stream format) or to its file; throws on failure.
-// `staged`: where the frame goes instead of rec.output (empty: rec.output itself).
+// `staged`: where the frame goes instead of rec.output (null: rec.output itself).
 void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame, const FrameRecord& rec, std::size_t done,
-                 const std::string& staged = "") {
+                 TempFile* staged = nullptr) {
     if (plan.stream_out) {
         if (plan.out_format == StreamFormat::raw) {
             write_raw(stdout, frame, *o.pix_fmt, o.memory);
@@ -473,7 +473,8 @@ void write_frame(const PipelineOptions& o, const Plan& plan, const Frame& frame,
     WriteOptions w = o.write;
     w.pfm_order = plan.out_order;
     w.memory = o.memory;
-    write_image(frame, staged.empty() ? rec.output : staged, w);
+    if (staged) write_image(frame, *staged, w);
+    else write_image(frame, rec.output, w);
 }
 
 // A skipped frame reported: its line (the first RunReport::kListedSkips, then one saying the rest are counted) and
@@ -508,7 +509,7 @@ void write_frames(const PipelineOptions& o, const Plan& plan, bool show_progress
         const auto t0 = Clock::now();
         try {
             if (one_file_from_stream && done == 0) staged = std::make_unique<TempFile>(rec.output);
-            write_frame(o, plan, *item->frame, rec, done, staged ? staged->path() : "");
+            write_frame(o, plan, *item->frame, rec, done, staged.get());
         } catch (const std::exception& e) {
             fail(fmt::format("{}: frame {}: {}", rec.output == "-" ? "stdout" : rec.output, rec.number, error_text(e)));
             staged.reset();

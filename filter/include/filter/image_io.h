@@ -1,6 +1,6 @@
 // Reading and writing single image files: OpenEXR for EXR, our own PFM code (filter/stream.h) for PFM,
-// OpenImageIO (a module loaded on first use) for TIFF, Radiance HDR and the display formats. Writes go to a temporary name in the target's
-// directory and are renamed into place only when complete, so a failure never leaves a partial file.
+// OpenImageIO (a module loaded on first use) for TIFF, Radiance HDR and the display formats. Writes go to a temporary file in the target's
+// directory (filter/output_files.h) and are renamed into place only when complete, so a failure never leaves a partial file.
 #pragma once
 
 #include <cstdio>
@@ -13,6 +13,8 @@
 #include <optics/memory_budget.h>
 
 namespace lensfx::filter {
+
+class TempFile;  // filter/output_files.h
 
 // Reads the first part (subimage) of a file at its full resolution (mip level 0); tiles are read into
 // scanline order. Every channel keeps its native type. Throws std::runtime_error on a missing, damaged
@@ -38,6 +40,8 @@ struct WriteOptions {
 // Other formats (PNG, JPEG...): R, G, B and A if present, quantised to 8 or 16 bits.
 // Throws std::runtime_error (unknown format, unwritable directory, failed write); leaves no file then.
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options = {});
+// The same into `file` (its name() sets the format), which the caller commits.
+void write_image(const Frame& frame, TempFile& file, const WriteOptions& options = {});
 
 // Writes a frame as one EXR image of a stream (the compression as write_image() chooses it).
 void write_exr_stream(std::FILE* out, const Frame& frame, const WriteOptions& options = {});

@@ -1,33 +1,47 @@
-// Files the program writes: each is written aside under a temporary name and renamed into place, the
-// temporaries are removed on failure and on SIGINT/SIGTERM/SIGHUP/SIGQUIT (a registry the signal handler
-// unlinks), stale ones of dead processes are removed by a later run, and no output may be an input.
+// Files the program writes: each is written aside (unnamed where the file system allows, else under a temporary
+// name) and renamed into place; the temporaries are removed on failure and on SIGINT/SIGTERM/SIGHUP/SIGQUIT (a
+// registry the signal handler unlinks), stale ones of dead processes are removed by a later run, and no output may be
+// an input.
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <string_view>
 
 namespace lensfx::filter {
 
-// A temporary file beside `target` (".NAME.lensfx-PID.EXT", the extension kept last: some writers check
-// it), removed unless commit() renamed it into place, and removed by the signal handler if the program
-// is interrupted meanwhile. A target that is a symbolic link is written through (the link stays, its file
-// is replaced); one that is a device, named pipe or directory is refused (std::runtime_error), when the
-// TempFile is made and again at commit.
+// A file written aside and renamed onto `target` by commit(), else removed. Where the file system can (ext4,
+// XFS, Btrfs, tmpfs) it is written unnamed (O_TMPFILE, opened again by the writers as /proc/self/fd/N): a run
+// killed any way, SIGKILL and the OOM killer included, leaves nothing, and commit() names it only for the two calls
+// that link and rename it, which the signal handler waits for. Elsewhere it is a named temporary beside the target
+// (".NAME.lensfx-PID.EXT", the extension kept last: some writers check it) that the signal handler removes. A
+// target that is a symbolic link is written through (the link stays, its file is replaced); one that is a device,
+// named pipe or directory is refused (std::runtime_error), when the TempFile is made and again at commit.
 class TempFile {
 public:
     explicit TempFile(const std::string& target);
     TempFile(const TempFile&) = delete;
     TempFile& operator=(const TempFile&) = delete;
     ~TempFile();
-    const std::string& path() const { return path_; }
+    // The name it was made for, as given (its extension names the format).
+    const std::string& name() const { return name_; }
+    // The path to write to (a writer opens it with truncation).
+    const std::string& path() const { return write_path_; }
+    // Calls `write_to` with path(); an exception's message names the target where it named path().
+    void write(const std::function<void(const std::string&)>& write_to);
     // Renames the temporary onto the target; throws naming both when it cannot.
     void commit();
 
 private:
-    std::string target_;
-    std::string path_;
-    int slot_ = -1;  // in the signal handler's registry
+    void name_onto_target();
+
+    std::string name_;
+    std::string target_;      // name_, or the file it links to
+    std::string path_;        // the temporary's name
+    std::string write_path_;  // path_, or /proc/self/fd/N for the unnamed file fd_
+    int fd_ = -1;
+    int slot_ = -1;  // a named temporary's place in the signal handler's registry
     bool committed_ = false;
 };
 
