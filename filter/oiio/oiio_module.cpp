@@ -194,6 +194,10 @@ public:
     MemoryFile& operator=(const MemoryFile&) = delete;
     ~MemoryFile() { ::close(fd_); }
     std::string path() const { return fmt::format("/proc/self/fd/{}", fd_); }
+    std::size_t size() const {
+        struct stat st {};
+        return ::fstat(fd_, &st) == 0 ? static_cast<std::size_t>(st.st_size) : 0;
+    }
     void copy_to(const std::string& path) const {
         CheckedFd out(create_file(path));
         std::vector<char> block(std::size_t{1} << 20);
@@ -258,27 +262,41 @@ void write_strips(OIIO::ImageOutput& out, const OIIO::ImageSpec& s, int strip_ro
     }
 }
 
-void write(const std::string& path, const std::string& format, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
-    // Writers that take an I/O proxy write through a checked file; the others into a memory file (memfd)
-    // by its /proc path, copied with every write checked. Both outlive the writer, which may close on
-    // destruction.
+// The data window as `out` can hold it: a format without an image origin (BMP, WebP, FITS...) is given the data
+// window at 0,0 with a display window of its size, the placement dropped. Given the origin, BMP refused the frame,
+// FITS wrote too few rows and WebP freed its buffer twice.
+OIIO::ImageSpec placed_for(const OIIO::ImageOutput& out, OIIO::ImageSpec s) {
+    if (out.supports("origin") || (s.x == 0 && s.y == 0 && s.full_x == 0 && s.full_y == 0 && s.full_width == s.width && s.full_height == s.height))
+        return s;
+    s.x = s.y = s.full_x = s.full_y = 0;
+    s.full_width = s.width;
+    s.full_height = s.height;
+    return s;
+}
+
+void write(const std::string& path, const std::string& name, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
+    // Writers that take an I/O proxy write through a checked file, opened under `name` (some take their variant
+    // from its extension: JPEG 2000's .jp2 or .j2k); the others into a memory file (memfd) by its /proc path,
+    // copied with every write checked. Both outlive the writer, which may close on destruction.
     std::optional<CheckedFileProxy> proxy;
     std::optional<MemoryFile> memfile;
-    auto out = OIIO::ImageOutput::create(format);
+    auto out = OIIO::ImageOutput::create(name);
     if (!out) {
         (void)OIIO::geterror();
-        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for the format \"{}\"", path, format));
+        throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", name));
     }
-    const OIIO::ImageSpec s = oiio_spec(spec);
+    const OIIO::ImageSpec s = placed_for(*out, oiio_spec(spec));
     if (out->supports("ioproxy")) {
         proxy.emplace(path);
         out->set_ioproxy(&*proxy);
     } else {
         memfile.emplace();
     }
-    if (!out->open(proxy ? path : memfile->path(), s)) throw writer_error(*out, fmt::format("cannot create {}", path));
-    write_strips(*out, s, strip_rows, rows, path);
-    if (!out->close()) throw writer_error(*out, fmt::format("cannot write {}", path));
+    if (!out->open(proxy ? name : memfile->path(), s)) throw writer_error(*out, fmt::format("cannot create {}", name));
+    write_strips(*out, s, strip_rows, rows, name);
+    if (!out->close()) throw writer_error(*out, fmt::format("cannot write {}", name));
+    // A writer that fails without saying so (once JPEG 2000 under a name without its extension) leaves no file.
+    if ((proxy ? proxy->size() : memfile->size()) == 0) throw std::runtime_error(fmt::format("{}: the {} writer wrote nothing", name, out->format_name()));
     if (proxy) proxy->finish();
     else memfile->copy_to(path);
 }

@@ -201,7 +201,7 @@ void write_image(const Frame& frame, TempFile& file, const WriteOptions& options
         rows = wide ? quantised_rows<std::uint16_t>(frame, channels, options) : quantised_rows<std::uint8_t>(frame, channels, options);
     }
 
-    file.write([&](const std::string& to) { oiio.write(to, format, spec, kStripRows, rows); });
+    file.write([&](const std::string& to) { oiio.write(to, path, spec, kStripRows, rows); });
 }
 
 }  // namespace lensfx::filter

@@ -20,9 +20,10 @@ struct OiioModule {
     // one type (spec.channeltypes[0]) interleaved, into `out`.
     using RowSource = std::function<void(int first, int count, void* out)>;
     // Writes the image `rows` gives, `strip_rows` rows at a time (only a strip is ever held), with the
-    // spec's text attributes, in `format` (output_format's name: the path may have no extension, as
-    // /proc/self/fd/N); straight to `path`, every write checked; throws std::runtime_error.
-    void (*write)(const std::string& path, const std::string& format, const ImageSpec& spec, int strip_rows, const RowSource& rows);
+    // spec's text attributes, in the format `name`'s extension gives (the file's name as the user gave it; `path`
+    // may have none, as /proc/self/fd/N); straight to `path`, every write checked; throws std::runtime_error, also
+    // when the writer wrote nothing.
+    void (*write)(const std::string& path, const std::string& name, const ImageSpec& spec, int strip_rows, const RowSource& rows);
     // OpenImageIO's name of the format it would write for this path ("tiff", "png"), or "" if none.
     std::string (*output_format)(const std::string& path);
     void (*set_threads)(int threads);

@@ -221,6 +221,57 @@ TEST(FilterEndToEnd, FormatsHdrTiffPfm) {
     fs::remove_all(dir);
 }
 
+// lensfx's output `ext` of `input` (in `dir`) read back by OpenImageIO: its pixel count, or -1 when unreadable.
+long written_pixels(const fs::path& dir, const std::string& input, const std::string& ext) {
+    const fs::path out = dir / fmt::format("out.{}", ext);
+    const auto r = run(lensfx_cmd() + fmt::format(" -i {}/{} -o {} -q", dir.string(), input, out.string()));
+    EXPECT_EQ(r.exit_code, 0) << ext << ": " << r.stderr_text;
+    auto in = OIIO::ImageInput::open(out.string());
+    if (!in) {
+        ADD_FAILURE() << ext << ": " << OIIO::geterror();
+        return -1;
+    }
+    std::vector<float> pixels(static_cast<std::size_t>(in->spec().image_pixels()) * static_cast<std::size_t>(in->spec().nchannels));
+    if (!in->read_image(0, 0, 0, in->spec().nchannels, OIIO::TypeFloat, pixels.data())) return -1;
+    return static_cast<long>(in->spec().image_pixels());
+}
+
+// Whether this OpenImageIO writes files of extension `ext`.
+bool oiio_writes(const std::string& ext) {
+    if (OIIO::ImageOutput::create("x." + ext)) return true;
+    (void)OIIO::geterror();
+    return false;
+}
+
+// Every format OpenImageIO writes here comes out whole under its own name. The output is written unnamed (as
+// /proc/self/fd/N), so the writer is opened under the file's name, whose extension some writers read: JPEG 2000
+// once wrote a header alone without an error. A data window off the origin (x 5, y 3) goes to the formats that cannot
+// place it at 0,0: BMP refused it, FITS wrote too few rows and WebP crashed (a double free) before.
+TEST(FilterEndToEnd, EveryOpenImageIOFormatReadsBack) {
+    const auto dir = scratch_dir("oiio-formats");
+    make_exr(dir / "in.exr", 0, 64, true);
+    for (const char* ext : {"png", "jpg", "tif", "hdr", "dpx", "tga", "bmp", "sgi", "webp", "fits", "rla"}) {
+        if (oiio_writes(ext)) {
+            EXPECT_EQ(written_pixels(dir, "in.exr", ext), 40 * 30) << ext;
+        }
+    }
+    // JPEG 2000 at 64 x 64 (OpenJPEG's six resolution levels want 32 pixels a side; below that OpenImageIO writes a
+    // header alone, oiiotool too).
+    {
+        OIIO::ImageSpec spec(64, 64, 3, OIIO::TypeFloat);
+        const std::vector<float> px(64 * 64 * 3, 0.5f);
+        auto out = OIIO::ImageOutput::create((dir / "big.exr").string());
+        ASSERT_TRUE(out && out->open((dir / "big.exr").string(), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+    for (const char* ext : {"jp2", "j2k"}) {
+        if (oiio_writes(ext)) {
+            EXPECT_EQ(written_pixels(dir, "big.exr", ext), 64 * 64) << ext;
+        }
+    }
+    for (const auto& e : fs::directory_iterator(dir)) EXPECT_NE(e.path().filename().string()[0], '.') << "a temporary: " << e.path();
+    fs::remove_all(dir);
+}
+
 TEST(FilterEndToEnd, FfmpegPfmAndRawRoundTrips) {
     if (run("command -v ffmpeg > /dev/null").exit_code != 0) GTEST_SKIP() << "ffmpeg is not installed";
     const auto dir = scratch_dir("ffmpeg");
