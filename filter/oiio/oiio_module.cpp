@@ -274,6 +274,16 @@ OIIO::ImageSpec placed_for(const OIIO::ImageOutput& out, OIIO::ImageSpec s) {
     return s;
 }
 
+// OpenJPEG's six resolution levels need 32 pixels a side; OpenImageIO writes a header alone below that, no error.
+constexpr int kJpeg2000MinSide = 32;
+
+// Refuses an image the writer would write wrong without saying so.
+void require_writable_size(const OIIO::ImageOutput& out, const OIIO::ImageSpec& s) {
+    if (std::string_view(out.format_name()) == "jpeg2000" && std::min(s.width, s.height) < kJpeg2000MinSide)
+        throw std::runtime_error(fmt::format("JPEG 2000 needs at least {} pixels a side (OpenJPEG's resolution levels); the image is {}x{}",
+                                             kJpeg2000MinSide, s.width, s.height));
+}
+
 void write(const std::string& path, const std::string& name, const ImageSpec& spec, int strip_rows, const OiioModule::RowSource& rows) {
     // Writers that take an I/O proxy write through a checked file, opened under `name` (some take their variant
     // from its extension: JPEG 2000's .jp2 or .j2k); the others into a memory file (memfd) by its /proc path,
@@ -286,6 +296,7 @@ void write(const std::string& path, const std::string& name, const ImageSpec& sp
         throw std::runtime_error(fmt::format("{}: no OpenImageIO writer for this extension", name));
     }
     const OIIO::ImageSpec s = placed_for(*out, oiio_spec(spec));
+    require_writable_size(*out, s);
     if (out->supports("ioproxy")) {
         proxy.emplace(path);
         out->set_ioproxy(&*proxy);
