@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <utility>
@@ -270,6 +271,23 @@ void link_unnamed(const std::string& reopen, const std::string& path) {
 
 void handle_stopping_signals() { install_handlers_once(); }
 
+namespace {
+
+constexpr std::size_t kNameMax = 255;  // bytes of a file name (NAME_MAX on Linux's file systems)
+
+// ".NAME.lensfx-PID.EXT" for target NAME.EXT; where that would pass kNameMax, NAME is cut and a hash of the whole of it
+// added ("~" and 16 hex digits), so that a long target name that is legal has a legal temporary too.
+std::string temporary_name(const fs::path& target) {
+    const std::string stem = target.stem().string(), ext = target.extension().string();
+    const std::string tail = fmt::format("{}{}{}", kTempTag, ::getpid(), ext);
+    if (1 + stem.size() + tail.size() <= kNameMax) return fmt::format(".{}{}", stem, tail);
+    const std::string hash = fmt::format("~{:016x}", std::hash<std::string>{}(stem));
+    const std::size_t room = kNameMax > 1 + hash.size() + tail.size() ? kNameMax - 1 - hash.size() - tail.size() : 0;
+    return fmt::format(".{}{}{}", std::string_view(stem).substr(0, room), hash, tail);
+}
+
+}  // namespace
+
 TempFile::TempFile(const std::string& target) : name_(target), target_(written_path(target)) {
     install_handlers_once();  // also at the start of main (handle_stopping_signals); here for library users
     // A device, named pipe or directory is never replaced by a file (as root, /dev/null could be).
@@ -278,8 +296,7 @@ TempFile::TempFile(const std::string& target) : name_(target), target_(written_p
         throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind));
     }
     const fs::path t(target_);
-    const std::string name = fmt::format(".{}{}{}{}", t.stem().string(), kTempTag, ::getpid(), t.extension().string());
-    path_ = (t.parent_path() / name).string();
+    path_ = (t.parent_path() / temporary_name(t)).string();
     fd_ = open_unnamed(t.parent_path().empty() ? "." : t.parent_path().string(), write_path_);
     if (fd_ >= 0) return;
     write_path_ = path_;  // a named temporary from the start, in the handler's registry

@@ -117,3 +117,14 @@ TEST(TempFile, CommitsOverAStaleTemporaryOfTheSamePid) {
     EXPECT_EQ(slurp(dir.path / "a.exr"), "new");
     EXPECT_FALSE(fs::exists(stale));
 }
+
+// A target name of 255 bytes (the most a file system takes) is written: its temporary's name is cut to fit.
+TEST(TempFile, TheLongestLegalNameIsWritten) {
+    const ScratchDir dir;
+    const std::string name = std::string(251, 'a') + ".exr";
+    TempFile file((dir.path / name).string());
+    put(file.path(), "frame");
+    file.commit();
+    EXPECT_EQ(names_in(dir.path), std::vector<std::string>{name});
+    EXPECT_EQ(slurp(dir.path / name), "frame");
+}
