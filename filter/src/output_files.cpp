@@ -194,10 +194,6 @@ void write_all(int fd, std::string_view bytes, const std::string& what) {
     }
 }
 
-}  // namespace
-
-namespace {
-
 // Where a write to `path` lands: the file a symbolic link names (the link is kept and its file replaced),
 // else `path` itself.
 std::string written_path(const std::string& path) {
@@ -206,10 +202,6 @@ std::string written_path(const std::string& path) {
     const fs::path resolved = fs::weakly_canonical(path, ec);
     return ec ? path : resolved.string();
 }
-
-}  // namespace
-
-namespace {
 
 // An unnamed file (O_TMPFILE) in `dir` that the writers can open again by /proc/self/fd/N (returned in `reopen`), or -1
 // where the file system or the system cannot (NFS, no /proc, a umask that takes the owner's write permission away).
@@ -259,19 +251,15 @@ public:
 // Links the unnamed file `reopen` names (/proc/self/fd/N) as `path`; one left there by a dead process with this
 // PID is replaced.
 void link_unnamed(const std::string& reopen, const std::string& path) {
+    int error = 0;
     for (int attempt = 0; attempt < 2; ++attempt) {
         if (::linkat(AT_FDCWD, reopen.c_str(), AT_FDCWD, path.c_str(), AT_SYMLINK_FOLLOW) == 0) return;
-        if (errno != EEXIST) break;
+        error = errno;
+        if (error != EEXIST) break;
         ::unlink(path.c_str());
     }
-    throw std::runtime_error(fmt::format("cannot name the written file {}: {}", path, std::strerror(errno)));
+    throw std::runtime_error(fmt::format("cannot name the written file {}: {}", path, std::strerror(error)));
 }
-
-}  // namespace
-
-void handle_stopping_signals() { install_handlers_once(); }
-
-namespace {
 
 constexpr std::size_t kNameMax = 255;  // bytes of a file name (NAME_MAX on Linux's file systems)
 
@@ -287,6 +275,8 @@ std::string temporary_name(const fs::path& target) {
 }
 
 }  // namespace
+
+void handle_stopping_signals() { install_handlers_once(); }
 
 TempFile::TempFile(const std::string& target) : name_(target), target_(written_path(target)) {
     install_handlers_once();  // also at the start of main (handle_stopping_signals); here for library users
