@@ -266,8 +266,7 @@ void write_strips(OIIO::ImageOutput& out, const OIIO::ImageSpec& s, int strip_ro
 // window at 0,0 with a display window of its size, the placement dropped. Given the origin, BMP refused the frame,
 // FITS wrote too few rows and WebP freed its buffer twice.
 OIIO::ImageSpec placed_for(const OIIO::ImageOutput& out, OIIO::ImageSpec s) {
-    if (out.supports("origin") || (s.x == 0 && s.y == 0 && s.full_x == 0 && s.full_y == 0 && s.full_width == s.width && s.full_height == s.height))
-        return s;
+    if (out.supports("origin")) return s;
     s.x = s.y = s.full_x = s.full_y = 0;
     s.full_width = s.width;
     s.full_height = s.height;

@@ -62,6 +62,14 @@ void wait_for_commits_under_way() {
     for (int waited = 0; g_naming.load() > 0 && waited < 2000; ++waited) ::nanosleep(&ms, nullptr);
 }
 
+// The stopping signals as a set (the handler's mask, and what a commit blocks on its thread).
+sigset_t stop_signal_set() {
+    sigset_t set;
+    sigemptyset(&set);
+    for (int sig : kStopSignals) sigaddset(&set, sig);
+    return set;
+}
+
 // The program's one line on a stopping signal, written with write(2) alone (async-signal-safe).
 template <std::size_t N>
 void write_line(const char (&line)[N]) {
@@ -96,8 +104,7 @@ void install_handlers_once() {
     std::call_once(once, [] {
         struct sigaction sa {};
         sa.sa_handler = remove_temporaries_and_die;
-        sigemptyset(&sa.sa_mask);
-        for (int sig : kStopSignals) sigaddset(&sa.sa_mask, sig);  // one stopping signal handled at a time
+        sa.sa_mask = stop_signal_set();  // one stopping signal handled at a time
         for (int sig : kStopSignals) {
             struct sigaction old {};
             ::sigaction(sig, nullptr, &old);
@@ -219,9 +226,7 @@ int open_unnamed(const std::string& dir, std::string& reopen) {
 class StopSignalsHeld {
 public:
     StopSignalsHeld() {
-        sigset_t set;
-        sigemptyset(&set);
-        for (int sig : kStopSignals) sigaddset(&set, sig);
+        const sigset_t set = stop_signal_set();
         ::pthread_sigmask(SIG_BLOCK, &set, &old_);
     }
     ~StopSignalsHeld() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
@@ -259,6 +264,25 @@ void link_unnamed(const std::string& reopen, const std::string& path) {
         ::unlink(path.c_str());
     }
     throw std::runtime_error(fmt::format("cannot name the written file {}: {}", path, std::strerror(error)));
+}
+
+// A temporary's name in the signal handler's registry while this lives (when a slot is free).
+class RegisteredTemporary {
+public:
+    explicit RegisteredTemporary(const std::string& path) : slot_(register_temporary(path)) {}
+    ~RegisteredTemporary() { unregister_temporary(slot_); }
+    RegisteredTemporary(const RegisteredTemporary&) = delete;
+    RegisteredTemporary& operator=(const RegisteredTemporary&) = delete;
+
+private:
+    int slot_;
+};
+
+// Renames `from` onto `to`; throws naming both when it cannot.
+void rename_into_place(const std::string& from, const std::string& to) {
+    std::error_code ec;
+    fs::rename(from, to, ec);
+    if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", from, to, ec.message()));
 }
 
 constexpr std::size_t kNameMax = 255;  // bytes of a file name (NAME_MAX on Linux's file systems)
@@ -318,33 +342,23 @@ void TempFile::commit() {
     struct stat st {};
     if (::lstat(target_.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
         throw std::runtime_error(fmt::format("{}: {} now, not a regular file; left as it is", target_, kind_of(st.st_mode)));
-    if (fd_ >= 0) {
-        name_onto_target();
-    } else {
-        std::error_code ec;
-        fs::rename(path_, target_, ec);
-        if (ec) throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
-    }
+    if (fd_ >= 0) name_onto_target();
+    else rename_into_place(path_, target_);
     committed_ = true;
 }
 
 void TempFile::name_onto_target() {
     const StopSignalsHeld held;
     const NamingUnderWay naming;
-    const int slot = register_temporary(path_);  // for a handler that gave up waiting
+    const RegisteredTemporary registered(path_);  // for a handler that gave up waiting
+    link_unnamed(write_path_, path_);
     try {
-        link_unnamed(write_path_, path_);
-        std::error_code ec;
-        fs::rename(path_, target_, ec);
-        if (ec) {
-            fs::remove(path_, ec);
-            throw std::runtime_error(fmt::format("cannot rename {} to {}: {}", path_, target_, ec.message()));
-        }
+        rename_into_place(path_, target_);
     } catch (...) {
-        unregister_temporary(slot);
+        std::error_code ec;
+        fs::remove(path_, ec);  // the link just made; the unnamed file goes with its descriptor
         throw;
     }
-    unregister_temporary(slot);
 }
 
 void write_file(const std::string& path, std::string_view bytes) {
