@@ -249,16 +249,20 @@ std::runtime_error writer_error(OIIO::ImageOutput& out, const std::string& fallb
     return std::runtime_error(message.empty() ? fallback : message);
 }
 
-// Sends the image to an open writer a strip of rows at a time.
+// Sends the image to an open writer a strip of rows at a time. A writer that made the file tiled when it opened
+// it (Maya IFF always does) takes the strips as rows of tiles: its write_scanlines fails, and says nothing.
 void write_strips(OIIO::ImageOutput& out, const OIIO::ImageSpec& s, int strip_rows, const OiioModule::RowSource& rows,
                   const std::string& path) {
-    const int strip = std::max(1, std::min(strip_rows, s.height));
-    std::vector<std::byte> buffer(static_cast<std::size_t>(s.scanline_bytes()) * static_cast<std::size_t>(strip));
+    const int tile_rows = out.spec().tile_width > 0 ? std::max(out.spec().tile_height, 1) : 0;
+    // A whole number of tile rows where tiled, as write_tiles takes them
+    const int strip = tile_rows > 0 ? std::max(1, strip_rows / tile_rows) * tile_rows : std::max(1, std::min(strip_rows, s.height));
+    std::vector<std::byte> buffer(static_cast<std::size_t>(s.scanline_bytes()) * static_cast<std::size_t>(std::min(strip, s.height)));
     for (int y = 0; y < s.height; y += strip) {
         const int count = std::min(strip, s.height - y);
         rows(y, count, buffer.data());
-        if (!out.write_scanlines(s.y + y, s.y + y + count, 0, s.format, buffer.data()))
-            throw writer_error(out, fmt::format("cannot write {}", path));
+        const bool written = tile_rows > 0 ? out.write_tiles(s.x, s.x + s.width, s.y + y, s.y + y + count, 0, 1, s.format, buffer.data())
+                                           : out.write_scanlines(s.y + y, s.y + y + count, 0, s.format, buffer.data());
+        if (!written) throw writer_error(out, fmt::format("cannot write {}", path));
     }
 }
 

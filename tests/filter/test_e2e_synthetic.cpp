@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <sstream>
 
 #include <OpenImageIO/imageio.h>
 #include <fmt/core.h>
@@ -10,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "filter_test_util.h"
+#include <filter/colour/quantise.h>
 
 namespace fs = std::filesystem;
 using namespace lensfx::test;
@@ -274,6 +277,72 @@ TEST(FilterEndToEnd, EveryOpenImageIOFormatReadsBack) {
     }
     for (const auto& e : fs::directory_iterator(dir)) EXPECT_NE(e.path().filename().string()[0], '.') << "a temporary: " << e.path();
     fs::remove_all(dir);
+}
+
+// R, G, B of an image file as float, or empty (with a failure) when it cannot be read.
+std::vector<float> rgb_of(const fs::path& file) {
+    auto in = OIIO::ImageInput::open(file.string());
+    if (!in) {
+        ADD_FAILURE() << file << ": " << OIIO::geterror();
+        return {};
+    }
+    std::vector<float> rgb(static_cast<std::size_t>(in->spec().image_pixels()) * 3);
+    EXPECT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeFloat, rgb.data())) << file << ": " << in->geterror();
+    return rgb;
+}
+
+// Every file lensfx writes as 8- or 16-bit integers shows the display view, as PNG does: the lossless ones hold the
+// PNG's very pixels. IFF failed to write at all (its writer makes the file tiled and refuses scanlines, silently),
+// and IFF, SGI, RLA and FITS held the scene-linear values clipped and quantised, with no view transform.
+TEST(FilterEndToEnd, IntegerFormatsHoldThePngsPixels) {
+    const auto dir = scratch_dir("integer-formats");
+    {
+        OIIO::ImageSpec spec(96, 70, 3, OIIO::TypeHalf);  // over a 64 x 64 IFF tile both ways
+        std::vector<float> px(96 * 70 * 3);
+        for (std::size_t i = 0; i < px.size(); ++i) px[i] = 4.0f * static_cast<float>((i * 37) % 1000) / 1000.0f;
+        auto out = OIIO::ImageOutput::create((dir / "in.exr").string());
+        ASSERT_TRUE(out && out->open((dir / "in.exr").string(), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+    auto write = [&](const std::string& ext) {
+        const auto r = run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.{1} -q", dir.string(), ext));
+        EXPECT_EQ(r.exit_code, 0) << ext << ": " << r.stderr_text;
+        return rgb_of(dir / ("out." + ext));
+    };
+    const std::vector<float> png = write("png");
+    ASSERT_EQ(png.size(), 96u * 70u * 3u);
+    for (const char* ext : {"iff", "sgi", "rla", "fits", "bmp", "tga", "ppm", "dpx"}) {
+        if (!oiio_writes(ext)) continue;
+        const std::vector<float> got = write(ext);
+        ASSERT_EQ(got.size(), png.size()) << ext;
+        std::size_t differ = 0;
+        for (std::size_t i = 0; i < png.size(); ++i) differ += got[i] != png[i];
+        EXPECT_EQ(differ, 0u) << ext << ": values unlike the PNG's";
+    }
+    fs::remove_all(dir);
+}
+
+// The display view goes to exactly the formats image_io writes as integers: every extension OpenImageIO gives a
+// format it writes, but OpenEXR's, TIFF's and Radiance HDR's (scene-linear) and PFM (lensfx's own, float).
+TEST(FilterEndToEnd, DisplayViewGoesToEveryIntegerFormat) {
+    std::set<std::string> outputs;
+    std::stringstream output_list{std::string(OIIO::get_string_attribute("output_format_list"))};
+    for (std::string format; std::getline(output_list, format, ',');) outputs.insert(format);
+    std::stringstream list{std::string(OIIO::get_string_attribute("extension_list"))};
+    int checked = 0;
+    for (std::string entry; std::getline(list, entry, ';');) {
+        const auto colon = entry.find(':');
+        const std::string format = entry.substr(0, colon);
+        if (colon == std::string::npos || !outputs.count(format)) continue;  // read only
+        if (format == "null" || format == "term" || format == "zfile") continue;  // no picture, or one channel
+        const bool linear = format == "openexr" || format == "tiff" || format == "hdr";
+        std::stringstream extensions(entry.substr(colon + 1));
+        for (std::string ext; std::getline(extensions, ext, ',');) {
+            if (ext == "pfm") continue;
+            EXPECT_EQ(lensfx::colour::is_display_referred_format("out." + ext), !linear) << format << " ." << ext;
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 30);
 }
 
 TEST(FilterEndToEnd, FfmpegPfmAndRawRoundTrips) {

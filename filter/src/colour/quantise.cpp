@@ -28,9 +28,14 @@ bool is_one_of(const std::string& ext, std::initializer_list<const char*> extens
 
 }  // namespace
 
+// Every extension of the formats lensfx writes as 8- or 16-bit integers (image_io's write_image: all OpenImageIO
+// writes but TIFF and Radiance HDR), by format: PNG, JPEG, BMP, GIF, WebP, PNM, Targa, JPEG 2000, DPX, Cineon,
+// HEIF/AVIF, Maya IFF, ICO, SGI, RLA, FITS. Before IFF, ICO, SGI, RLA and FITS were here, their files held the
+// scene-linear values clipped to 0..1 and quantised: dark, banded, with no view transform.
 bool is_display_referred_format(std::string_view path) {
-    return is_one_of(lower_extension_of(path), {"png", "jpg", "jpeg", "jpe", "jfif", "bmp", "gif", "webp", "ppm", "pgm", "pnm",
-                                                "tga", "jp2", "j2k", "dpx", "cin", "heic", "avif"});
+    return is_one_of(lower_extension_of(path), {"png", "jpg", "jpeg", "jpe", "jif", "jfif", "jfi", "bmp", "dib", "gif", "webp", "ppm",
+                                                "pgm", "pbm", "pnm", "tga", "tpic", "jp2", "j2k", "j2c", "dpx", "cin", "heic", "heif",
+                                                "heics", "hif", "avif", "iff", "z", "ico", "sgi", "rgb", "rgba", "bw", "int", "inta", "rla", "fits"});
 }
 
 bool holds_straight_alpha(std::string_view path) {

@@ -12,8 +12,8 @@
 
 namespace lensfx::colour {
 
-// Output files: those that hold display-referred integer pixels always get the display transform
-// (PNG, JPEG, 8/16-bit TIFF, ...); scene-linear ones (EXR, HDR, PFM, raw float) only when asked.
+// Output files: those lensfx writes as display-referred integer pixels always get the display transform
+// (PNG, JPEG, IFF, ...); scene-linear ones (EXR, TIFF, HDR, PFM, raw float) only when asked.
 bool is_display_referred_format(std::string_view path_or_extension);
 // Display formats whose alpha is straight (unassociated) by their specification: PNG, WebP, TGA, GIF,
 // AVIF, HEIC. Their colour is written divided by alpha, as such a file's readers composite it.
