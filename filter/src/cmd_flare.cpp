@@ -294,6 +294,8 @@ void run_flare(const FlareArgs& args) {
     refuse_special_output(args.output, "-o");
     refuse_special_output(args.preview, "--preview");
     refuse_overwrite(args.preview, "--preview", "", args.output);  // the preview would replace the physical EXR
+    for (const std::string* path : {&args.output, &args.preview})
+        if (!path->empty()) require_output_format(*path);  // an unknown extension, or a writer of no image file
     if (measured::is_measured_file(args.lens)) return run_measured_flare(args);
     if (args.iso || args.shutter) throw CLI::ValidationError("--iso", "--iso and --shutter apply to measured lenses only");
     const optics::System system = realize_lens(args).system;

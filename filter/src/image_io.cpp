@@ -139,9 +139,15 @@ Frame image_frame(int width, int height, int channels, PixelType type, const voi
     return frame;
 }
 
-bool is_known_output_format(const std::string& path) {
+void require_output_format(const std::string& path) {
     const std::string ext = lower_extension(path);
-    return ext == ".pfm" || is_exr_extension(ext) || !oiio_module().output_format(path).empty();
+    if (ext == ".pfm" || is_exr_extension(ext)) return;
+    const std::string format = oiio_module().output_format(path);
+    if (format.empty()) throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", path, fs::path(path).extension().string()));
+    // Before these were refused, -o x.term printed the frame as escape codes on stdout and then failed, and
+    // -o x.zfile failed after the whole frame was rendered.
+    if (format == "null" || format == "term" || format == "zfile")
+        throw std::runtime_error(fmt::format("{}: OpenImageIO's \"{}\" writer makes no image file of R, G, B; choose EXR, TIFF, PNG...", path, format));
 }
 
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options) {
@@ -162,9 +168,9 @@ void write_image(const Frame& frame, TempFile& file, const WriteOptions& options
         file.write([&](const std::string& to) { write_exr(frame, to, compression, options.memory); });
         return;
     }
+    require_output_format(path);
     const OiioModule& oiio = oiio_module();
     const std::string format = oiio.output_format(path);
-    if (format.empty()) throw std::runtime_error(fmt::format("unknown output format \"{}\"", fs::path(path).extension().string()));
 
     ImageSpec spec = frame.spec;
     OiioModule::RowSource rows = native_rows(frame);

@@ -305,9 +305,7 @@ Plan make_plan(const PipelineOptions& o) {
         plan.out_pattern = parse_pattern(o.output);
         require_output_directory(o.output);
         refuse_special_outputs(plan.out_pattern);  // before its format: -o /dev/full is a device, whatever its name
-        if (!is_known_output_format(o.output)) {
-            throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", o.output, fs::path(o.output).extension().string()));
-        }
+        require_output_format(o.output);
     }
     if (plan.stream_in) {
         if (!o.frames.empty()) throw std::runtime_error("--frames selects files of a pattern; it does not apply to a stream on stdin");

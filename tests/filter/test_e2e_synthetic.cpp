@@ -182,6 +182,15 @@ TEST(FilterEndToEnd, RefusesBadOutputsAndNeverOverwritesInputs) {
     r = run(lensfx_cmd() + fmt::format(" -i {} -o {}/out.xyz", in, dir.string()));
     EXPECT_NE(r.exit_code, 0);
     EXPECT_NE(r.stderr_text.find("unknown output format"), std::string::npos) << r.stderr_text;
+    // OpenImageIO's writers that make no picture file: refused before any frame is read. -o x.term printed the frame
+    // on stdout as escape codes, then failed.
+    for (const char* ext : {"term", "null", "zfile"}) {
+        r = run(lensfx_cmd() + fmt::format(" -i {0} -o {1}/out.{2} > {1}/stdout.txt", in, dir.string(), ext));
+        EXPECT_EQ(r.exit_code, 1) << ext;
+        EXPECT_EQ(fs::file_size(dir / "stdout.txt"), 0u) << ext;
+        fs::remove(dir / "stdout.txt");
+        EXPECT_NE(r.stderr_text.find("writer makes no image file"), std::string::npos) << r.stderr_text;
+    }
     // An unknown input format.
     std::ofstream(dir / "notes.exr") << "not an image";
     r = run(lensfx_cmd() + fmt::format(" -i {0}/notes.exr -o {0}/out.exr", dir.string()));

@@ -52,7 +52,9 @@ std::optional<Frame> read_exr_stream(std::FILE* in);
 // R, G, B, A...), for writing images lensfx makes: flare renders, previews, plots.
 Frame image_frame(int width, int height, int channels, PixelType type, const void* data);
 
-// Whether write_image() knows the format of this path's extension.
-bool is_known_output_format(const std::string& path);
+// Throws, naming the path, unless write_image() can write an image file of this path's extension: an unknown
+// extension, or one of OpenImageIO's writers that make no picture file of R, G, B (null: nothing; term: escape
+// codes on the terminal; zfile: one depth channel).
+void require_output_format(const std::string& path);
 
 }  // namespace lensfx::filter
