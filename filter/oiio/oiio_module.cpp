@@ -56,6 +56,18 @@ Frame read(const std::string& path, const MemoryBudget& budget) {
         throw std::runtime_error(message.empty() ? "cannot open (unknown format?)" : message);
     }
     const OIIO::ImageSpec& s = in->spec(0, 0);
+    // A movie (OpenImageIO's ffmpeg reader, an animated GIF) would give its first frame alone, and the run would
+    // look whole: lensfx takes a movie's frames from ffmpeg through a pipe.
+    // (A still GIF is a movie of one frame to OpenImageIO.)
+    if (s.get_int_attribute("oiio:Movie", 0) != 0 && in->seek_subimage(1, 0))
+        throw std::runtime_error(fmt::format(
+            "a movie of {} frames, of which lensfx would read the first alone; pipe its frames through ffmpeg: "
+            "ffmpeg -i {} -f image2pipe -c:v exr - | lensfx -i - -o out.%04d.exr",
+            s.get_int_attribute("oiio:subimages", 0) > 1 ? std::to_string(s.get_int_attribute("oiio:subimages", 0)) : "several", path));
+    if (!in->seek_subimage(0, 0)) {
+        std::string message = in->geterror();
+        throw std::runtime_error(message.empty() ? "cannot read its first image" : message);
+    }
     if (s.deep) throw std::runtime_error("deep images are not supported");
     if (s.nchannels < 1 || s.width < 1 || s.height < 1 || s.depth != 1)
         throw std::runtime_error(fmt::format("unsupported image shape {}x{}x{}, {} channels", s.width, s.height, s.depth, s.nchannels));

@@ -330,6 +330,39 @@ TEST(FilterEndToEnd, IntegerFormatsHoldThePngsPixels) {
     fs::remove_all(dir);
 }
 
+// A movie OpenImageIO reads (an animated GIF here; a video through its ffmpeg reader alike) is refused, naming the
+// ffmpeg pipe: its first frame alone was read before, and the run looked whole. A still GIF is read as before.
+TEST(FilterEndToEnd, MoviesAreRefusedWithThePipeToUse) {
+    if (!oiio_writes("gif")) GTEST_SKIP() << "no GIF writer";
+    const auto dir = scratch_dir("movies");
+    OIIO::ImageSpec spec(32, 24, 3, OIIO::TypeUInt8);
+    const std::vector<unsigned char> px(32 * 24 * 3, 128);
+    auto write_gif = [&](const fs::path& path, int frames) {
+        auto out = OIIO::ImageOutput::create(path.string());
+        ASSERT_TRUE(out);
+        std::vector<OIIO::ImageSpec> specs(static_cast<std::size_t>(frames), spec);
+        ASSERT_TRUE(out->open(path.string(), frames, specs.data())) << out->geterror();
+        for (int f = 0; f < frames; ++f) {
+            if (f > 0) {
+                ASSERT_TRUE(out->open(path.string(), spec, OIIO::ImageOutput::AppendSubimage)) << out->geterror();
+            }
+            ASSERT_TRUE(out->write_image(OIIO::TypeUInt8, px.data())) << out->geterror();
+        }
+        ASSERT_TRUE(out->close());
+    };
+    write_gif(dir / "anim.gif", 3);
+    write_gif(dir / "still.gif", 1);
+    auto r = run(lensfx_cmd() + fmt::format(" -i {0}/anim.gif -o {0}/anim.exr", dir.string()));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.stderr_text.find("anim.gif: frame 1: a movie of"), std::string::npos) << r.stderr_text;
+    EXPECT_NE(r.stderr_text.find("-f image2pipe -c:v exr - | lensfx -i -"), std::string::npos) << r.stderr_text;
+    EXPECT_FALSE(fs::exists(dir / "anim.exr"));
+    r = run(lensfx_cmd() + fmt::format(" -i {0}/still.gif -o {0}/still.exr -q", dir.string()));
+    EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
+    EXPECT_TRUE(fs::exists(dir / "still.exr"));
+    fs::remove_all(dir);
+}
+
 // The display view goes to exactly the formats image_io writes as integers: every extension OpenImageIO gives a
 // format it writes, but OpenEXR's, TIFF's and Radiance HDR's (scene-linear) and PFM (lensfx's own, float).
 TEST(FilterEndToEnd, DisplayViewGoesToEveryIntegerFormat) {
