@@ -56,9 +56,8 @@ Frame read(const std::string& path, const MemoryBudget& budget) {
         throw std::runtime_error(message.empty() ? "cannot open (unknown format?)" : message);
     }
     const OIIO::ImageSpec& s = in->spec(0, 0);
-    // A movie (OpenImageIO's ffmpeg reader, an animated GIF) would give its first frame alone, and the run would
-    // look whole: lensfx takes a movie's frames from ffmpeg through a pipe.
-    // (A still GIF is a movie of one frame to OpenImageIO.)
+    // A movie of more than one frame (OpenImageIO's ffmpeg reader, an animated GIF; a still GIF is a movie of one)
+    // would give its first frame alone, and the run would look whole: lensfx takes a movie's frames through a pipe.
     if (s.get_int_attribute("oiio:Movie", 0) != 0 && in->seek_subimage(1, 0))
         throw std::runtime_error(fmt::format(
             "a movie of {} frames, of which lensfx would read the first alone; pipe its frames through ffmpeg: "
