@@ -238,6 +238,11 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     for (auto& s : owned) stages.push_back(s.get());
     const RunReport report = run_pipeline(o, stages);
     if (flare && !flare->summary().lights_per_frame.empty() && !o.quiet) fmt::print(stderr, "{}\n", describe(flare->summary()));
+    // Neither flare nor lens blur: the frames went through the colour stages alone (an EXR to an EXR unchanged), which a
+    // forgotten --lens would otherwise leave unsaid.
+    if (args.flare.lens.empty() && !args.dof.enabled && report.written() > 0 && report.error.empty() && !o.quiet)
+        fmt::print(stderr, "lensfx: {} frame{} written without a flare: no --lens was given (lensfx lens list names the presets)\n",
+                   report.written(), report.written() == 1 ? "" : "s");
     if (report.skipped() > 0 && !o.quiet) {
         std::string numbers;  // the first few: a long run's list would fill the terminal
         std::size_t listed = 0;

@@ -67,6 +67,9 @@ TEST(FilterEndToEnd, PassThroughKeepsTypesWindowsAndMetadata) {
     ASSERT_EQ(r.exit_code, 0) << r.stderr_text;
     EXPECT_EQ(compare_images((dir / "in.exr").string(), (dir / "out.exr").string()), "");
     EXPECT_EQ(file_count(dir), 2u);  // no temporary left
+    // Said, not silent: a run without --lens (a forgotten one) writes no flare; -q keeps it quiet.
+    EXPECT_EQ(r.stderr_text, "lensfx: 1 frame written without a flare: no --lens was given (lensfx lens list names the presets)\n");
+    EXPECT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/out.exr -q", dir.string())).stderr_text, "");
     // --compression changes the compression only.
     ASSERT_EQ(run(lensfx_cmd() + fmt::format(" -i {0}/in.exr -o {0}/piz.exr --compression piz", dir.string())).exit_code, 0);
     auto in = OIIO::ImageInput::open((dir / "piz.exr").string());
