@@ -98,6 +98,17 @@ OiioModule::RowSource native_rows(const Frame& frame) {
     };
 }
 
+// OpenImageIO's name of the format it writes for `path` ("png", "tiff"); throws unless it is known and makes an
+// image file of R, G, B. Before null, term and zfile were refused, -o x.term printed the frame as escape codes on
+// stdout and then failed, and -o x.zfile failed after the whole frame was rendered.
+std::string image_file_format(const std::string& path) {
+    const std::string format = oiio_module().output_format(path);
+    if (format.empty()) throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", path, fs::path(path).extension().string()));
+    if (format == "null" || format == "term" || format == "zfile")
+        throw std::runtime_error(fmt::format("{}: OpenImageIO's \"{}\" writer makes no image file of R, G, B; choose EXR, TIFF, PNG...", path, format));
+    return format;
+}
+
 }  // namespace
 
 Frame read_image(const std::string& path, PfmOrder pfm_order, const MemoryBudget& budget) {
@@ -141,13 +152,7 @@ Frame image_frame(int width, int height, int channels, PixelType type, const voi
 
 void require_output_format(const std::string& path) {
     const std::string ext = lower_extension(path);
-    if (ext == ".pfm" || is_exr_extension(ext)) return;
-    const std::string format = oiio_module().output_format(path);
-    if (format.empty()) throw std::runtime_error(fmt::format("{}: unknown output format \"{}\"", path, fs::path(path).extension().string()));
-    // Before these were refused, -o x.term printed the frame as escape codes on stdout and then failed, and
-    // -o x.zfile failed after the whole frame was rendered.
-    if (format == "null" || format == "term" || format == "zfile")
-        throw std::runtime_error(fmt::format("{}: OpenImageIO's \"{}\" writer makes no image file of R, G, B; choose EXR, TIFF, PNG...", path, format));
+    if (ext != ".pfm" && !is_exr_extension(ext)) (void)image_file_format(path);
 }
 
 void write_image(const Frame& frame, const std::string& path, const WriteOptions& options) {
@@ -168,9 +173,8 @@ void write_image(const Frame& frame, TempFile& file, const WriteOptions& options
         file.write([&](const std::string& to) { write_exr(frame, to, compression, options.memory); });
         return;
     }
-    require_output_format(path);
+    const std::string format = image_file_format(path);
     const OiioModule& oiio = oiio_module();
-    const std::string format = oiio.output_format(path);
 
     ImageSpec spec = frame.spec;
     OiioModule::RowSource rows = native_rows(frame);
