@@ -58,11 +58,13 @@ Frame read(const std::string& path, const MemoryBudget& budget) {
     const OIIO::ImageSpec& s = in->spec(0, 0);
     // A movie of more than one frame (OpenImageIO's ffmpeg reader, an animated GIF; a still GIF is a movie of one)
     // would give its first frame alone, and the run would look whole: lensfx takes a movie's frames through a pipe.
-    if (s.get_int_attribute("oiio:Movie", 0) != 0 && in->seek_subimage(1, 0))
+    if (s.get_int_attribute("oiio:Movie", 0) != 0 && in->seek_subimage(1, 0)) {
+        const int frames = s.get_int_attribute("oiio:subimages", 0);  // ffmpeg's reader says; a GIF's does not
         throw std::runtime_error(fmt::format(
             "a movie of {} frames, of which lensfx would read the first alone; pipe its frames through ffmpeg: "
             "ffmpeg -i {} -f image2pipe -c:v exr - | lensfx -i - -o out.%04d.exr",
-            s.get_int_attribute("oiio:subimages", 0) > 1 ? std::to_string(s.get_int_attribute("oiio:subimages", 0)) : "several", path));
+            frames > 1 ? std::to_string(frames) : "several", path));
+    }
     if (!in->seek_subimage(0, 0)) {
         std::string message = in->geterror();
         throw std::runtime_error(message.empty() ? "cannot read its first image" : message);
