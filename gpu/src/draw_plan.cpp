@@ -208,9 +208,11 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
     return out;
 }
 
+bool splits_interior(const GhostPlan& plan) { return !plan.area_coverage && !plan.rim_pass() && !plan.faint; }
+
 std::size_t triangle_indices(const GhostPlan& plan) {
     const auto cells = static_cast<std::size_t>(plan.grid) * static_cast<std::size_t>(plan.grid);
-    return plan.area_coverage ? 0 : 6 * cells;
+    return plan.area_coverage ? 0 : splits_interior(plan) ? 12 * cells : 6 * cells;
 }
 
 std::vector<std::vector<BatchJob>> batch_ghosts(const std::vector<std::size_t>& todo, const std::vector<GhostPlan>& plans,

@@ -133,8 +133,10 @@ struct GhostPrograms {
     // A faint ghost's (GhostPlan::faint), its cuts taken at pixel centres.
     Program faint{"ghost_raster_faint", raster_stages("#define INDEXED\n#define SHARP_CUTS\n")};
     Program small{"ghost_raster_small", raster_stages("#define AREA_COVERAGE\n#define SMALL_TRIANGLES\n")};
+    // An indexed draw's interior triangles (ghost_shade_comp's split_interior), which no cut reaches.
+    Program interior{"ghost_raster_interior", raster_stages("#define INDEXED\n#define INTERIOR\n")};
     // Those that draw a ghost's triangles and share its uniforms.
-    std::array<const Program*, 5> drawing() const { return {&raster, &area, &indexed, &faint, &small}; }
+    std::array<const Program*, 6> drawing() const { return {&raster, &area, &indexed, &faint, &small, &interior}; }
     // The one that draws a ghost's triangles as planned, in ghost_raster_frag's rim_mode (0: no rim pass).
     const Program& triangles(const GhostPlan& plan, int rim_mode) const {
         return plan.area_coverage ? area : rim_mode != 0 ? raster : plan.faint ? faint : indexed;
@@ -855,6 +857,7 @@ private:
     void dispatch_shade(const GhostPlan& plan, const BatchJob& job, const SmallList& small, int stop_crossings);
     void trace_uniforms(int res, double rotation, const optics::Vec3& direction);
     void shade_uniforms(int res, int reduce, bool area_coverage, bool small_apart);
+    void split_interior_uniforms(bool split, std::size_t offset, int reduce);
     void dispatch_batched(const Program& program, const FaintRun& run);
     void raster_faint(const FaintRun& run, const PassDraw& pd);
     std::vector<GhostEstimate> coarse_pass(std::size_t p, const GhostSequences& seq, const FlareView& at, const Aperture& aperture);
@@ -1018,6 +1021,7 @@ void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJo
     glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(job.first_index));
     glUniform1i(s_.programs.shade.uniform("write_indices"), triangle_indices(plan) > 0 ? 1 : 0);
     glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), triangle_indices(plan) > 0 && !plan.rim_pass() ? 1 : 0);
+    split_interior_uniforms(options_.split_interior && splits_interior(plan), 6 * static_cast<std::size_t>(res) * res, reduce);
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
     const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
     const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
@@ -1025,6 +1029,18 @@ void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJo
     glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
     glDispatchCompute(vertex_groups(res), 1, 1);
+}
+
+// Whether the shade pass writes the interior triangles apart (ghost_shade_comp's split_interior), `offset` indices
+// after the others, and the pixels per mm of the level they are drawn at (1/reduce of the image).
+void FlareRenderer::Drawing::split_interior_uniforms(bool split, std::size_t offset, int reduce) {
+    const Program& shade = s_.programs.shade;
+    glUniform1i(shade.uniform("split_interior"), split ? 1 : 0);
+    glUniform1ui(shade.uniform("interior_offset"), static_cast<GLuint>(offset));
+    const int level_w = (view_.width + reduce - 1) / reduce;
+    const int level_h = (view_.height + reduce - 1) / reduce;
+    glUniform2f(shade.uniform("level_pixels_per_mm"), static_cast<float>(level_w / view_.sensor_width_mm),
+                static_cast<float>(level_h / view_.sensor_height_mm));
 }
 
 namespace {
@@ -1359,10 +1375,16 @@ void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw&
     const GhostPlan& plan = pd.plans[job.ghost];
     const Program& program = ghost_uniforms(job, pd, reduce, rim_mode);
     const auto corners = 6 * plan.grid * plan.grid;  // two triangles a cell
-    if (s_.programs.by_indices(program))
-        glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
-    else
+    if (!s_.programs.by_indices(program)) {
         glDrawArrays(GL_TRIANGLES, 0, corners);
+        return;
+    }
+    glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
+    if (!options_.split_interior || !splits_interior(plan)) return;
+    // then its interior triangles, after the others in the index buffer (splits_interior)
+    glUseProgram(s_.programs.interior.get());
+    glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT,
+                   reinterpret_cast<const void*>((job.first_index + static_cast<std::size_t>(corners)) * sizeof(GLuint)));
 }
 
 // Ghost g's own draw values into a target at 1/target_reduce of the image (the full-size one in bands).
@@ -1399,7 +1421,7 @@ const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
     const Program& triangles = s_.programs.triangles(pd.plans[g], rim_mode);
-    for (const Program* program : std::array<const Program*, 2>{&triangles, &s_.programs.small}) {
+    for (const Program* program : std::array<const Program*, 3>{&triangles, &s_.programs.small, &s_.programs.interior}) {
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
@@ -1457,6 +1479,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
         glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), 1);    // skip the iris inside it
         glUniform1i(s_.programs.shade.uniform("list_small"), 0);          // small triangles left out
         glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(run.first_index));
+        split_interior_uniforms(false, 0, run.reduce);  // one list (splits_interior)
         dispatch_batched(s_.programs.shade, run);
     }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);

@@ -172,6 +172,11 @@ uniform bool ringing;
 uniform uint first_index;  // where the dispatch's (first) ghost's triangles go in indices[]
 uniform bool write_indices;     // point-sampled: its rasterised triangles written to indices[] (write_cell_indices)
 uniform bool mark_inside_iris;  // drawn by them without a rim pass: its vertices inside the iris marked (bit 64)
+// Drawn by them without a rim pass: its interior triangles (no cut reaches their pixels) written apart, interior_offset
+// indices after the others, for a draw that shades them without looking at the cuts (ghost_raster_frag's INTERIOR)
+uniform bool split_interior;
+uniform uint interior_offset;
+uniform vec2 level_pixels_per_mm;  // of the target the ghost is drawn into
 layout(std430, binding = 4) writeonly buffer Indices { uint indices[]; };  // the rasterised triangles
 // A ghost drawn with its small triangles apart (list_small) lists them, work group by work group: group k's
 // in small_list[small_first + 128 k...] and the draw command commands[command_first + k] that draws them
@@ -279,25 +284,47 @@ bool rasterisable(uint a, uint b, uint c) {
     return area >= small_area && (2.0 * area >= sliver_height * longest || area >= sliver_area);
 }
 
+// Whether no pixel of triangle i reaches the lens's rims: r_rel, linear over it as the raster interpolates it, at
+// least kInteriorPx pixels of the level inside r_rel = 1 at every corner, so that the raster's share of each pixel
+// inside the rim (ghost_raster_frag's inside_share, a ramp one pixel wide) is 1 and nothing is discarded.
+const float kInteriorPx = 0.6;
+bool inside_rims(uvec3 i) {
+    vec2 p0 = vertices[3u * i.x].xy * level_pixels_per_mm;
+    vec2 p1 = vertices[3u * i.y].xy * level_pixels_per_mm;
+    vec2 p2 = vertices[3u * i.z].xy * level_pixels_per_mm;
+    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3u * i.x].z, vertices[3u * i.y].z, vertices[3u * i.z].z) - 1.0);
+    return all(greaterThanEqual(d, vec3(kInteriorPx)));
+}
+
 // The rasterised triangles of the cell at id: each of the cell's two, split as ghost_grid_glsl's, where it is
 // rasterised (corners valid, not all beyond the apertures, rasterisable), else a point (a, a, a), which
 // draws nothing. ghost_raster_vert's INDEXED draw draws them, shading each grid vertex once; the per-triangle
 // draws (the rim passes, the small triangles) read here which triangles are rasterised (ghost_grid_glsl's
 // rasterised), so that a triangle is rasterised or drawn as small by one decision.
+// With split_interior, a rasterised triangle that no cut reaches goes to the interior list instead (a point in
+// the first): inside the rims (inside_rims) and with its provoking vertex (the last corner: for both of the cell's
+// triangles the one at (x+1, y+1)) marked inside the iris, whose read the INDEXED draw then skips as well.
 void write_cell_indices(uvec2 id) {
     uint stride = uint(grid + 1);
     uint a = first + id.y * stride + id.x;
     uint cells = uint(grid * grid);
     uint at = first_index + 6u * (uint(gl_WorkGroupID.z) * cells + id.y * uint(grid) + id.x);
     uvec3 tri[2] = uvec3[2](uvec3(a, a + 1u, a + stride + 1u), uvec3(a, a + stride + 1u, a + stride));
+    bool iris_inside = split_interior && valid(a + stride + 1u) && fan_inside_iris(a + stride + 1u, int(id.x) + 1, int(id.y) + 1);
     for (int t = 0; t < 2; ++t) {
         uvec3 i = tri[t];
         bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
         bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && rasterisable(i.x, i.y, i.z);
-        uvec3 drawn = kept ? i : uvec3(a);
+        bool interior = kept && iris_inside && inside_rims(i);
+        uvec3 drawn = kept && !interior ? i : uvec3(a);
         indices[at + 3u * uint(t)] = drawn.x;
         indices[at + 3u * uint(t) + 1u] = drawn.y;
         indices[at + 3u * uint(t) + 2u] = drawn.z;
+        if (!split_interior) continue;
+        uvec3 inner = interior ? i : uvec3(a);
+        indices[interior_offset + at + 3u * uint(t)] = inner.x;
+        indices[interior_offset + at + 3u * uint(t) + 1u] = inner.y;
+        indices[interior_offset + at + 3u * uint(t) + 2u] = inner.z;
     }
 }
 
@@ -830,6 +857,13 @@ void main() {
                          : inside_share(s.x, width) * inside_share(s.y, width) * inside_share(s.z, width);
     if (!(m.x > 0.0) || weight <= 0.0 || r_rel > 1.0 || (iris <= 0.0 && !ringing)) discard;
     colour = v_channels * (light * iris * weight * m.x);
+}
+#elif defined(INTERIOR)
+// An indexed draw's interior triangles (ghost_shade_comp's split_interior): no cut reaches their pixels, so the rim's
+// and the iris's shares are 1 there and the light is the interpolated irradiance alone (the INDEXED draw's value,
+// for a fraction of its work: two values interpolated, no texture read).
+void main() {
+    colour = v_channels * (v_irradiance * v_transmission);
 }
 #elif defined(INDEXED)
 // An indexed draw (ghost_raster_vert's INDEXED): no rim pass: the iris read at level 0, and only at the ghost's

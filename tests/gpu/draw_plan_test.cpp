@@ -237,7 +237,7 @@ TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
     ASSERT_EQ(batches[0].size(), 2u);
     EXPECT_EQ(batches[0][1].ghost, 1u);
     EXPECT_EQ(batches[0][1].first_vertex, 100u);
-    EXPECT_EQ(batches[0][1].first_index, 6u * 9 * 9);  // after ghost 0's 81 cells
+    EXPECT_EQ(batches[0][1].first_index, 12u * 9 * 9);  // after ghost 0's 81 cells, in two lists (splits_interior)
     ASSERT_EQ(batches[1].size(), 1u);
     EXPECT_EQ(batches[1][0].ghost, 2u);
     EXPECT_EQ(batches[2][0].ghost, 3u);
@@ -245,6 +245,23 @@ TEST(BatchGhosts, FillsTheBufferInOrderAndKeepsLargeGhostsAlone) {
     EXPECT_EQ(batches[2][0].first_index, 0u);
     EXPECT_EQ(batch_ghosts({0, 1, 3}, plans, 250, true).size(), 3u);
     EXPECT_TRUE(batch_ghosts({}, plans, 250, false).empty());
+}
+
+// A point-sampled ghost without a rim pass keeps its triangles in two lists (the interior ones apart); one with a
+// rim pass (which reads which are rasterised there) or a faint one in one; one with area coverage in none.
+TEST(BatchGhosts, InteriorTrianglesApartOnlyWithoutARimPassAndNotFaint) {
+    const GhostPlan alone{.draw = true, .grid = 9, .reduce = 2};
+    const GhostPlan with_rim{.draw = true, .grid = 9, .reduce = kRimReduce};
+    const GhostPlan faint{.draw = true, .grid = 9, .reduce = 2, .rim = false, .small_apart = false, .faint = true};
+    const GhostPlan area{.draw = true, .grid = 9, .reduce = 1, .area_coverage = true};
+    EXPECT_TRUE(splits_interior(alone));
+    EXPECT_EQ(triangle_indices(alone), 12u * 81);
+    EXPECT_FALSE(splits_interior(with_rim));
+    EXPECT_EQ(triangle_indices(with_rim), 6u * 81);
+    EXPECT_FALSE(splits_interior(faint));
+    EXPECT_EQ(triangle_indices(faint), 6u * 81);
+    EXPECT_FALSE(splits_interior(area));
+    EXPECT_EQ(triangle_indices(area), 0u);
 }
 
 // Faint ghosts in chunks that fit the vertex buffer, each chunk's runs of one grid and level ordered by level,
@@ -471,6 +488,33 @@ TEST(SplitReadBack, SameImageAsBandsOnOneThread) {
     ASSERT_GT(*std::max_element(bands.begin(), bands.end()), 0.0f);
     EXPECT_EQ(split, bands);
 }
+
+// The triangles no cut reaches, drawn apart by a shader without the cuts (GpuFlareOptions::split_interior), make
+// the image the one list drawn with the cuts makes: every ghost drawn as its level of detail plans it (most
+// point-sampled without a rim pass, at full size and reduced), two lights, one 20 degrees off axis for the lens's
+// rims to cut its ghosts, a styled ghost (gain and offset), the full-size target whole or in bands. A triangle
+// taken for interior where a rim or the iris reaches it shows there uncut (it fails so with the rim's margin
+// below zero, or with the iris left out of the split).
+class InteriorTriangles : public ::testing::TestWithParam<bool> {};
+TEST_P(InteriorTriangles, SameImageAsOneListWithTheCuts) {
+    FaintTriplet t;
+    GpuFlareOptions& options = t.options;
+    options.visibility = nullptr;  // no ghost faint
+    if (GetParam()) options.full_target_bytes = 16.0 * t.view.width * t.view.height / 3.0;  // three bands
+    options.styles = {{0, 6, {2.0, 0.5, 1.0}, {1.5, -1.0}}};
+    const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-20.0, 8.0, {0.3, 0.3, 0.5}}};
+    const std::vector<float> split = t.image(lights);
+    EXPECT_GT(t.renderer.last_stats().ghosts_reduced, 5);
+    options.split_interior = false;
+    const std::vector<float> one_list = t.image(lights);
+    const float peak = *std::max_element(one_list.begin(), one_list.end());
+    ASSERT_GT(peak, 0.0f);
+    double largest = 0.0;
+    for (std::size_t i = 0; i < one_list.size(); ++i)
+        largest = std::max(largest, static_cast<double>(std::abs(split[i] - one_list[i])));
+    EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
+}
+INSTANTIATE_TEST_SUITE_P(WholeOrBands, InteriorTriangles, ::testing::Bool());
 
 // The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
 // image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,

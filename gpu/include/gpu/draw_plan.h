@@ -102,8 +102,15 @@ struct MergedFaint {
 MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimates& estimates, const std::vector<SpectralPass>& passes,
                                const std::array<double, 3>& light_scale, double pixel_mm);
 
+// Whether a ghost is drawn by its triangle indices in two lists (ghost_shade_comp's split_interior): the triangles a
+// cut (a rim, the iris) may reach, and after them the interior ones, drawn without looking at the cuts. Those
+// point-sampled without a rim pass and not faint: a faint ghost's few pixels at its level lie mostly in triangles a
+// cut reaches (canon-70-200 on the 1080p stage frame: 0.6 of its fragments), and the split's shading of each grid
+// vertex twice and its look at the iris cost more than its interior saved.
+bool splits_interior(const GhostPlan& plan);
 // The indices a ghost's rasterised triangles take in the index buffer (ghost_shade_comp's write_cell_indices):
-// 6 a grid cell when point-sampled; none with area coverage, which draws each triangle's corners alone.
+// 6 a grid cell when point-sampled, 12 when its interior is split off (splits_interior); none with area coverage,
+// which draws each triangle's corners alone.
 std::size_t triangle_indices(const GhostPlan& plan);
 
 // A ghost of a batch, where its grid vertices start in the vertex buffer and its triangles

@@ -52,6 +52,11 @@ struct GpuFlareOptions {
     // the image on two threads, half its rows each; false: a band of rows at a time on the drawing thread
     // (the same image, bit for bit; for tests and measurements).
     bool split_read_back = true;
+    // A ghost drawn by its triangle indices without a rim pass has the triangles no cut reaches (a lens's rim, the
+    // iris) drawn apart by a shader that does not look at the cuts (splits_interior): a third of the work a pixel
+    // there; false: every triangle by the shader with the cuts (the same image but for the order of the additions;
+    // for tests and measurements).
+    bool split_interior = true;
 };
 
 // Bytes of the GL render targets at most held while drawing a width x height flare: the full-size
