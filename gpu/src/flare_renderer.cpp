@@ -814,7 +814,7 @@ public:
     void set_image_level(int level) { image_level_ = level; }
     int bands() const { return bands_.count; }
     // The trace step alone on ghost g at the first pass (for tests): the batch's vertices read back.
-    std::vector<float> trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect);
+    std::vector<float> trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect, std::vector<std::uint32_t>* indices);
     // Every pass's sequences built and every program used once (FlareRenderer::prepare), for the first light.
     void warm_up();
 
@@ -1412,7 +1412,8 @@ GhostDrawValues FlareRenderer::Drawing::draw_values(std::size_t g, const PassDra
     return v;
 }
 
-// One ghost's uniforms in the program that draws its triangles and in the small triangles'. Its triangles are
+// One ghost's uniforms in the program that draws its triangles, in the small triangles' and, where its interior
+// triangles are drawn apart (splits_interior), in the interior program's. Its triangles are
 // sorted into rasterised and small by the pixels of its level (1/reduce of the image: the shade pass's);
 // rim_mode 2 draws the same triangles at kRimReduce times that resolution. Returns the triangles' program, bound.
 const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const PassDraw& pd, int reduce, int rim_mode) {
@@ -1421,7 +1422,9 @@ const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
     const Program& triangles = s_.programs.triangles(pd.plans[g], rim_mode);
+    const bool split = options_.split_interior && splits_interior(pd.plans[g]);
     for (const Program* program : std::array<const Program*, 3>{&triangles, &s_.programs.small, &s_.programs.interior}) {
+        if (program == &s_.programs.interior && !split) continue;
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));
@@ -1581,7 +1584,8 @@ void FlareRenderer::Drawing::read_back(std::vector<float>& rgb, std::vector<Ghos
     glBindVertexArray(0);
 }
 
-std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect) {
+std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost, int grid, const PupilRect& rect,
+                                                      std::vector<std::uint32_t>* indices) {
     const auto found = std::find_if(ghosts_.begin(), ghosts_.end(), [&](const Ghost& gh) {
         return gh.first == std::max(ghost.first, ghost.second) && gh.second == std::min(ghost.first, ghost.second);
     });
@@ -1601,6 +1605,10 @@ std::vector<float> FlareRenderer::Drawing::trace_alone(std::pair<int, int> ghost
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<float> vertices(static_cast<std::size_t>(grid + 1) * static_cast<std::size_t>(grid + 1) * 12);
     glGetNamedBufferSubData(s_.buffers.vertices.get(), 0, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data());
+    if (indices) {
+        indices->resize(triangle_indices(plans[g]));
+        glGetNamedBufferSubData(s_.buffers.indices.get(), 0, static_cast<GLsizeiptr>(indices->size() * sizeof(GLuint)), indices->data());
+    }
     check_gl("reading the traced vertices back");
     glUseProgram(0);
     glBindVertexArray(0);
@@ -1680,11 +1688,11 @@ FlareRenderer::Drawing FlareRenderer::start_drawing(const System& system, const 
 }
 
 std::vector<float> FlareRenderer::trace_ghost(const System& system, const FlareView& view, std::pair<int, int> ghost, int grid,
-                                              const PupilRect& rect) {
+                                              const PupilRect& rect, std::vector<std::uint32_t>* indices) {
     const ScaledLight light{view.angle_x_deg, view.angle_y_deg, {1.0, 1.0, 1.0}};
     const GpuFlareOptions options;
     Drawing drawing = start_drawing(system, view, std::span(&light, 1), options);
-    return drawing.trace_alone(ghost, grid, rect);
+    return drawing.trace_alone(ghost, grid, rect, indices);
 }
 
 FlareImage FlareRenderer::render(const System& system, const FlareView& view, const GpuFlareOptions& options) {

@@ -302,20 +302,20 @@ bool inside_rims(uvec3 i) {
 // draws (the rim passes, the small triangles) read here which triangles are rasterised (ghost_grid_glsl's
 // rasterised), so that a triangle is rasterised or drawn as small by one decision.
 // With split_interior, a rasterised triangle that no cut reaches goes to the interior list instead (a point in
-// the first): inside the rims (inside_rims) and with its provoking vertex (the last corner: for both of the cell's
-// triangles the one at (x+1, y+1)) marked inside the iris, whose read the INDEXED draw then skips as well.
+// the first): inside the rims (inside_rims) and with its provoking vertex (its last corner: the lower triangle's at
+// (x+1, y+1), the upper's at (x, y+1)) marked inside the iris, whose read the INDEXED draw would skip there too.
 void write_cell_indices(uvec2 id) {
     uint stride = uint(grid + 1);
     uint a = first + id.y * stride + id.x;
     uint cells = uint(grid * grid);
     uint at = first_index + 6u * (uint(gl_WorkGroupID.z) * cells + id.y * uint(grid) + id.x);
     uvec3 tri[2] = uvec3[2](uvec3(a, a + 1u, a + stride + 1u), uvec3(a, a + stride + 1u, a + stride));
-    bool iris_inside = split_interior && valid(a + stride + 1u) && fan_inside_iris(a + stride + 1u, int(id.x) + 1, int(id.y) + 1);
+    ivec2 provoking[2] = ivec2[2](ivec2(id) + ivec2(1, 1), ivec2(id) + ivec2(0, 1));
     for (int t = 0; t < 2; ++t) {
         uvec3 i = tri[t];
         bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
         bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && rasterisable(i.x, i.y, i.z);
-        bool interior = kept && iris_inside && inside_rims(i);
+        bool interior = split_interior && kept && inside_rims(i) && fan_inside_iris(i.z, provoking[t].x, provoking[t].y);
         uvec3 drawn = kept && !interior ? i : uvec3(a);
         indices[at + 3u * uint(t)] = drawn.x;
         indices[at + 3u * uint(t) + 1u] = drawn.y;
@@ -446,7 +446,8 @@ ivec3 triangle_corners(int tri) {
     return ivec3(a, upper ? a + stride + 1 : a + 1, upper ? a + stride : a + stride + 1);
 }
 
-// Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not small or dropped.
+// Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not small or dropped. Asked only by
+// the draws of ghosts with a rim pass, whose triangles are in one list (an interior one is a point in the first).
 bool rasterised(int tri) {
     uint at = first_index + 3u * uint(tri);
     return indices[at] != indices[at + 1u];

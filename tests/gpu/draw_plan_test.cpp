@@ -474,6 +474,58 @@ struct FaintTriplet {
     }
 };
 
+// The shade step's interior list (GpuFlareOptions::split_interior), whose triangles are drawn without the cuts: each
+// is in one list only, its provoking vertex (the last corner, GL's default) carries the inside-the-iris mark by which
+// the indexed draw would skip the iris there, and r_rel, linear over it, is at least half a pixel inside 1 at every
+// corner, so that the rim's share of each of its pixels is 1. A ghost that both the rims and a six-bladed iris cut,
+// 15 degrees off axis, on a grid of 48 (its cells a few pixels across); a good part of its triangles is interior.
+TEST(ShadeStep, InteriorTrianglesNoCutReaches) {
+    optics::System system = optics::realize(optics::load_lens("cooke-triplet"));
+    system.aperture.blades = 6;
+    FlareView view = step_view();
+    view.angle_x_deg = -15.0;
+    view.angle_y_deg = 5.0;
+    const PupilRect square = entrance_square(optics::TraceSystem(system, 550.0), view);
+    const Context context(Platform::Surfaceless);
+    FlareRenderer renderer(context);
+    constexpr int kGrid = 48;
+    std::vector<std::uint32_t> indices;
+    const std::vector<float> vertices = renderer.trace_ghost(system, view, {0, 6}, kGrid, square, &indices);
+    constexpr std::size_t kCells = std::size_t{kGrid} * kGrid;
+    ASSERT_EQ(indices.size(), 12 * kCells);
+    const double px_x = view.width / view.sensor_width_mm, px_y = view.height / view.sensor_height_mm;
+    auto vertex = [&](std::uint32_t i) { return vertices.data() + std::size_t{i} * 12; };
+    auto marked = [](const float* v) { return (static_cast<int>(std::lround((v[10] - 1.0f) * 1024.0f)) & 64) != 0; };
+    auto listed = [](const std::uint32_t* t) { return !(t[0] == t[1] && t[1] == t[2]); };
+    // The distance in pixels of corner k to where r_rel, linear over the triangle, is 1 (positive inside).
+    auto rim_distance = [&](const std::uint32_t* t, int k) {
+        const float *p0 = vertex(t[0]), *p1 = vertex(t[1]), *p2 = vertex(t[2]);
+        const double e1x = double{p1[0] - p0[0]} * px_x, e1y = double{p1[1] - p0[1]} * px_y;
+        const double e2x = double{p2[0] - p0[0]} * px_x, e2y = double{p2[1] - p0[1]} * px_y;
+        const double det = e1x * e2y - e1y * e2x;
+        const double f0 = double{p0[2]} - 1.0, f1 = double{p1[2]} - 1.0, f2 = double{p2[2]} - 1.0;
+        const double gx = ((f1 - f0) * e2y - (f2 - f0) * e1y) / det, gy = ((f2 - f0) * e1x - (f1 - f0) * e2x) / det;
+        const double f = k == 0 ? f0 : k == 1 ? f1 : f2;
+        return -f / std::hypot(gx, gy);
+    };
+    int edge = 0, interior = 0, cut_by_rim = 0;
+    for (std::size_t c = 0; c < kCells; ++c)
+        for (std::size_t t = 0; t < 2; ++t) {
+            const std::uint32_t* first = indices.data() + 6 * c + 3 * t;
+            const std::uint32_t* inner = first + 6 * kCells;
+            edge += listed(first);
+            if (listed(first) && (vertex(first[0])[2] > 1.0f || vertex(first[1])[2] > 1.0f || vertex(first[2])[2] > 1.0f))
+                ++cut_by_rim;
+            if (!listed(inner)) continue;
+            ++interior;
+            EXPECT_FALSE(listed(first)) << "cell " << c << " triangle " << t << " in both lists";
+            EXPECT_TRUE(marked(vertex(inner[2]))) << "cell " << c << " triangle " << t << ": provoking vertex not inside the iris";
+            for (int k = 0; k < 3; ++k) EXPECT_GE(rim_distance(inner, k), 0.5) << "cell " << c << " triangle " << t;
+        }
+    EXPECT_GT(cut_by_rim, 0);         // the rims cut this ghost
+    EXPECT_GT(4 * interior, interior + edge);  // and a good part of its triangles are interior
+}
+
 // Reduced targets read back whole and widened on two threads, half the rows each, make the image the banded
 // read-back on one thread makes, bit for bit: faint ghosts at 1/2 .. 1/32 of a frame 200 rows high (split at row
 // 100, through the Mitchell taps' reach), two lights, the full-size target in bands beside them.

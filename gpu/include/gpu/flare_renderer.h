@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <utility>
@@ -123,9 +124,11 @@ public:
     // The trace step alone (for tests): ghost (first, second)'s (grid + 1)^2 ray grid over `rect` on the
     // entrance plane, at the view's light and first pass, read back as ghost_trace_comp writes it (12 floats a
     // vertex: sensor x, y (mm), r_rel, factor, three stop crossings' uv, valid (> 0.5), the shade step's
-    // irradiance; row by row from rect's (x0, y0) corner).
+    // irradiance; row by row from rect's (x0, y0) corner). With `indices`, also the triangle indices the shade step
+    // wrote, drawn at full size: 6 a cell (cell by cell, row by row; a point (a, a, a) for a triangle not in the
+    // list) for the triangles a cut may reach, then 6 a cell for the interior ones (GpuFlareOptions::split_interior).
     std::vector<float> trace_ghost(const System& system, const FlareView& view, std::pair<int, int> ghost, int grid,
-                                   const PupilRect& rect);
+                                   const PupilRect& rect, std::vector<std::uint32_t>* indices = nullptr);
 
 private:
     // The ghosts of `view` that fit the budget (ghosts_within_budget), warning once when some are left out.
