@@ -447,7 +447,7 @@ ivec3 triangle_corners(int tri) {
 }
 
 // Whether triangle tri is rasterised (ghost_shade_comp's write_cell_indices), not small or dropped. Asked only by
-// the draws of ghosts with a rim pass, whose triangles are in one list (an interior one is a point in the first).
+// the draws of ghosts with a rim pass, whose triangles are all in the first list (never split: splits_interior).
 bool rasterised(int tri) {
     uint at = first_index + 3u * uint(tri);
     return indices[at] != indices[at + 1u];
