@@ -851,6 +851,9 @@ private:
     void bind_full();
     void bind_level(int reduce);
     double level_pixel_area(int reduce) const;
+    std::array<int, 2> level_size(int reduce) const;
+    std::array<double, 2> level_pixels_per_mm(int reduce) const;
+    bool interior_apart(const GhostPlan& plan) const { return options_.split_interior && splits_interior(plan); }
     UploadedSequences& sequences(std::size_t p);
     void dispatch_trace(int res, const PupilRect& rect, double rotation, const optics::Vec3& direction, int first_step,
                         int step_count, std::size_t vertex_offset);
@@ -938,11 +941,21 @@ void FlareRenderer::Drawing::bind_level(int reduce) {
     drawn_into_[slot] = true;
 }
 
+// The pixels across and down of the target at 1/reduce of the image (rounded up).
+std::array<int, 2> FlareRenderer::Drawing::level_size(int reduce) const {
+    return {(view_.width + reduce - 1) / reduce, (view_.height + reduce - 1) / reduce};
+}
+
+// Pixels per mm of the sensor, across and down, at 1/reduce of the image.
+std::array<double, 2> FlareRenderer::Drawing::level_pixels_per_mm(int reduce) const {
+    const auto [level_w, level_h] = level_size(reduce);
+    return {level_w / view_.sensor_width_mm, level_h / view_.sensor_height_mm};
+}
+
 // A pixel's sensor area (mm^2) at 1/reduce of the image, by which a ghost's triangles are sorted into
 // rasterised and small (kSmallAreaPx, kSliverPx).
 double FlareRenderer::Drawing::level_pixel_area(int reduce) const {
-    const int level_w = (view_.width + reduce - 1) / reduce;
-    const int level_h = (view_.height + reduce - 1) / reduce;
+    const auto [level_w, level_h] = level_size(reduce);
     return (view_.sensor_width_mm / level_w) * (view_.sensor_height_mm / level_h);
 }
 
@@ -1021,11 +1034,10 @@ void FlareRenderer::Drawing::dispatch_shade(const GhostPlan& plan, const BatchJo
     glUniform1ui(s_.programs.shade.uniform("first_index"), static_cast<GLuint>(job.first_index));
     glUniform1i(s_.programs.shade.uniform("write_indices"), triangle_indices(plan) > 0 ? 1 : 0);
     glUniform1i(s_.programs.shade.uniform("mark_inside_iris"), triangle_indices(plan) > 0 && !plan.rim_pass() ? 1 : 0);
-    split_interior_uniforms(options_.split_interior && splits_interior(plan), 6 * static_cast<std::size_t>(res) * res, reduce);
+    split_interior_uniforms(interior_apart(plan), 6 * static_cast<std::size_t>(res) * res, reduce);
     const int rim_target = reduce >= kRimReduce ? reduce / kRimReduce : 0;
-    const double per_mm_x = rim_target > 0 ? ((view_.width + rim_target - 1) / rim_target) / view_.sensor_width_mm : 0.0;
-    const double per_mm_y = rim_target > 0 ? ((view_.height + rim_target - 1) / rim_target) / view_.sensor_height_mm : 0.0;
-    glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm_x), static_cast<float>(per_mm_y));
+    const std::array<double, 2> per_mm = rim_target > 0 ? level_pixels_per_mm(rim_target) : std::array<double, 2>{};
+    glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), static_cast<float>(per_mm[0]), static_cast<float>(per_mm[1]));
     glUniform1f(s_.programs.shade.uniform("rim_band"), static_cast<float>(3 * kRimReduce));
     glUniform1i(s_.programs.shade.uniform("stop_crossings"), stop_crossings);
     glDispatchCompute(vertex_groups(res), 1, 1);
@@ -1037,10 +1049,8 @@ void FlareRenderer::Drawing::split_interior_uniforms(bool split, std::size_t off
     const Program& shade = s_.programs.shade;
     glUniform1i(shade.uniform("split_interior"), split ? 1 : 0);
     glUniform1ui(shade.uniform("interior_offset"), static_cast<GLuint>(offset));
-    const int level_w = (view_.width + reduce - 1) / reduce;
-    const int level_h = (view_.height + reduce - 1) / reduce;
-    glUniform2f(shade.uniform("level_pixels_per_mm"), static_cast<float>(level_w / view_.sensor_width_mm),
-                static_cast<float>(level_h / view_.sensor_height_mm));
+    const std::array<double, 2> per_mm = level_pixels_per_mm(reduce);
+    glUniform2f(shade.uniform("level_pixels_per_mm"), static_cast<float>(per_mm[0]), static_cast<float>(per_mm[1]));
 }
 
 namespace {
@@ -1380,7 +1390,7 @@ void FlareRenderer::Drawing::draw_triangles(const BatchJob& job, const PassDraw&
         return;
     }
     glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT, reinterpret_cast<const void*>(job.first_index * sizeof(GLuint)));
-    if (!options_.split_interior || !splits_interior(plan)) return;
+    if (!interior_apart(plan)) return;
     // then its interior triangles, after the others in the index buffer (splits_interior)
     glUseProgram(s_.programs.interior.get());
     glDrawElements(GL_TRIANGLES, corners, GL_UNSIGNED_INT,
@@ -1422,9 +1432,8 @@ const Program& FlareRenderer::Drawing::ghost_uniforms(const BatchJob& job, const
     const int target_reduce = rim_mode == 2 ? reduce / kRimReduce : reduce;
     const GhostDrawValues v = draw_values(g, pd, target_reduce);
     const Program& triangles = s_.programs.triangles(pd.plans[g], rim_mode);
-    const bool split = options_.split_interior && splits_interior(pd.plans[g]);
     for (const Program* program : std::array<const Program*, 3>{&triangles, &s_.programs.small, &s_.programs.interior}) {
-        if (program == &s_.programs.interior && !split) continue;
+        if (program == &s_.programs.interior && !interior_apart(pd.plans[g])) continue;
         glUseProgram(program->get());
         glUniform1i(program->uniform("grid"), pd.plans[g].grid);
         glUniform1i(program->uniform("first_vertex"), static_cast<GLint>(job.first_vertex));

@@ -449,6 +449,13 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
 }
 
+// The largest difference between two images of the same size, value by value.
+double largest_difference(const std::vector<float>& a, const std::vector<float>& b) {
+    double largest = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) largest = std::max(largest, static_cast<double>(std::abs(a[i] - b[i])));
+    return largest;
+}
+
 // The cooke triplet at 320 x 200 with every ghost faint (everything_faint): a renderer and its options, and the
 // image render_add makes of some lights with them.
 struct FaintTriplet {
@@ -561,10 +568,7 @@ TEST_P(InteriorTriangles, SameImageAsOneListWithTheCuts) {
     const std::vector<float> one_list = t.image(lights);
     const float peak = *std::max_element(one_list.begin(), one_list.end());
     ASSERT_GT(peak, 0.0f);
-    double largest = 0.0;
-    for (std::size_t i = 0; i < one_list.size(); ++i)
-        largest = std::max(largest, static_cast<double>(std::abs(split[i] - one_list[i])));
-    EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
+    EXPECT_LE(largest_difference(split, one_list), 1e-5 * static_cast<double>(peak));  // the order of the additions only
 }
 INSTANTIATE_TEST_SUITE_P(WholeOrBands, InteriorTriangles, ::testing::Bool());
 
@@ -590,9 +594,7 @@ TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     EXPECT_EQ(stats.ghosts_reduced, renderer.last_stats().ghosts_reduced);
     const float peak = *std::max_element(alone.begin(), alone.end());
     ASSERT_GT(peak, 0.0f);
-    double largest = 0.0;
-    for (std::size_t i = 0; i < alone.size(); ++i) largest = std::max(largest, static_cast<double>(std::abs(batched[i] - alone[i])));
-    EXPECT_LE(largest, 1e-5 * static_cast<double>(peak));  // the order of the additions only
+    EXPECT_LE(largest_difference(batched, alone), 1e-5 * static_cast<double>(peak));  // the order of the additions only
 }
 INSTANTIATE_TEST_SUITE_P(SharpAndRinging, BatchedFaintGhosts, ::testing::Bool());
 
