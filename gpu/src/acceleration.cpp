@@ -124,9 +124,17 @@ double mean_triangle_mm2(const GhostEstimate& e, int grid) {
     return box / (2.0 * std::max(e.fill, 1e-4) * static_cast<double>(grid) * grid);
 }
 
-int faint_reduce(double extent_px) {
+// A Veil (SceneVerdict::Veil) is drawn at the most reduced level that keeps kVeilCells of its level's pixels
+// across it: its outline blurs by up to a quarter of its size, which moves no value by more than its peak, at
+// most kVeilRatio of a code. Most Veils are wider than the frame, so they go from 1/8 or 1/16 to 1/32, where a
+// faint ghost's cost was its fragments (canon-70-200 on pan1080: the faint draws' fragment-shader invocations
+// 13.5 million, 5 million pixels written).
+constexpr double kVeilCells = 16.0;
+
+// The most reduced level (up to kFaintMaxReduce) that keeps `cells` of its pixels across a ghost extent_px wide.
+int faint_reduce(double extent_px, double cells) {
     int reduce = 1;
-    while (reduce < kFaintMaxReduce && extent_px / (2 * reduce) >= kFaintCells) reduce *= 2;
+    while (reduce < kFaintMaxReduce && extent_px / (2 * reduce) >= cells) reduce *= 2;
     return reduce;
 }
 
@@ -157,8 +165,9 @@ namespace {
 
 // The level a ghost is drawn at (1, 2, 4, 8 or 16; a faint one up to kFaintMaxReduce): smooth ghosts from
 // kHalfExtentPx across, ghosts with caustics only when very large.
-int drawn_level(const GhostEstimate& e, double pixel_mm, bool smooth_faint) {
-    if (smooth_faint) return faint_reduce(sensor_size_mm(e) / pixel_mm);
+int drawn_level(const GhostEstimate& e, double pixel_mm, SceneVerdict verdict) {
+    if (verdict == SceneVerdict::Faint) return faint_reduce(sensor_size_mm(e) / pixel_mm, kFaintCells);
+    if (verdict == SceneVerdict::Veil) return faint_reduce(sensor_size_mm(e) / pixel_mm, kVeilCells);
     const double extent_px = e.extent_mm / pixel_mm;
     if (e.area_cv >= kReducedMaxCv) return extent_px >= kSharpQuarterExtentPx ? 4 : extent_px >= kSharpHalfExtentPx ? 2 : 1;
     return extent_px >= kSixteenthExtentPx ? 16
@@ -224,16 +233,17 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
         }
         const SceneVerdict verdict = g < verdicts.size() ? verdicts[g] : SceneVerdict::Draw;
         if (verdict == SceneVerdict::Cull) continue;
-        const bool faint = verdict == SceneVerdict::Faint || verdict == SceneVerdict::Spiky;
+        const bool veil = verdict == SceneVerdict::Veil;
+        const bool faint = verdict == SceneVerdict::Faint || verdict == SceneVerdict::Spiky || veil;
         // A faint ghost with caustics (cells too uneven to draw reduced) may peak far above its coarse cells'
         // estimate in a pixel or two: where that spike could show (Spiky) it keeps its small triangles and the level a
         // sharp ghost gets (nikon-80-200, pan1080, --gain 20: a 7-code spike otherwise).
-        const bool smooth_faint = verdict == SceneVerdict::Faint;
+        const bool smooth_faint = verdict == SceneVerdict::Faint || veil;
         plan.draw = true;
         plan.rim = !faint;
         plan.small_apart = !smooth_faint;
         plan.faint = smooth_faint;
-        if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, smooth_faint);
+        if (accel.reduced && !per_ghost_power && pixel_mm > 0.0) plan.reduce = drawn_level(e, pixel_mm, verdict);
         // The finest level its outline is seen at: its rim pass's, and never finer than the caller's spread.
         const int outline_level = std::max(spread_level, plan.rim_pass() ? plan.reduce / kRimReduce : plan.reduce);
         // Rim outlines are drawn finer only for ghosts with a full share of the light and not spread (adaptive_grid)
@@ -244,7 +254,9 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
                               grid);
         }
         if (faint && !failed_outline(e)) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
-        if (smooth_faint && open_outline(e)) grid = std::min(grid, kFaintOpenGrid);
+        // A Veil's light lost along an outline of failed rays is at most a few times its peak (Desk.exr's
+        // failed_outline ghost: 7 times), a third of a code: kFaintOpenGrid whatever its outline.
+        if (smooth_faint && (open_outline(e) || veil)) grid = std::min(grid, kFaintOpenGrid);
         plan.grid = grid;
         const double level_pixel_mm = pixel_mm * plan.reduce;
         plan.area_coverage =
@@ -313,6 +325,11 @@ void spend_budget(const CullItem& item, const CellRange& range, VisibilityMap& m
             }
 }
 
+// A ghost not culled whose peak alone is under what the frame shows, by how far its peak times its spike is under it.
+SceneVerdict faint_verdict(double spiked_ratio) {
+    return spiked_ratio < kVeilRatio ? SceneVerdict::Veil : spiked_ratio < 1.0 ? SceneVerdict::Faint : SceneVerdict::Spiky;
+}
+
 }  // namespace
 
 std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map) {
@@ -341,7 +358,7 @@ std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, Visibil
             verdicts[i] = SceneVerdict::Cull;
             spend_budget(items[i], ranges[i], map);
         } else if (ratio[i] < 1.0) {
-            verdicts[i] = ratio[i] * items[i].spike < 1.0 ? SceneVerdict::Faint : SceneVerdict::Spiky;
+            verdicts[i] = faint_verdict(ratio[i] * items[i].spike);
         }
     }
     return verdicts;

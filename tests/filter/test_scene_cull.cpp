@@ -84,6 +84,25 @@ TEST(SceneCull, ACausticGhostIsFaintOnlyWhenItsSpikeIsUnderACode) {
     EXPECT_EQ(lensfx::gpu::caustic_spike(e), lensfx::gpu::kCausticSpike);
 }
 
+// A faint ghost far under a code (its peak times its spike under kVeilRatio of one) is a Veil, drawn coarser still;
+// at the ratio and above it stays Faint, and a caustic ghost is weighed with its spike.
+TEST(SceneCull, AGhostFarUnderACodeIsAVeil) {
+    auto map = lensfx::filter::plate_visibility(split_plate(0.5f, 0.5f), 1.0);
+    map->budget = 0.0;  // nothing culled
+    const double step = lensfx::filter::srgb8_code_step(0.5);
+    const double veil = 0.9 * lensfx::gpu::kVeilRatio * step, faint = 1.1 * lensfx::gpu::kVeilRatio * step;
+    CullItem caustic = ghost_at(40.0, veil);
+    caustic.spike = lensfx::gpu::kCausticSpike;
+    const auto verdicts = lensfx::gpu::scene_cull({ghost_at(40.0, veil), ghost_at(40.0, faint), caustic}, *map);
+    EXPECT_EQ(verdicts[0], SceneVerdict::Veil);
+    EXPECT_EQ(verdicts[1], SceneVerdict::Faint);
+    EXPECT_EQ(verdicts[2], SceneVerdict::Faint);  // its spike brings it over the ratio
+    // Weighed against the least visible value under its box: over a dark corner the same ghost is Faint.
+    auto dark = lensfx::filter::plate_visibility(split_plate(0.5f, 0.02f), 1.0);
+    dark->budget = 0.0;
+    EXPECT_EQ(lensfx::gpu::scene_cull({ghost_at(100.0, veil)}, *dark)[0], SceneVerdict::Faint);
+}
+
 namespace {
 
 // A ghost of one spectral pass: over the same pixels as ghost_at, adding `peak` to channel `channel` only.

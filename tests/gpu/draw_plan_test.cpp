@@ -449,6 +449,41 @@ TEST(PlanPass, FaintGhostsAtLeast2048PixelsAcrossAreDrawnAtOneThirtySecond) {
     EXPECT_EQ(plan_pass(e, 0.0, verdicts, selection, detail, 0).plans[0].reduce, 8);
 }
 
+// A Veil (far under what the frame shows) is drawn coarser than a Faint ghost: at the most reduced level that
+// keeps 16 (not 64) of its level's pixels across it, and on 8 cells even where its outline has failed rays.
+// Batched with the faint ghosts, not rim-drawn, its small triangles left out.
+TEST(PlanPass, VeilsAreDrawnCoarserThanFaintGhosts) {
+    const double pixel_mm = 0.01;
+    std::vector<GhostEstimate> e = five_estimates(pixel_mm);
+    const GhostSelection selection = five_ghosts();
+    const DetailSettings detail = detail_32(pixel_mm);
+    e[0].extent_mm = 600 * pixel_mm;
+    e[0].failed_edge = 2.0;  // the outline rule refines a Faint ghost's grid
+    e[0].area_cv = 0.05;
+    e[4].extent_mm = 100 * pixel_mm;
+    e[4].area_cv = 0.05;
+    const std::vector<SceneVerdict> faint = {SceneVerdict::Faint, SceneVerdict::Draw, SceneVerdict::Draw, SceneVerdict::Cull,
+                                             SceneVerdict::Faint};
+    const std::vector<SceneVerdict> veil = {SceneVerdict::Veil, SceneVerdict::Draw, SceneVerdict::Draw, SceneVerdict::Cull,
+                                            SceneVerdict::Veil};
+    const PassPlan f = plan_pass(e, 0.0, faint, selection, detail, 0);
+    const PassPlan v = plan_pass(e, 0.0, veil, selection, detail, 0);
+    EXPECT_EQ(f.plans[0].reduce, 8);   // 600 px: 75 at 1/8; 37.5 at 1/16 is under 64
+    EXPECT_EQ(v.plans[0].reduce, 32);  // 18.75 px at 1/32
+    EXPECT_EQ(f.plans[4].reduce, 1);   // 100 px: under 128
+    EXPECT_EQ(v.plans[4].reduce, 4);   // 25 px at 1/4; 12.5 at 1/8 is under 16
+    EXPECT_GT(f.plans[0].grid, 8);
+    EXPECT_EQ(v.plans[0].grid, 8);
+    EXPECT_EQ(v.batched, f.batched);
+    EXPECT_EQ(v.batched, (std::vector<std::size_t>{0, 4}));
+    EXPECT_EQ(v.faint, 2);
+    for (const std::size_t g : v.batched) {
+        EXPECT_TRUE(v.plans[g].faint);
+        EXPECT_FALSE(v.plans[g].rim);
+        EXPECT_FALSE(v.plans[g].small_apart);
+    }
+}
+
 // The largest difference between two images of the same size, value by value.
 double largest_difference(const std::vector<float>& a, const std::vector<float>& b) {
     double largest = 0.0;

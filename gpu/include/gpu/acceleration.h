@@ -114,7 +114,16 @@ struct GhostPlan {
 // Spiky: a ghost with caustics whose coarse peak is under what the frame shows, but whose peak times
 // caustic_spike (a pixel or two of a caustic) is not: coarsened too, but it keeps its small triangles and the level a
 // sharp ghost gets, so a caustic's spike stays where it is.
-enum class SceneVerdict : unsigned char { Draw, Cull, Faint, Spiky };
+// Veil: a faint ghost far under what the frame shows (its peak times caustic_spike under kVeilRatio of it): one of
+// the hundreds that together make a zoom's veil of light, each too faint for its outline to show. Drawn as Faint,
+// but coarser still: at kFaintOpenGrid cells whatever its outline, and at the most reduced level that keeps
+// kVeilCells (not kFaintCells) of its level's pixels across it.
+enum class SceneVerdict : unsigned char { Draw, Cull, Faint, Spiky, Veil };
+// How far under what the frame shows a faint ghost is a Veil: a twentieth of a code (canon-70-200 on the 1080p
+// stage frame at physical strength: of its 1,451 faint items, 1,053 are under 0.03 of it and 1,281 under 0.1). What
+// its coarser level and grid change moves no value by more than its peak; on the issue-17 frames the error against
+// --no-scene-cull kept its percentiles and maxima (docs/benchmarks.md, twenty-ninth stop).
+inline constexpr double kVeilRatio = 0.05;
 // How far above its coarse cells' peak a ghost may reach in a pixel or two: kCausticSpike for a ghost with
 // caustics (cells too uneven to draw reduced), 1 for a smooth one. Measured: nikon-80-200 on pan1080 at
 // --gain 20 has a faint caustic ghost whose one-pixel spike is 7 codes when drawn as Faint with a factor of 1,
@@ -179,8 +188,8 @@ struct CullItem {
 // within the budget in each channel, so all the culled ghosts together change no channel of any cell by more
 // than budget x visible. Items wholly off the image cost nothing; items whose box or peak is not known
 // (x1 <= x0, no channel's peak > 0, or any not finite) are drawn. Items not culled whose peak alone is under
-// the least visible value under their box in every channel are Faint, or Spiky when their peak times their
-// spike is not. What the culled items spend is added
+// the least visible value under their box in every channel are Faint (Veil when their peak times their spike is
+// under kVeilRatio of it), or Spiky when their peak times their spike is not. What the culled items spend is added
 // to map.used, so several calls (an extended light's groups, then the point lights) share one budget.
 std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map);
 
