@@ -254,9 +254,10 @@ std::vector<GhostPlan> plan_ghosts(const std::vector<GhostEstimate>& estimates, 
                               grid);
         }
         if (faint && !failed_outline(e)) grid = std::min(grid, std::max(kMinGrid, base_grid / 2));
-        // A Veil's light lost along an outline of failed rays is at most a few times its peak (Desk.exr's
-        // failed_outline ghost: 7 times), a third of a code: kFaintOpenGrid whatever its outline.
-        if (smooth_faint && (open_outline(e) || veil)) grid = std::min(grid, kFaintOpenGrid);
+        // A smooth Veil's light lost along an outline of failed rays is at most a few times its peak (Desk.exr's
+        // failed_outline ghost: 7 times), a third of a code: kFaintOpenGrid whatever its outline. One with caustics
+        // keeps kMinGrid, the grid its spike (kCausticSpike) was measured on.
+        if (smooth_faint && (open_outline(e) || (veil && e.area_cv < kReducedMaxCv))) grid = std::min(grid, kFaintOpenGrid);
         plan.grid = grid;
         const double level_pixel_mm = pixel_mm * plan.reduce;
         plan.area_coverage =
@@ -326,8 +327,8 @@ void spend_budget(const CullItem& item, const CellRange& range, VisibilityMap& m
 }
 
 // A ghost not culled whose peak alone is under what the frame shows, by how far its peak times its spike is under it.
-SceneVerdict faint_verdict(double spiked_ratio) {
-    return spiked_ratio < kVeilRatio ? SceneVerdict::Veil : spiked_ratio < 1.0 ? SceneVerdict::Faint : SceneVerdict::Spiky;
+SceneVerdict faint_verdict(double spiked_ratio, double veil_ratio) {
+    return spiked_ratio < veil_ratio ? SceneVerdict::Veil : spiked_ratio < 1.0 ? SceneVerdict::Faint : SceneVerdict::Spiky;
 }
 
 }  // namespace
@@ -358,7 +359,7 @@ std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, Visibil
             verdicts[i] = SceneVerdict::Cull;
             spend_budget(items[i], ranges[i], map);
         } else if (ratio[i] < 1.0) {
-            verdicts[i] = faint_verdict(ratio[i] * items[i].spike);
+            verdicts[i] = faint_verdict(ratio[i] * items[i].spike, map.veil_ratio);
         }
     }
     return verdicts;

@@ -165,6 +165,10 @@ bool boxes_within(const PupilRect& a, const PupilRect& b, double tolerance) {
            std::abs(a.y1 - b.y1) <= tolerance;
 }
 
+// Whether a host's plan draws a ghost at least as finely as another pass's: no coarser level, no fewer cells (a Veil
+// in the host's pass, drawn coarser still, takes no Faint pass's light).
+bool draws_as_finely(const GhostPlan& host, const GhostPlan& other) { return host.reduce <= other.reduce && host.grid >= other.grid; }
+
 }  // namespace
 
 MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimates& estimates, const std::vector<SpectralPass>& passes,
@@ -197,7 +201,8 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
         for (auto it = std::next(host); it != order.end(); ++it) {
             const std::size_t p = *it;
             const GhostEstimate& e = estimates.pass[p][g];
-            if (!batched[p][g] || !boxes_within(e.sensor, at_host.sensor, tolerance)) continue;
+            if (!batched[p][g] || !draws_as_finely(plans[h].plans[g], plans[p].plans[g]) || !boxes_within(e.sensor, at_host.sensor, tolerance))
+                continue;
             const double ratio = e.power / scaled_by[p] / host_power;  // the ghost's power here over the host's
             if (!std::isfinite(ratio)) continue;
             for (std::size_t c = 0; c < 3; ++c) out.weight[h][g][c] += passes[p].weight[c] * ratio;

@@ -1757,7 +1757,7 @@ std::string lens_ghosts_text(const System& system, std::size_t passes) {
 double render_target_bytes(int width, int height, double full_target_bytes) {
     const FullBands bands = full_target_bands(width, height, full_target_bytes, false);
     double bytes = 16.0 * width * bands.target_rows();
-    for (int reduce : {2, 4, 8, 16}) bytes += 16.0 * ((width + reduce - 1) / reduce) * ((height + reduce - 1) / reduce);
+    for (int reduce : {2, 4, 8, 16, 32}) bytes += 16.0 * ((width + reduce - 1) / reduce) * ((height + reduce - 1) / reduce);
     return bytes;
 }
 

@@ -97,6 +97,8 @@ TEST(SceneCull, AGhostFarUnderACodeIsAVeil) {
     EXPECT_EQ(verdicts[0], SceneVerdict::Veil);
     EXPECT_EQ(verdicts[1], SceneVerdict::Faint);
     EXPECT_EQ(verdicts[2], SceneVerdict::Faint);  // its spike brings it over the ratio
+    map->veil_ratio = 0.0;  // no Veils: Faint
+    EXPECT_EQ(lensfx::gpu::scene_cull({ghost_at(40.0, veil)}, *map)[0], SceneVerdict::Faint);
     // Weighed against the least visible value under its box: over a dark corner the same ghost is Faint.
     auto dark = lensfx::filter::plate_visibility(split_plate(0.5f, 0.02f), 1.0);
     dark->budget = 0.0;

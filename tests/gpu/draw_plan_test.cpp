@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <memory>
 #include <span>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -420,8 +421,9 @@ TEST(ShadeStep, InsideIrisMarkOnlyWhereTheTrianglesAreInside) {
 }
 
 // A visibility map over a width x height frame under which every ghost whose peak is known is faint and none
-// is culled: each cell shows only huge additions, and the budget is 0.
-std::shared_ptr<VisibilityMap> everything_faint(int width, int height) {
+// is culled: each cell shows only huge additions, and the budget is 0. Every such ghost is then far under what
+// the frame shows: Faint with veil_ratio 0, a Veil with kVeilRatio.
+std::shared_ptr<VisibilityMap> everything_faint(int width, int height, double veil_ratio = 0.0) {
     auto map = std::make_shared<VisibilityMap>();
     map->width = width;
     map->height = height;
@@ -429,6 +431,7 @@ std::shared_ptr<VisibilityMap> everything_faint(int width, int height) {
     map->rows = (height + map->cell - 1) / map->cell;
     map->visible.assign(static_cast<std::size_t>(map->cols) * static_cast<std::size_t>(map->rows) * 3, 1e30f);
     map->budget = 0.0;
+    map->veil_ratio = veil_ratio;
     return map;
 }
 // A faint ghost is drawn at the most reduced level that keeps 64 of its level's pixels across it: 1/32 from 2048
@@ -482,6 +485,12 @@ TEST(PlanPass, VeilsAreDrawnCoarserThanFaintGhosts) {
         EXPECT_FALSE(v.plans[g].rim);
         EXPECT_FALSE(v.plans[g].small_apart);
     }
+    // A Veil with caustics keeps a Faint ghost's grid, on which its spike factor was measured: kMinGrid (16), or
+    // the outline rule's where its outline has failed rays.
+    e[0].area_cv = 2.0;
+    EXPECT_EQ(plan_pass(e, 0.0, veil, selection, detail, 0).plans[0].grid, plan_pass(e, 0.0, faint, selection, detail, 0).plans[0].grid);
+    e[0].failed_edge = 0.0;
+    EXPECT_EQ(plan_pass(e, 0.0, veil, selection, detail, 0).plans[0].grid, 16);
 }
 
 // The largest difference between two images of the same size, value by value.
@@ -609,14 +618,17 @@ INSTANTIATE_TEST_SUITE_P(WholeOrBands, InteriorTriangles, ::testing::Bool());
 
 // The batched draw of faint ghosts (per grid and level one trace, one shade and one indexed draw) makes the
 // image their one-by-one draws make: two lights, a styled ghost (gain and offset), the full-size target in bands,
-// the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings).
-class BatchedFaintGhosts : public ::testing::TestWithParam<bool> {};
+// the sharp iris and its ringing (the batched draw reads the iris only at each ghost's stop crossings); the
+// ghosts Faint, or all Veils (coarser levels, 8 cells).
+class BatchedFaintGhosts : public ::testing::TestWithParam<std::tuple<bool, bool>> {};
 TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     FaintTriplet t;
     GpuFlareOptions& options = t.options;
+    const auto [ringing, veils] = GetParam();
+    if (veils) options.visibility = everything_faint(t.view.width, t.view.height, kVeilRatio);
     options.full_target_bytes = 16.0 * t.view.width * t.view.height / 3.0;  // three bands
     options.styles = {{0, 6, {2.0, 0.5, 1.0}, {1.5, -1.0}}};
-    options.ringing = GetParam();
+    options.ringing = ringing;
     options.merge_faint = false;  // drawn one by one, no ghost is merged
     const std::vector<ScaledLight> lights = {{3.0, 2.0, {1.0, 0.8, 0.6}}, {-6.0, 1.0, {0.3, 0.3, 0.5}}};
     const std::vector<float> batched = t.image(lights);
@@ -631,7 +643,7 @@ TEST_P(BatchedFaintGhosts, SameImageAsOneDrawEach) {
     ASSERT_GT(peak, 0.0f);
     EXPECT_LE(largest_difference(batched, alone), 1e-5 * static_cast<double>(peak));  // the order of the additions only
 }
-INSTANTIATE_TEST_SUITE_P(SharpAndRinging, BatchedFaintGhosts, ::testing::Bool());
+INSTANTIATE_TEST_SUITE_P(SharpAndRingingFaintAndVeils, BatchedFaintGhosts, ::testing::Combine(::testing::Bool(), ::testing::Bool()));
 
 // Three passes (R, G, B) of three ghosts, all drawn batched at 1/8 of a frame of 0.01-mm pixels: ghost 0 lands
 // in R and B within kMergeShiftPx of its level's pixels of G (the middle pass, its host), so G draws it once
@@ -673,6 +685,36 @@ TEST(MergeFaintPasses, AGhostDrawnOnceWhereItsPassesLandTogether) {
     }
     EXPECT_EQ(merged.weight[1][1], (std::array<double, 3>{power[0] / power[1], 1.0, 0.0}));
     EXPECT_EQ(merged.weight[2][1], passes[2].weight);  // B draws its own
+}
+
+// A pass whose plan draws a ghost finer than its host's (a Faint pass of a ghost that is a Veil in the middle
+// pass: a finer level, more cells) keeps it; one drawn alike is merged.
+TEST(MergeFaintPasses, NoPassMergedIntoAHostDrawnCoarser) {
+    const double pixel_mm = 0.01;
+    const std::vector<SpectralPass> passes = {{610.0, {1.0, 0.0, 0.0}}, {550.0, {0.0, 1.0, 0.0}}, {465.0, {0.0, 0.0, 1.0}}};
+    const std::array<double, 3> light = {1.0, 1.0, 1.0};
+    LightEstimates estimates;
+    for (std::size_t p = 0; p < 3; ++p) {
+        std::vector<GhostEstimate> e(1);
+        e[0].power = 0.1;
+        e[0].sensor = {-1.0, -0.5, 1.0, 0.5};
+        estimates.pass.push_back(e);
+    }
+    std::vector<PassPlan> plans(3);
+    for (std::size_t p = 0; p < 3; ++p) {
+        plans[p].plans.assign(1, GhostPlan{});
+        plans[p].plans[0].reduce = 32;  // as G draws it: a Veil
+        plans[p].plans[0].grid = 8;
+        plans[p].batched = {0};
+    }
+    plans[0].plans[0].reduce = 8;  // R: Faint, at its own level and grid
+    plans[0].plans[0].grid = 16;
+    const MergedFaint merged = merge_faint_passes(plans, estimates, passes, light, pixel_mm);
+    EXPECT_EQ(merged.merged, 1);  // B into G
+    EXPECT_EQ(plans[0].batched, (std::vector<std::size_t>{0}));
+    EXPECT_TRUE(plans[2].batched.empty());
+    EXPECT_EQ(merged.weight[1][0], (std::array<double, 3>{0.0, 1.0, 1.0}));
+    EXPECT_EQ(merged.weight[0][0], passes[0].weight);
 }
 
 // Merged, the faint ghosts of a render add up to the light their passes drawn apart add in each channel, where

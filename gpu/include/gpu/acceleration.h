@@ -153,6 +153,7 @@ struct VisibilityMap {
     std::vector<float> visible;  // per cell (row 0 at the top) R, G, B: the least visible addition there (> 0)
     double budget = 1.0;         // --visibility V: the culled ghosts together add at most V x visible to any
                                  // channel of any cell
+    double veil_ratio = kVeilRatio;  // faint ghosts whose peak times spike is under this x visible are Veils (0: none)
     std::vector<double> used;    // per cell and channel (as `visible`): what culled ghosts have spent of the
                                  // budget (scene_cull fills it), shared by every render of the frame
 };
@@ -189,7 +190,7 @@ struct CullItem {
 // than budget x visible. Items wholly off the image cost nothing; items whose box or peak is not known
 // (x1 <= x0, no channel's peak > 0, or any not finite) are drawn. Items not culled whose peak alone is under
 // the least visible value under their box in every channel are Faint (Veil when their peak times their spike is
-// under kVeilRatio of it), or Spiky when their peak times their spike is not. What the culled items spend is added
+// under map.veil_ratio of it), or Spiky when their peak times their spike is not. What the culled items spend is added
 // to map.used, so several calls (an extended light's groups, then the point lights) share one budget.
 std::vector<SceneVerdict> scene_cull(const std::vector<CullItem>& items, VisibilityMap& map);
 
