@@ -149,8 +149,7 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
         }
         // no full-size part: neither the ghost nor its rim (drawn at 1/(reduce/kRimReduce)) is at full size
         if (band > 0 && plan.reduce != 1 && !(plan.rim && plan.reduce == kRimReduce)) continue;
-        const bool smooth_faint = verdict == SceneVerdict::Faint || verdict == SceneVerdict::Veil;
-        const bool faint = smooth_faint && !plan.rim && !plan.small_apart;  // coarsened (plan_ghosts)
+        const bool faint = plan.faint;  // Faint or Veil: coarsened by plan_ghosts (no rim pass, small triangles left out)
         out.faint += band == 0 && faint;
         (faint && detail.batch_faint ? out.batched : out.todo).push_back(g);
     }

@@ -116,8 +116,8 @@ struct GhostPlan {
 // sharp ghost gets, so a caustic's spike stays where it is.
 // Veil: a faint ghost far under what the frame shows (its peak times caustic_spike under kVeilRatio of it): one of
 // the hundreds that together make a zoom's veil of light, each too faint for its outline to show. Drawn as Faint,
-// but coarser still: at kFaintOpenGrid cells whatever its outline, and at the most reduced level that keeps
-// kVeilCells (not kFaintCells) of its level's pixels across it.
+// but coarser still: at the most reduced level that keeps kVeilCells (not kFaintCells) of its level's pixels across
+// it and, when smooth, at kFaintOpenGrid cells whatever its outline (one with caustics keeps a Faint ghost's grid).
 enum class SceneVerdict : unsigned char { Draw, Cull, Faint, Spiky, Veil };
 // How far under what the frame shows a faint ghost is a Veil: a twentieth of a code (canon-70-200 on the 1080p
 // stage frame at physical strength: of its 1,451 faint items, 1,053 are under 0.03 of it and 1,281 under 0.1). What
