@@ -157,6 +157,12 @@ int spread_level(const GhostSpread& spread) {
     return level;
 }
 
+double pixel_peak(const GhostEstimate& e, double pixel_mm) {
+    // A ring crossing a pixel slantwise lies over up to sqrt(2) of its side; beside it, the whole cells' light.
+    const double ring = std::min(e.edge_peak, e.peak + std::numbers::sqrt2 * e.edge_line / pixel_mm);
+    return std::max(e.peak, ring);
+}
+
 double caustic_spike(const GhostEstimate& e) {
     return e.area_cv >= kReducedMaxCv ? kCausticSpike : 1.0;
 }
@@ -395,8 +401,8 @@ void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estim
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '5'};
-constexpr int kFieldsPerGhost = 16;
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '6'};
+constexpr int kFieldsPerGhost = 18;
 
 }  // namespace
 
@@ -408,7 +414,7 @@ constexpr double kMaxTableValue = 1e9;
 // An estimate a trace could have made: the quantities that cannot be negative are not, and fill is a share.
 bool plausible(const GhostEstimate& g) {
     return g.power >= 0.0 && g.area_cv >= 0.0 && g.extent_mm >= 0.0 && g.fill >= 0.0 && g.fill <= 1.0 && g.failed_edge >= 0.0 &&
-           g.iris_edge >= 0.0 && g.rim_edge >= 0.0 && g.peak >= 0.0;
+           g.iris_edge >= 0.0 && g.rim_edge >= 0.0 && g.peak >= 0.0 && g.edge_peak >= 0.0 && g.edge_line >= 0.0;
 }
 
 }  // namespace
@@ -443,7 +449,7 @@ int BoundsTable::load() {
         const double* v = values.data();
         for (auto& pass : entry) {
             for (GhostEstimate& g : pass) {
-                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], v[10], {v[11], v[12], v[13], v[14]}, v[15]};
+                g = {{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7], v[8], v[9], v[10], {v[11], v[12], v[13], v[14]}, v[15], v[16], v[17]};
                 if (!plausible(g)) return 0;
                 v += kFieldsPerGhost;
             }
@@ -470,7 +476,8 @@ void BoundsTable::save() const {
                 for (const GhostEstimate& g : pass) {
                     const double v[kFieldsPerGhost] = {g.rect.x0, g.rect.y0, g.rect.x1, g.rect.y1, g.power, g.area_cv,
                                                        g.extent_mm, g.fill, g.failed_edge, g.iris_edge, g.rim_edge,
-                                                       g.sensor.x0, g.sensor.y0, g.sensor.x1, g.sensor.y1, g.peak};
+                                                       g.sensor.x0, g.sensor.y0, g.sensor.x1, g.sensor.y1, g.peak,
+                                                       g.edge_peak, g.edge_line};
                     out.write(reinterpret_cast<const char*>(v), sizeof v);
                 }
             }
@@ -510,6 +517,8 @@ std::vector<GhostEstimate> BoundsTable::interpolate(int pass, double theta_deg) 
                                      std::max(p.sensor.x1, q.sensor.x1), std::max(p.sensor.y1, q.sensor.y1)}
                          : PupilRect{};
         r.peak = known ? std::max(p.peak, q.peak) : 0.0;
+        r.edge_peak = std::max(p.edge_peak, q.edge_peak);
+        r.edge_line = std::max(p.edge_line, q.edge_line);
     }
     return out;
 }

@@ -67,7 +67,7 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     const double spread_peak = spread.peak_share > 0.0 && e.power > 0.0 && light_weight > 0.0
                                    ? kSpreadPowerMargin * e.power / light_weight * spread.peak_share / (pixel_w * pixel_h)
                                    : std::numeric_limits<double>::infinity();
-    const double drawn_peak = e.peak > 0.0 ? e.peak : std::numeric_limits<double>::infinity();
+    const double drawn_peak = e.peak > 0.0 ? pixel_peak(e, std::min(pixel_w, pixel_h)) : std::numeric_limits<double>::infinity();
     const double peak = std::min(drawn_peak, spread_peak);
     if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !std::isfinite(peak)) return {};
     const double c = std::cos(rotation), sn = std::sin(rotation);

@@ -448,6 +448,26 @@ double cell_sensor_area(const CoarseGrid& grid, const std::size_t (&corner)[4]) 
     return 0.5 * std::abs(twice);
 }
 
+// An outline cell's irradiance had it passed whole (its passing corners' mean transmission), and that times its
+// width on the sensor (area over its longest side), into out.edge_peak and out.edge_line.
+void measure_outline_cell(const CoarseGrid& grid, const std::vector<char>& fate, const std::size_t (&corner)[4], GhostEstimate& out) {
+    const double area = cell_sensor_area(grid, corner);
+    if (!(area > 0.0)) return;
+    double transmission = 0.0, longest = 0.0;
+    int passing = 0;
+    for (int k = 0; k < 4; ++k) {
+        const float* p = grid.vertex(corner[k]);
+        const float* q = grid.vertex(corner[(k + 1) % 4]);
+        longest = std::max(longest, std::hypot(static_cast<double>(q[0]) - static_cast<double>(p[0]), static_cast<double>(q[1]) - static_cast<double>(p[1])));
+        if (fate[corner[k]] != kPasses) continue;
+        transmission += static_cast<double>(p[3]);
+        ++passing;
+    }
+    const double irradiance = transmission / passing * grid.dx * grid.dy * grid.cos_angle / area;
+    out.edge_peak = std::max(out.edge_peak, irradiance);
+    out.edge_line = std::max(out.edge_line, irradiance * area / longest);
+}
+
 // From the cells: the peak irradiance and the spread of the sensor areas of the cells whose four corners all
 // pass, and the outline's cells (some corners pass) with a corner whose ray failed or the iris blocked.
 void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostEstimate& out) {
@@ -471,6 +491,7 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
                 iris_cut += iris;
                 failed_cut += failed;
                 rim_cut += rim;
+                if (!failed) measure_outline_cell(grid, fate, corner, out);
                 continue;
             }
             const double area = cell_sensor_area(grid, corner);
@@ -524,6 +545,8 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
 void learn_peak(GhostEstimate& coarse, const GhostEstimate& fine) {
     if (!(fine.peak > 0.0) || fine.sensor.x1 < fine.sensor.x0 || fine.sensor.y1 < fine.sensor.y0) return;
     coarse.peak = fine.peak;
+    coarse.edge_peak = std::max(coarse.edge_peak, fine.edge_peak);
+    coarse.edge_line = std::max(coarse.edge_line, fine.edge_line);
     coarse.sensor = {std::min(coarse.sensor.x0, fine.sensor.x0), std::min(coarse.sensor.y0, fine.sensor.y0),
                      std::max(coarse.sensor.x1, fine.sensor.x1), std::max(coarse.sensor.y1, fine.sensor.y1)};
 }

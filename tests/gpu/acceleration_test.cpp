@@ -175,6 +175,8 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     entry[1][2].iris_edge = 3.0;
     entry[1][2].rim_edge = 4.5;
     entry[1][2].peak = 7.5;
+    entry[1][2].edge_peak = 60.0;
+    entry[1][2].edge_line = 0.25;
     table.store(5, entry);
     table.save();
     BoundsTable again(0x1234, 2, 3, dir.string());
@@ -190,6 +192,10 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     EXPECT_EQ(mid[2].failed_edge, 1.5);
     EXPECT_EQ(mid[2].rim_edge, 4.5);   // the longer outline
     EXPECT_EQ((*again.entry(5))[1][2].peak, 7.5);  // the field after rim_edge, read back in place
+    EXPECT_EQ((*again.entry(5))[1][2].edge_peak, 60.0);  // and the outline's two after it
+    EXPECT_EQ((*again.entry(5))[1][2].edge_line, 0.25);
+    EXPECT_EQ(mid[2].edge_peak, 60.0);  // the brighter ring of the two angles
+    EXPECT_EQ(mid[2].edge_line, 0.25);
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
     // A value no trace gives (NaN, 1e300, a negative power) makes the file a miss: it drew no ghost at all.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <memory>
+#include <numbers>
 #include <span>
 #include <tuple>
 #include <vector>
@@ -195,6 +196,42 @@ TEST(CullItem, SpreadGhostsPeakAtTheirPowerTimesTheKernelsLargestShare) {
     const optics::GhostStyle look{0, 1, {1.0, 3.0, 1.0}, {0.0, 0.0}};
     EXPECT_DOUBLE_EQ(cull_item(e, 0.0, {10.0, 10.0, 10.0}, green, &look, view, {30.0, 1.0 / 400.0}).peak[1],
                      3.0 * bright.peak[1]);
+}
+
+// A ghost's bright rim (its outline's cells squeezed into a ring, which its whole cells' peak leaves out)
+// weighs by what one pixel holds of it: its width times its irradiance over a pixel's side while the ring is
+// narrower than a pixel, so four times as much on a frame of four times the width, and at most the ring's own
+// irradiance once a pixel is narrower than it. canon-70-200's faint ring ghost on the stage frame at 4K and 8K
+// was 5 codes in 8-bit sRGB when weighed by its whole cells alone.
+TEST(PixelPeak, ARingNarrowerThanAPixelAddsItsWidthsShare) {
+    GhostEstimate e;
+    e.peak = 1.0;
+    EXPECT_DOUBLE_EQ(pixel_peak(e, 0.01), 1.0);  // no ring
+    e.edge_peak = 40.0;                           // a ring 40 times as bright as the inside...
+    e.edge_line = 40.0 * 0.001;                   // ...1 micrometre wide
+    const double hd = pixel_peak(e, 0.02), uhd = pixel_peak(e, 0.005);
+    EXPECT_NEAR(hd, 1.0 + std::numbers::sqrt2 * 40.0 * 0.001 / 0.02, 1e-12);
+    EXPECT_NEAR(uhd - 1.0, 4.0 * (hd - 1.0), 1e-12);
+    EXPECT_DOUBLE_EQ(pixel_peak(e, 1e-5), 40.0);  // pixels narrower than the ring: its irradiance
+    e.edge_peak = 0.5;                            // a dim outline never lowers the peak
+    EXPECT_DOUBLE_EQ(pixel_peak(e, 1e-5), 1.0);
+    // cull_item weighs a ghost by it: the 4K frame's item is brighter than the HD frame's, the box the same.
+    FlareView view;
+    view.sensor_width_mm = 36.0;
+    view.sensor_height_mm = 20.25;
+    e.edge_peak = 40.0;
+    e.rect = {-1.0, -1.0, 1.0, 1.0};
+    e.sensor = {-0.5, -0.5, 0.5, 0.5};
+    const std::array<double, 3> unit{1.0, 1.0, 1.0};
+    view.width = 1920;
+    view.height = 1080;
+    const CullItem at_hd = cull_item(e, 0.0, unit, unit, nullptr, view);
+    view.width = 3840;
+    view.height = 2160;
+    const CullItem at_uhd = cull_item(e, 0.0, unit, unit, nullptr, view);
+    EXPECT_DOUBLE_EQ(at_hd.peak[0], pixel_peak(e, 36.0 / 1920));
+    EXPECT_DOUBLE_EQ(at_uhd.peak[0], pixel_peak(e, 36.0 / 3840));
+    EXPECT_GT(at_uhd.peak[0], 1.5 * at_hd.peak[0]);
 }
 
 // A faint ghost's grid: 8 cells when its outline loses no light to dropped cells (no failed rays in the

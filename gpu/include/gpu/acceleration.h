@@ -78,7 +78,19 @@ struct GhostEstimate {
     // light; 0: not known). Scene culling keeps any ghost either is unknown of.
     PupilRect sensor{0.0, 0.0, 0.0, 0.0};
     double peak = 0.0;
+    // Its outline's cells (some corners pass, none failed), which `peak` leaves out: a ghost's rim is often a
+    // caustic, its light squeezed into a thin bright ring there. The largest irradiance of such a cell had it
+    // passed whole (per unit irradiance of the light), and the largest of that irradiance times the cell's width
+    // on the sensor (its area over its longest side, mm): what a ring narrower than a pixel adds to one pixel
+    // of side p is at most edge_line / p of it (edge_peak: pixel_peak).
+    double edge_peak = 0.0;
+    double edge_line = 0.0;
 };
+// The largest value one pixel of side pixel_mm may take of a ghost (per unit irradiance of the light): its
+// whole cells' peak, or where more, its outline's ring spread over a pixel's width (at most the ring's own
+// irradiance). A ring is a caustic the pixel resolves only when narrower ones are drawn at that size: at 8K
+// canon-70-200's faint ring ghost reaches 8 times its whole cells' peak; at 1080p its ring is a fraction of a pixel.
+double pixel_peak(const GhostEstimate& e, double pixel_mm);
 
 // Per-ghost drawing decisions from the estimates of one pass.
 // Ghosts drawn at 1/4 of the image or smaller get their rims drawn at 4 times their level's resolution
