@@ -410,6 +410,7 @@ namespace {
 
 // Larger than any coordinate (mm) or power (mm^2) of a real lens's ghost by orders of magnitude.
 constexpr double kMaxTableValue = 1e9;
+static_assert(kMaxPeak <= kMaxTableValue, "a coarse pass's peak must fit a bounds table");
 
 // An estimate a trace could have made: the quantities that cannot be negative are not, and fill is a share.
 bool plausible(const GhostEstimate& g) {

@@ -463,9 +463,9 @@ void measure_outline_cell(const CoarseGrid& grid, const std::vector<char>& fate,
         transmission += static_cast<double>(p[3]);
         ++passing;
     }
-    const double irradiance = transmission / passing * grid.dx * grid.dy * grid.cos_angle / area;
+    const double irradiance = std::min(transmission / passing * grid.dx * grid.dy * grid.cos_angle / area, kMaxPeak);
     out.edge_peak = std::max(out.edge_peak, irradiance);
-    out.edge_line = std::max(out.edge_line, irradiance * area / longest);
+    out.edge_line = std::max(out.edge_line, std::min(irradiance * area / longest, kMaxPeak));
 }
 
 // From the cells: the peak irradiance and the spread of the sensor areas of the cells whose four corners all
@@ -498,9 +498,9 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
             if (area > 0.0) {
                 double transmission = 0.0;
                 for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(grid.vertex(c)[3]);
-                out.peak = std::max(out.peak, transmission * grid.dx * grid.dy * grid.cos_angle / area);
+                out.peak = std::max(out.peak, std::min(transmission * grid.dx * grid.dy * grid.cos_angle / area, kMaxPeak));
             } else {
-                out.peak = std::numeric_limits<double>::infinity();  // a cell folded flat: a caustic, never culled
+                out.peak = kMaxPeak;  // a cell folded flat: a caustic, never culled
             }
             sum += area;
             sum2 += area * area;

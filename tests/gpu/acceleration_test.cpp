@@ -196,6 +196,13 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
     EXPECT_EQ((*again.entry(5))[1][2].edge_line, 0.25);
     EXPECT_EQ(mid[2].edge_peak, 60.0);  // the brighter ring of the two angles
     EXPECT_EQ(mid[2].edge_line, 0.25);
+    // A folded cell's peak (kMaxPeak) and as bright a ring are stored and read back: the file stays a hit.
+    entry[0][0].peak = entry[0][0].edge_peak = entry[0][0].edge_line = kMaxPeak;
+    table.store(6, entry);
+    table.save();
+    BoundsTable folded(0x1234, 2, 3, dir.string());
+    EXPECT_EQ(folded.load(), 3);
+    EXPECT_EQ((*folded.entry(6))[0][0].peak, kMaxPeak);
     BoundsTable other(0x1234, 2, 4, dir.string());  // same file name, another shape: ignored
     EXPECT_EQ(other.load(), 0);
     // A value no trace gives (NaN, 1e300, a negative power) makes the file a miss: it drew no ghost at all.

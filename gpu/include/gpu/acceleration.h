@@ -86,6 +86,10 @@ struct GhostEstimate {
     double edge_peak = 0.0;
     double edge_line = 0.0;
 };
+// The largest peak (and outline irradiance) a coarse pass records, per unit irradiance of the light: a cell folded
+// flat (a caustic) records it. Far above what any frame shows, and within what a bounds table stores (a value
+// beyond would make its file a miss on every run).
+inline constexpr double kMaxPeak = 1e9;
 // The largest value one pixel of side pixel_mm may take of a ghost (per unit irradiance of the light): its
 // whole cells' peak, or where more, its outline's ring spread over a pixel's width (at most the ring's own
 // irradiance). A ring is a caustic the pixel resolves only when narrower ones are drawn at that size: at 8K
