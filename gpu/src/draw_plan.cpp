@@ -168,6 +168,21 @@ bool boxes_within(const PupilRect& a, const PupilRect& b, double tolerance) {
 // in the host's pass, drawn coarser still, takes no Faint pass's light).
 bool draws_as_finely(const GhostPlan& host, const GhostPlan& other) { return host.reduce <= other.reduce && host.grid >= other.grid; }
 
+// The pass that hosts ghost g's faint light: the first pass of `order` (the middle first) that draws it batched,
+// passed over for each later one that draws it more finely (so that the passes it lands with may merge into it:
+// draws_as_finely); order.end() when no pass draws it batched.
+std::vector<std::size_t>::const_iterator host_pass(const std::vector<std::size_t>& order, const std::vector<std::vector<char>>& batched,
+                                                   const std::vector<PassPlan>& plans, std::size_t g) {
+    auto host = std::find_if(order.begin(), order.end(), [&](std::size_t p) { return batched[p][g] != 0; });
+    if (host == order.end()) return host;
+    for (auto it = std::next(host); it != order.end(); ++it) {
+        const GhostPlan& candidate = plans[*it].plans[g];
+        const GhostPlan& so_far = plans[*host].plans[g];
+        if (batched[*it][g] && draws_as_finely(candidate, so_far) && !draws_as_finely(so_far, candidate)) host = it;
+    }
+    return host;
+}
+
 }  // namespace
 
 MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimates& estimates, const std::vector<SpectralPass>& passes,
@@ -182,7 +197,7 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
         scaled_by[p] = pass_light_weight(passes[p].weight, light_scale);
         out.weight.emplace_back(ghosts, passes[p].weight);
     }
-    // The passes from the middle outwards: a ghost's host is the first that draws it batched.
+    // The passes from the middle outwards: a ghost's host is the first that draws it batched, or a finer one (host_pass).
     std::vector<std::size_t> order(plans.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
     const auto middle = static_cast<std::ptrdiff_t>(plans.size() / 2);
@@ -190,17 +205,16 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
         return std::abs(static_cast<std::ptrdiff_t>(a) - middle) < std::abs(static_cast<std::ptrdiff_t>(b) - middle);
     });
     for (std::size_t g = 0; g < ghosts; ++g) {
-        const auto host = std::find_if(order.begin(), order.end(), [&](std::size_t p) { return batched[p][g] != 0; });
+        const auto host = host_pass(order, batched, plans, g);
         if (host == order.end()) continue;
         const std::size_t h = *host;
         const GhostEstimate& at_host = estimates.pass[h][g];
         const double host_power = at_host.power / scaled_by[h];
         if (!(host_power > 0.0) || !std::isfinite(host_power)) continue;
         const double tolerance = kMergeShiftPx * pixel_mm * plans[h].plans[g].reduce;
-        for (auto it = std::next(host); it != order.end(); ++it) {
-            const std::size_t p = *it;
+        for (const std::size_t p : order) {
             const GhostEstimate& e = estimates.pass[p][g];
-            if (!batched[p][g] || !draws_as_finely(plans[h].plans[g], plans[p].plans[g]) || !boxes_within(e.sensor, at_host.sensor, tolerance))
+            if (p == h || !batched[p][g] || !draws_as_finely(plans[h].plans[g], plans[p].plans[g]) || !boxes_within(e.sensor, at_host.sensor, tolerance))
                 continue;
             const double ratio = e.power / scaled_by[p] / host_power;  // the ghost's power here over the host's
             if (!std::isfinite(ratio)) continue;

@@ -724,9 +724,10 @@ TEST(MergeFaintPasses, AGhostDrawnOnceWhereItsPassesLandTogether) {
     EXPECT_EQ(merged.weight[2][1], passes[2].weight);  // B draws its own
 }
 
-// A pass whose plan draws a ghost finer than its host's (a Faint pass of a ghost that is a Veil in the middle
-// pass: a finer level, more cells) keeps it; one drawn alike is merged.
-TEST(MergeFaintPasses, NoPassMergedIntoAHostDrawnCoarser) {
+// A ghost's faint light is hosted by the pass that draws it most finely (a Faint R pass of a ghost that is a Veil
+// in G and B: a finer level, more cells), so the others merge into it; where no pass draws it at least as finely
+// as every other (R at a finer level but on fewer cells), the middle pass hosts it and R keeps its own.
+TEST(MergeFaintPasses, AGhostIsHostedByThePassDrawingItMostFinely) {
     const double pixel_mm = 0.01;
     const std::vector<SpectralPass> passes = {{610.0, {1.0, 0.0, 0.0}}, {550.0, {0.0, 1.0, 0.0}}, {465.0, {0.0, 0.0, 1.0}}};
     const std::array<double, 3> light = {1.0, 1.0, 1.0};
@@ -737,21 +738,32 @@ TEST(MergeFaintPasses, NoPassMergedIntoAHostDrawnCoarser) {
         e[0].sensor = {-1.0, -0.5, 1.0, 0.5};
         estimates.pass.push_back(e);
     }
-    std::vector<PassPlan> plans(3);
-    for (std::size_t p = 0; p < 3; ++p) {
-        plans[p].plans.assign(1, GhostPlan{});
-        plans[p].plans[0].reduce = 32;  // as G draws it: a Veil
-        plans[p].plans[0].grid = 8;
-        plans[p].batched = {0};
-    }
-    plans[0].plans[0].reduce = 8;  // R: Faint, at its own level and grid
-    plans[0].plans[0].grid = 16;
-    const MergedFaint merged = merge_faint_passes(plans, estimates, passes, light, pixel_mm);
-    EXPECT_EQ(merged.merged, 1);  // B into G
-    EXPECT_EQ(plans[0].batched, (std::vector<std::size_t>{0}));
-    EXPECT_TRUE(plans[2].batched.empty());
-    EXPECT_EQ(merged.weight[1][0], (std::array<double, 3>{0.0, 1.0, 1.0}));
-    EXPECT_EQ(merged.weight[0][0], passes[0].weight);
+    auto veils_but_red = [](int red_reduce, int red_grid) {
+        std::vector<PassPlan> plans(3);
+        for (std::size_t p = 0; p < 3; ++p) {
+            plans[p].plans.assign(1, GhostPlan{});
+            plans[p].plans[0].reduce = 32;  // as G and B draw it: a Veil
+            plans[p].plans[0].grid = 8;
+            plans[p].batched = {0};
+        }
+        plans[0].plans[0].reduce = red_reduce;
+        plans[0].plans[0].grid = red_grid;
+        return plans;
+    };
+    std::vector<PassPlan> finer = veils_but_red(8, 16);  // R: Faint, finer in level and grid
+    const MergedFaint into_red = merge_faint_passes(finer, estimates, passes, light, pixel_mm);
+    EXPECT_EQ(into_red.merged, 2);  // G and B into R
+    EXPECT_EQ(finer[0].batched, (std::vector<std::size_t>{0}));
+    EXPECT_TRUE(finer[1].batched.empty());
+    EXPECT_TRUE(finer[2].batched.empty());
+    EXPECT_EQ(into_red.weight[0][0], (std::array<double, 3>{1.0, 1.0, 1.0}));
+    std::vector<PassPlan> mixed = veils_but_red(8, 4);  // R: a finer level on fewer cells
+    const MergedFaint into_green = merge_faint_passes(mixed, estimates, passes, light, pixel_mm);
+    EXPECT_EQ(into_green.merged, 1);  // B into G; R drawn apart
+    EXPECT_EQ(mixed[0].batched, (std::vector<std::size_t>{0}));
+    EXPECT_TRUE(mixed[2].batched.empty());
+    EXPECT_EQ(into_green.weight[1][0], (std::array<double, 3>{0.0, 1.0, 1.0}));
+    EXPECT_EQ(into_green.weight[0][0], passes[0].weight);
 }
 
 // Merged, the faint ghosts of a render add up to the light their passes drawn apart add in each channel, where
