@@ -67,7 +67,9 @@ CullItem cull_item(const GhostEstimate& e, double rotation, const std::array<dou
     const double spread_peak = spread.peak_share > 0.0 && e.power > 0.0 && light_weight > 0.0
                                    ? kSpreadPowerMargin * e.power / light_weight * spread.peak_share / (pixel_w * pixel_h)
                                    : std::numeric_limits<double>::infinity();
-    const double drawn_peak = e.peak > 0.0 ? pixel_peak(e, std::min(pixel_w, pixel_h)) : std::numeric_limits<double>::infinity();
+    // A peak of kMaxPeak (a cell folded flat) is not known: such a ghost is drawn unless spread.
+    const double drawn_peak =
+        e.peak > 0.0 && e.peak < kMaxPeak ? pixel_peak(e, std::min(pixel_w, pixel_h)) : std::numeric_limits<double>::infinity();
     const double peak = std::min(drawn_peak, spread_peak);
     if (e.rect.empty() || e.sensor.x1 < e.sensor.x0 || e.sensor.y1 < e.sensor.y0 || !std::isfinite(peak)) return {};
     const double c = std::cos(rotation), sn = std::sin(rotation);
@@ -168,9 +170,17 @@ bool boxes_within(const PupilRect& a, const PupilRect& b, double tolerance) {
 // in the host's pass, drawn coarser still, takes no Faint pass's light).
 bool draws_as_finely(const GhostPlan& host, const GhostPlan& other) { return host.reduce <= other.reduce && host.grid >= other.grid; }
 
+// Whether the host's draw of a ghost may also draw another pass's: at least as finely, and in every band the other
+// would be drawn in. A reduced faint ghost is drawn with the first band only (plan_pass), so one merged into a
+// full-size host would lose its light in every later band of a frame drawn in bands (an 8K frame): a full-size host
+// takes full-size passes only.
+bool may_host(const GhostPlan& host, const GhostPlan& other) {
+    return draws_as_finely(host, other) && (host.reduce == 1) == (other.reduce == 1);
+}
+
 // The pass that hosts ghost g's faint light: the first pass of `order` (the middle first) that draws it batched,
-// passed over for each later one that draws it more finely (so that the passes it lands with may merge into it:
-// draws_as_finely); order.end() when no pass draws it batched.
+// passed over for each later one that may host it and draws it more finely (so that the passes it lands with may
+// merge into it: may_host); order.end() when no pass draws it batched.
 std::vector<std::size_t>::const_iterator host_pass(const std::vector<std::size_t>& order, const std::vector<std::vector<char>>& batched,
                                                    const std::vector<PassPlan>& plans, std::size_t g) {
     auto host = std::find_if(order.begin(), order.end(), [&](std::size_t p) { return batched[p][g] != 0; });
@@ -178,7 +188,7 @@ std::vector<std::size_t>::const_iterator host_pass(const std::vector<std::size_t
     for (auto it = std::next(host); it != order.end(); ++it) {
         const GhostPlan& candidate = plans[*it].plans[g];
         const GhostPlan& so_far = plans[*host].plans[g];
-        if (batched[*it][g] && draws_as_finely(candidate, so_far) && !draws_as_finely(so_far, candidate)) host = it;
+        if (batched[*it][g] && may_host(candidate, so_far) && !draws_as_finely(so_far, candidate)) host = it;
     }
     return host;
 }
@@ -214,7 +224,7 @@ MergedFaint merge_faint_passes(std::vector<PassPlan>& plans, const LightEstimate
         const double tolerance = kMergeShiftPx * pixel_mm * plans[h].plans[g].reduce;
         for (const std::size_t p : order) {
             const GhostEstimate& e = estimates.pass[p][g];
-            if (p == h || !batched[p][g] || !draws_as_finely(plans[h].plans[g], plans[p].plans[g]) || !boxes_within(e.sensor, at_host.sensor, tolerance))
+            if (p == h || !batched[p][g] || !may_host(plans[h].plans[g], plans[p].plans[g]) || !boxes_within(e.sensor, at_host.sensor, tolerance))
                 continue;
             const double ratio = e.power / scaled_by[p] / host_power;  // the ghost's power here over the host's
             if (!std::isfinite(ratio)) continue;

@@ -449,10 +449,10 @@ double cell_sensor_area(const CoarseGrid& grid, const std::size_t (&corner)[4]) 
 }
 
 // An outline cell's irradiance had it passed whole (its passing corners' mean transmission), and that times its
-// width on the sensor (area over its longest side), into out.edge_peak and out.edge_line.
+// width on the sensor (area over its longest side: its power per length, which a fold inside it leaves alone),
+// into out.edge_peak and out.edge_line.
 void measure_outline_cell(const CoarseGrid& grid, const std::vector<char>& fate, const std::size_t (&corner)[4], GhostEstimate& out) {
     const double area = cell_sensor_area(grid, corner);
-    if (!(area > 0.0)) return;
     double transmission = 0.0, longest = 0.0;
     int passing = 0;
     for (int k = 0; k < 4; ++k) {
@@ -463,13 +463,16 @@ void measure_outline_cell(const CoarseGrid& grid, const std::vector<char>& fate,
         transmission += static_cast<double>(p[3]);
         ++passing;
     }
-    const double irradiance = std::min(transmission / passing * grid.dx * grid.dy * grid.cos_angle / area, kMaxPeak);
-    out.edge_peak = std::max(out.edge_peak, irradiance);
-    out.edge_line = std::max(out.edge_line, std::min(irradiance * area / longest, kMaxPeak));
+    if (!(longest > 0.0)) return;  // all four corners on one point: no width to weigh
+    const double power = transmission / passing * grid.dx * grid.dy * grid.cos_angle;
+    // Folded flat (no area): a caustic, as for a whole cell.
+    out.edge_peak = std::max(out.edge_peak, area > 0.0 ? std::min(power / area, kMaxPeak) : kMaxPeak);
+    out.edge_line = std::max(out.edge_line, std::min(power / longest, kMaxPeak));  // irradiance x width (area / longest)
 }
 
 // From the cells: the peak irradiance and the spread of the sensor areas of the cells whose four corners all
-// pass, and the outline's cells (some corners pass) with a corner whose ray failed or the iris blocked.
+// pass, the outline's cells (some corners pass) with a corner whose ray failed or the iris blocked, and the rim
+// ring of those with no failed corner (measure_outline_cell).
 void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostEstimate& out) {
     double sum = 0.0, sum2 = 0.0;
     int cells = 0, touched = 0, iris_cut = 0, failed_cut = 0, rim_cut = 0;
@@ -500,7 +503,7 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
                 for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(grid.vertex(c)[3]);
                 out.peak = std::max(out.peak, std::min(transmission * grid.dx * grid.dy * grid.cos_angle / area, kMaxPeak));
             } else {
-                out.peak = kMaxPeak;  // a cell folded flat: a caustic, never culled
+                out.peak = kMaxPeak;  // a cell folded flat: a caustic, drawn (cull_item takes it as not known)
             }
             sum += area;
             sum2 += area * area;
@@ -540,8 +543,8 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
 }
 
 // A ghost's peak and sensor box from a finer pass over its own rectangle (its coarse estimate had no whole
-// cell): the finer pass's peak when it found one, and the union of the two boxes; the rest stays the coarse
-// pass's, so only scene culling sees the difference.
+// cell): the finer pass's peak when it found one, the brighter of the two passes' rim rings and the union of the
+// two boxes; the rest stays the coarse pass's, so only scene culling sees the difference.
 void learn_peak(GhostEstimate& coarse, const GhostEstimate& fine) {
     if (!(fine.peak > 0.0) || fine.sensor.x1 < fine.sensor.x0 || fine.sensor.y1 < fine.sensor.y0) return;
     coarse.peak = fine.peak;
@@ -1261,8 +1264,8 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
     drawn_into_[0] = false;  // the next band clears it
 }
 
-// Light l's passes planned, each faint ghost merged into the pass nearest the middle that draws it where its
-// dispersion is under what its level shows (merge_faint_passes; not with ringing, whose iris differs by
+// Light l's passes planned, each faint ghost merged into its host pass (the nearest the middle that draws it, or
+// a finer one) where its dispersion is under what its level shows (merge_faint_passes; not with ringing, whose iris differs by
 // wavelength), then drawn.
 void FlareRenderer::Drawing::draw_light(std::size_t l) {
     std::vector<PassPlan> plans;

@@ -211,7 +211,8 @@ TEST(BoundsTable, FileRoundTripAndForeignFileIgnored) {
         const auto size = std::filesystem::file_size(table.path());
         {
             std::fstream f(table.path(), std::ios::in | std::ios::out | std::ios::binary);
-            f.seekp(static_cast<std::streamoff>(size - 15 * sizeof(double) + 4 * sizeof(double)));  // the last ghost's power
+            constexpr std::size_t kFieldsPerGhost = 18;  // format 6: rect (4), then power
+            f.seekp(static_cast<std::streamoff>(size - kFieldsPerGhost * sizeof(double) + 4 * sizeof(double)));  // the last ghost's power
             f.write(reinterpret_cast<const char*>(&poison), sizeof poison);
         }
         BoundsTable doctored(0x1234, 2, 3, dir.string());

@@ -199,8 +199,8 @@ TEST(CullItem, SpreadGhostsPeakAtTheirPowerTimesTheKernelsLargestShare) {
 }
 
 // A ghost's bright rim (its outline's cells squeezed into a ring, which its whole cells' peak leaves out)
-// weighs by what one pixel holds of it: its width times its irradiance over a pixel's side while the ring is
-// narrower than a pixel, so four times as much on a frame of four times the width, and at most the ring's own
+// weighs by what one pixel holds of it: sqrt(2) times its width times its irradiance over a pixel's side while the
+// ring is narrower than a pixel, so four times as much on a frame of four times the width, and at most the ring's own
 // irradiance once a pixel is narrower than it. canon-70-200's faint ring ghost on the stage frame at 4K and 8K
 // was 5 codes in 8-bit sRGB when weighed by its whole cells alone.
 TEST(PixelPeak, ARingNarrowerThanAPixelAddsItsWidthsShare) {
@@ -726,7 +726,8 @@ TEST(MergeFaintPasses, AGhostDrawnOnceWhereItsPassesLandTogether) {
 
 // A ghost's faint light is hosted by the pass that draws it most finely (a Faint R pass of a ghost that is a Veil
 // in G and B: a finer level, more cells), so the others merge into it; where no pass draws it at least as finely
-// as every other (R at a finer level but on fewer cells), the middle pass hosts it and R keeps its own.
+// as every other (R at a finer level but on fewer cells), or where the finer pass draws it at full size and the
+// others reduced, the middle pass hosts it and R keeps its own.
 TEST(MergeFaintPasses, AGhostIsHostedByThePassDrawingItMostFinely) {
     const double pixel_mm = 0.01;
     const std::vector<SpectralPass> passes = {{610.0, {1.0, 0.0, 0.0}}, {550.0, {0.0, 1.0, 0.0}}, {465.0, {0.0, 0.0, 1.0}}};
@@ -764,6 +765,15 @@ TEST(MergeFaintPasses, AGhostIsHostedByThePassDrawingItMostFinely) {
     EXPECT_TRUE(mixed[2].batched.empty());
     EXPECT_EQ(into_green.weight[1][0], (std::array<double, 3>{0.0, 1.0, 1.0}));
     EXPECT_EQ(into_green.weight[0][0], passes[0].weight);
+    // R at full size: a reduced faint ghost is drawn with the first band only, so a full-size host would lose G's and
+    // B's light in a banded frame's later bands: G hosts B, R keeps its own.
+    std::vector<PassPlan> full_red = veils_but_red(1, 16);
+    const MergedFaint banded = merge_faint_passes(full_red, estimates, passes, light, pixel_mm);
+    EXPECT_EQ(banded.merged, 1);
+    EXPECT_EQ(full_red[0].batched, (std::vector<std::size_t>{0}));
+    EXPECT_EQ(full_red[1].batched, (std::vector<std::size_t>{0}));
+    EXPECT_TRUE(full_red[2].batched.empty());
+    EXPECT_EQ(banded.weight[0][0], passes[0].weight);
 }
 
 // Merged, the faint ghosts of a render add up to the light their passes drawn apart add in each channel, where

@@ -81,18 +81,19 @@ struct GhostEstimate {
     // Its outline's cells (some corners pass, none failed), which `peak` leaves out: a ghost's rim is often a
     // caustic, its light squeezed into a thin bright ring there. The largest irradiance of such a cell had it
     // passed whole (per unit irradiance of the light), and the largest of that irradiance times the cell's width
-    // on the sensor (its area over its longest side, mm): what a ring narrower than a pixel adds to one pixel
-    // of side p is at most edge_line / p of it (edge_peak: pixel_peak).
+    // on the sensor (its area over its longest side, mm: its power per length): a ring narrower than a pixel of
+    // side p adds about sqrt(2) edge_line / p to it (pixel_peak).
     double edge_peak = 0.0;
     double edge_line = 0.0;
 };
 // The largest peak (and outline irradiance) a coarse pass records, per unit irradiance of the light: a cell folded
-// flat (a caustic) records it. Far above what any frame shows, and within what a bounds table stores (a value
-// beyond would make its file a miss on every run).
+// flat (a caustic) records it, and scene culling takes a peak of kMaxPeak as not known (drawn). Within what a
+// bounds table stores (a value beyond would make its file a miss on every run).
 inline constexpr double kMaxPeak = 1e9;
-// The largest value one pixel of side pixel_mm may take of a ghost (per unit irradiance of the light): its
-// whole cells' peak, or where more, its outline's ring spread over a pixel's width (at most the ring's own
-// irradiance). A ring is a caustic the pixel resolves only when narrower ones are drawn at that size: at 8K
+// The largest value one pixel of side pixel_mm may take of a ghost (per unit irradiance of the light), as
+// estimated from its coarse cells: its whole cells' peak, or where more, its outline's ring spread over a pixel's
+// width (at most the ring's own irradiance). An estimate, not a bound: a coarse cell averages what it covers, and a
+// cell shaped like a triangle is up to twice as wide as its area over its longest side. A ring is a caustic the pixel resolves only when narrower ones are drawn at that size: at 8K
 // canon-70-200's faint ring ghost reaches 8 times its whole cells' peak; at 1080p its ring is a fraction of a pixel.
 double pixel_peak(const GhostEstimate& e, double pixel_mm);
 
