@@ -371,6 +371,8 @@ struct CoarseGrid {
 
     std::size_t index(int ix, int iy) const { return static_cast<std::size_t>(iy) * stride + static_cast<std::size_t>(ix); }
     const float* vertex(std::size_t index) const { return vertices + index * 12; }
+    // The power (mm^2 per unit irradiance) through one cell's entrance area, or one vertex's share, at `transmission`.
+    double cell_power(double transmission) const { return transmission * dx * dy * cos_angle; }
 };
 
 // What each coarse ray did.
@@ -411,7 +413,7 @@ CoarseFates sort_vertices(const CoarseGrid& grid, int stop_crossings, const Aper
             f.fate[index] = fate_of(v, stop_crossings, iris_sdf, sensor_radius_mm);
             if (f.fate[index] != kPasses) continue;
             f.any = true;
-            out.power += static_cast<double>(v[3]) * grid.dx * grid.dy * grid.cos_angle;
+            out.power += grid.cell_power(static_cast<double>(v[3]));
             const double x = grid.square.x0 + grid.dx * ix;
             const double y = grid.square.y0 + grid.dy * iy;
             f.box = {std::min(f.box.x0, x), std::min(f.box.y0, y), std::max(f.box.x1, x), std::max(f.box.y1, y)};
@@ -448,6 +450,10 @@ double cell_sensor_area(const CoarseGrid& grid, const std::size_t (&corner)[4]) 
     return 0.5 * std::abs(twice);
 }
 
+// A cell's irradiance on the sensor from its power and sensor area, at most kMaxPeak; kMaxPeak where it is folded
+// flat (no area: a caustic, which cull_item takes as not known).
+double cell_irradiance(double power, double area) { return area > 0.0 ? std::min(power / area, kMaxPeak) : kMaxPeak; }
+
 // An outline cell's irradiance had it passed whole (its passing corners' mean transmission), and that times its
 // width on the sensor (area over its longest side: its power per length, which a fold inside it leaves alone),
 // into out.edge_peak and out.edge_line.
@@ -464,9 +470,8 @@ void measure_outline_cell(const CoarseGrid& grid, const std::vector<char>& fate,
         ++passing;
     }
     if (!(longest > 0.0)) return;  // all four corners on one point: no width to weigh
-    const double power = transmission / passing * grid.dx * grid.dy * grid.cos_angle;
-    // Folded flat (no area): a caustic, as for a whole cell.
-    out.edge_peak = std::max(out.edge_peak, area > 0.0 ? std::min(power / area, kMaxPeak) : kMaxPeak);
+    const double power = grid.cell_power(transmission / passing);
+    out.edge_peak = std::max(out.edge_peak, cell_irradiance(power, area));
     out.edge_line = std::max(out.edge_line, std::min(power / longest, kMaxPeak));  // irradiance x width (area / longest)
 }
 
@@ -498,13 +503,9 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
                 continue;
             }
             const double area = cell_sensor_area(grid, corner);
-            if (area > 0.0) {
-                double transmission = 0.0;
-                for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(grid.vertex(c)[3]);
-                out.peak = std::max(out.peak, std::min(transmission * grid.dx * grid.dy * grid.cos_angle / area, kMaxPeak));
-            } else {
-                out.peak = kMaxPeak;  // a cell folded flat: a caustic, drawn (cull_item takes it as not known)
-            }
+            double transmission = 0.0;
+            for (std::size_t c : corner) transmission += 0.25 * static_cast<double>(grid.vertex(c)[3]);
+            out.peak = std::max(out.peak, cell_irradiance(grid.cell_power(transmission), area));
             sum += area;
             sum2 += area * area;
             ++cells;
@@ -1265,8 +1266,8 @@ void FlareRenderer::Drawing::draw_band(int band, std::vector<float>& rgb) {
 }
 
 // Light l's passes planned, each faint ghost merged into its host pass (the nearest the middle that draws it, or
-// a finer one) where its dispersion is under what its level shows (merge_faint_passes; not with ringing, whose iris differs by
-// wavelength), then drawn.
+// a finer one) where its dispersion is under what its level shows (merge_faint_passes; not with ringing, whose
+// iris differs by wavelength), then drawn.
 void FlareRenderer::Drawing::draw_light(std::size_t l) {
     std::vector<PassPlan> plans;
     for (std::size_t p = 0; p < passes_.size(); ++p) plans.push_back(pass_plan(l, p));

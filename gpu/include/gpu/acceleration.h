@@ -92,9 +92,10 @@ struct GhostEstimate {
 inline constexpr double kMaxPeak = 1e9;
 // The largest value one pixel of side pixel_mm may take of a ghost (per unit irradiance of the light), as
 // estimated from its coarse cells: its whole cells' peak, or where more, its outline's ring spread over a pixel's
-// width (at most the ring's own irradiance). An estimate, not a bound: a coarse cell averages what it covers, and a
-// cell shaped like a triangle is up to twice as wide as its area over its longest side. A ring is a caustic the pixel resolves only when narrower ones are drawn at that size: at 8K
-// canon-70-200's faint ring ghost reaches 8 times its whole cells' peak; at 1080p its ring is a fraction of a pixel.
+// width (at most the ring's own irradiance). The smaller the pixel, the more of a thin ring it holds: at 8K
+// canon-70-200's faint ring ghost on the stage frame reaches 8 times its whole cells' peak. An estimate, not a
+// bound: a coarse cell averages what it covers, and one shaped like a triangle is up to twice as wide as its area
+// over its longest side.
 double pixel_peak(const GhostEstimate& e, double pixel_mm);
 
 // Per-ghost drawing decisions from the estimates of one pass.
