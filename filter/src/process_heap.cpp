@@ -10,17 +10,21 @@
 // and bands) stay mappings of their own, given back at free, and the heap gives back what is free at its top
 // above 288 MiB.
 //
-// The heap's first 192 MiB (what a 1080p job's heap holds at its peak) are advised to use transparent huge
-// pages (tune_process_heap reserves them up front). They were until the twentieth stop and are again since the
-// twenty-fourth; which is faster depends on the virtual machine. On the twentieth stop's, whose balloon reported
-// free memory to its host, a cold 2 MiB page was made again by the host on first touch at about 0.5 GB/s
-// against 2.6 GB/s for 4 KiB pages (canon-70-200 on a 1080p frame run 3 s after the last: 1.22 s with huge
-// pages, 1.09 s without). On the machines of the twenty-first to twenty-fourth stops a 4 KiB page's first touch
-// costs 12 us (0.28 GB/s: 32 MiB in 115-130 ms, 42-57 ms after MADV_POPULATE_WRITE) and a huge page 59 ms per
-// 32 MiB cold, 2.6 ms when the host made it less than a few seconds before (perhaps too, not measured, llvmpipe's
-// 64 x 64 tiles of a 1080p RGBA float target, 64 rows 30 KiB apart, miss the TLB less). canon-70-200 on a 1080p
-// frame, culled (medians of 10 runs each, in A B B A order): 1.570 -> 1.415 s (2.44 -> 2.18 CPU s); peak RSS
-// 306 -> 260 MB, as the warmer no longer makes a 1080p run's pad resident (docs/benchmarks.md, twenty-fourth stop).
+// The heap's first 192 MiB (what a 1080p job's heap holds at its peak) are reserved up front and advised to use
+// 4 KiB pages (MADV_NOHUGEPAGE), whatever the kernel's default for transparent huge pages. Which page size is
+// faster depends on the virtual machine, and the choice has turned three times (huge pages until the twentieth
+// stop, 4 KiB pages until the twenty-fourth, huge pages until the thirty-first, 4 KiB pages since):
+// - the twentieth stop's machine, whose balloon reported free memory to its host: a cold 2 MiB page made again
+//   by the host on first touch at about 0.5 GB/s against 2.6 GB/s for 4 KiB pages (canon-70-200 on a 1080p
+//   frame run 3 s after the last: 1.22 s with huge pages, 1.09 s without);
+// - the twenty-first to twenty-fourth stops' machines: a 4 KiB page's first touch cost 12 us (0.28 GB/s) and
+//   a huge page 59 ms per 32 MiB cold, 2.6 ms when the host had made it a few seconds before: canon-70-200
+//   culled on a 1080p frame 1.570 -> 1.415 s with huge pages;
+// - the thirty-first stop's machine (bench_page_touch, 3 s between trials): 4 KiB pages 0.43-0.55 ms a MiB
+//   touched and 0.26-0.34 populated, huge pages 2.7-4.1 ms a MiB cold (6-8 times slower) and 0.15-0.21 only
+//   right after another process freed them. canon-70-200 culled on a 1080p frame: 1.52 -> 1.25 s run 3 s after the
+//   last, 1.64 -> 1.36 s back to back (docs/benchmarks.md, thirty-first stop).
+// bench_page_touch says which holds on a machine in a minute.
 
 #include <filter/process_heap.h>
 
@@ -47,8 +51,7 @@ namespace lensfx::filter {
 namespace {
 
 #if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)  // under ASan tune_process_heap uses none of these
-constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for huge pages up front: a 1080p job's peak heap
-constexpr std::size_t kHugePage = std::size_t{2} << 20;     // x86-64's and arm64's (4 KiB granule) THP size
+constexpr std::size_t kReserve = std::size_t{192} << 20;    // heap advised for 4 KiB pages up front: a 1080p job's peak heap
 constexpr int kTopPad = 64 << 20;                            // each heap growth at least this much
 constexpr int kHeapBlockLimit = 32 << 20;  // glibc's largest mmap threshold: a 1080p RGBA float target fits under it
 constexpr int kDefaultMmapMax = 65536;     // glibc's default M_MMAP_MAX
@@ -78,18 +81,24 @@ std::string reason_to_leave_heap() {
     return "";
 }
 
-// Grows the heap by kReserve (and the pad), advises its whole 2 MiB pages to be huge and frees it back into the
-// heap's top, where later blocks are carved from. Untouched, it costs address space, not memory. True when the
-// kernel took the advice (false without transparent huge pages, where it is harmless).
-bool reserve_huge_page_heap() {
+std::uintptr_t page_size() {
+    static const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+    return page;
+}
+
+// Grows the heap by kReserve (and the pad), advises it to use 4 KiB pages and frees it back into the heap's top,
+// where later blocks are carved from. Untouched, it costs address space, not memory. True when the kernel took
+// the advice (false without transparent huge pages, where there is nothing to advise against).
+bool reserve_small_page_heap() {
     mallopt(M_MMAP_MAX, 0);  // the reservation itself from the heap
     void* block = std::malloc(kReserve);
     mallopt(M_MMAP_MAX, kDefaultMmapMax);
     if (block == nullptr) return false;
+    const std::uintptr_t page = page_size();
     const auto start = reinterpret_cast<std::uintptr_t>(block);
-    const std::uintptr_t first = (start + kHugePage - 1) & ~(kHugePage - 1);
-    const std::uintptr_t last = (start + kReserve) & ~(kHugePage - 1);
-    const bool advised = last > first && madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE) == 0;
+    const std::uintptr_t first = (start + page - 1) & ~(page - 1);
+    const std::uintptr_t last = (start + kReserve) & ~(page - 1);
+    const bool advised = last > first && madvise(reinterpret_cast<void*>(first), last - first, MADV_NOHUGEPAGE) == 0;
     std::free(block);
     return advised;
 }
@@ -116,8 +125,7 @@ constexpr auto kWarmPollLast = std::chrono::milliseconds(64);
 
 // The end of the heap (the program break, down to a page), asked of the kernel: glibc's copy is not for other threads.
 std::uintptr_t program_break() {
-    static const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
-    return static_cast<std::uintptr_t>(syscall(SYS_brk, 0)) & ~(page - 1);
+    return static_cast<std::uintptr_t>(syscall(SYS_brk, 0)) & ~(page_size() - 1);
 }
 
 // Makes [from, to) resident, kWarmStep at a time, until stopped; `from` ends where it got to. False when the
@@ -185,9 +193,9 @@ HeapTuning tune_process_heap() {
     mallopt(M_TRIM_THRESHOLD, kTrimThreshold);  // a freed frame is the next frame's memory, unless it is huge
     mallopt(M_ARENA_MAX, 1);               // worker threads' blocks from this heap too (small ones stay in tcache)
     mallopt(M_TOP_PAD, kTopPad);
-    const bool huge_pages = reserve_huge_page_heap();
+    const bool small_pages = reserve_small_page_heap();
     mallopt(M_MMAP_THRESHOLD, kHeapBlockLimit);  // bigger blocks (4K, 8K) stay mappings given back at free
-    return {true, "", true, huge_pages};
+    return {true, "", true, small_pages};
 #else
     return {false, "not glibc"};
 #endif
