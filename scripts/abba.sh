@@ -6,26 +6,32 @@
 #   scripts/abba.sh [--gap S] N PROGRAM_A PROGRAM_B ARGS...
 # e.g. scripts/abba.sh --gap 3 4 old/lensfx build/lensfx -i pan1080.exr -o /tmp/x.exr --lens canon-70-200
 set -euo pipefail
+usage() { sed -n '2,7p' "$0" >&2; exit 2; }
 gap=0
-if [ "${1:-}" = --gap ]; then gap=$2; shift 2; fi
-if [ $# -lt 3 ]; then sed -n '2,7p' "$0" >&2; exit 2; fi
+if [ "${1:-}" = --gap ]; then
+    [ $# -ge 2 ] && [[ $2 =~ ^[0-9]+([.][0-9]+)?$ ]] || usage
+    gap=$2
+    shift 2
+fi
+[ $# -ge 3 ] && [[ $1 =~ ^[1-9][0-9]*$ ]] || usage
+/usr/bin/time --version >/dev/null 2>&1 || { echo "abba.sh: needs GNU time as /usr/bin/time (Debian: apt-get install time)" >&2; exit 2; }
 n=$1 a=$2 b=$3
 shift 3
 wa=() wb=() ca=() cb=()
-times=$(mktemp)
-trap 'rm -f "$times"' EXIT
+times=$(mktemp) errors=$(mktemp)
+trap 'rm -f "$times" "$errors"' EXIT
 for _ in $(seq "$n"); do
     for which in a b b a; do
         program=$a
         [ "$which" = b ] && program=$b
         sleep "$gap"
-        # %e wall, %U user, %S system, written to $times; the program's own output is dropped
-        if ! /usr/bin/time -f "%e %U %S" -o "$times" "$program" "$@" >/dev/null 2>&1; then
-            echo "abba.sh: $program $* failed: a failed run's time is not worth a median" >&2
+        # %e wall, %U user, %S system, written to $times; the program's output dropped, its errors kept for a failure
+        if ! /usr/bin/time -f "%e %U %S" -o "$times" "$program" "$@" >/dev/null 2>"$errors"; then
+            echo "abba.sh: $program failed (a failed run's time is not worth a median):" >&2
+            tail -n 5 "$errors" >&2
             exit 1
         fi
-        read -r wall user sys < "$times"
-        cpu=$(echo "$user + $sys" | bc)
+        read -r wall cpu < <(awk '{print $1, $2 + $3}' "$times")
         if [ "$which" = a ]; then wa+=("$wall") ca+=("$cpu"); else wb+=("$wall") cb+=("$cpu"); fi
     done
 done

@@ -22,8 +22,8 @@
 //   culled on a 1080p frame 1.570 -> 1.415 s with huge pages;
 // - the thirty-first stop's machine (bench_page_touch, 3 s between trials): 4 KiB pages 0.43-0.55 ms a MiB
 //   touched and 0.26-0.34 populated, huge pages 2.7-4.1 ms a MiB cold (6-8 times slower) and 0.15-0.21 only
-//   right after another process freed them. canon-70-200 culled on a 1080p frame: 1.52 -> 1.25 s run 3 s after the
-//   last, 1.64 -> 1.36 s back to back (docs/benchmarks.md, thirty-first stop).
+//   when freed moments before (by this process or another). canon-70-200 culled on a 1080p frame: 1.70 -> 1.34 s
+//   run 3 s after the last, 1.64 -> 1.36 s back to back (docs/benchmarks.md, thirty-first stop).
 // bench_page_touch says which holds on a machine in a minute.
 
 #include <filter/process_heap.h>
@@ -86,9 +86,20 @@ std::uintptr_t page_size() {
     return page;
 }
 
-// Grows the heap by kReserve (and the pad), advises it to use 4 KiB pages and frees it back into the heap's top,
-// where later blocks are carved from. Untouched, it costs address space, not memory. True when the kernel took
-// the advice (false without transparent huge pages, where there is nothing to advise against).
+// The end of the heap (the program break, down to a page), asked of the kernel: glibc's copy is not for other threads.
+std::uintptr_t program_break() {
+    return static_cast<std::uintptr_t>(syscall(SYS_brk, 0)) & ~(page_size() - 1);
+}
+
+// Hands [from, to) (whole pages) back to the kernel: the next touch faults in a zeroed page.
+void drop_pages(std::uintptr_t from, std::uintptr_t to) {
+    if (to > from) madvise(reinterpret_cast<void*>(from), to - from, MADV_DONTNEED);
+}
+
+// Grows the heap by kReserve (and the pad), advises it, pad included, to use 4 KiB pages and frees it back into
+// the heap's top, where later blocks are carved from. Untouched, it costs address space, not memory. True when the
+// kernel took the advice (false where it has no transparent huge pages to advise against). What the heap grows by
+// later (beyond 256 MiB: frames over 32 MiB are mappings of their own) is not advised.
 bool reserve_small_page_heap() {
     mallopt(M_MMAP_MAX, 0);  // the reservation itself from the heap
     void* block = std::malloc(kReserve);
@@ -97,8 +108,18 @@ bool reserve_small_page_heap() {
     const std::uintptr_t page = page_size();
     const auto start = reinterpret_cast<std::uintptr_t>(block);
     const std::uintptr_t first = (start + page - 1) & ~(page - 1);
-    const std::uintptr_t last = (start + kReserve) & ~(page - 1);
+    const std::uintptr_t end = start + kReserve, brk = program_break();
+    // up to the break when the block ends the heap there (its pad after it), else the block alone
+    const bool ends_heap = end <= brk && brk - end <= static_cast<std::uintptr_t>(kTopPad) + page;
+    const std::uintptr_t last = ends_heap ? brk : end & ~(page - 1);
     const bool advised = last > first && madvise(reinterpret_cast<void*>(first), last - first, MADV_NOHUGEPAGE) == 0;
+    // Where the kernel gives huge pages to all memory ("always"), malloc's writes of the chunk headers at the
+    // block's two ends were first touches of whole huge pages, made before the advice: handed back, they fault in
+    // again as 4 KiB pages. The block is ours and unwritten; the pad is dropped past the top chunk's header at `end`.
+    if (advised) {
+        drop_pages(first, end & ~(page - 1));
+        if (ends_heap) drop_pages((end + 2 * sizeof(std::size_t) + page - 1) & ~(page - 1), brk);
+    }
     std::free(block);
     return advised;
 }
@@ -123,10 +144,6 @@ constexpr std::size_t kWarmStep = std::size_t{256} << 10;
 constexpr auto kWarmPollFirst = std::chrono::milliseconds(2);
 constexpr auto kWarmPollLast = std::chrono::milliseconds(64);
 
-// The end of the heap (the program break, down to a page), asked of the kernel: glibc's copy is not for other threads.
-std::uintptr_t program_break() {
-    return static_cast<std::uintptr_t>(syscall(SYS_brk, 0)) & ~(page_size() - 1);
-}
 
 // Makes [from, to) resident, kWarmStep at a time, until stopped; `from` ends where it got to. False when the
 // kernel refuses for good (no MADV_POPULATE_WRITE: EINVAL); a range unmapped meanwhile (the heap trimmed) is left.

@@ -15,13 +15,14 @@ struct HeapTuning {
     bool tuned = false;
     std::string reason;      // why not, when not ("" when tuned)
     bool one_arena = false;  // every thread allocates from the one heap (tuned, or under ulimit -v / -d)
-    bool small_pages = false; // the heap's first 192 MiB advised to use 4 KiB pages (the kernel has transparent huge pages)
+    bool small_pages = false; // the heap's first 256 MiB advised to use 4 KiB pages (a kernel built with transparent huge pages)
 };
 
 // On glibc, with an unlimited address space and data segment and no strict overcommit: frame-sized blocks
-// (1080p images and targets) served from the heap instead of fresh mappings, its first 192 MiB in 4 KiB pages
-// (not transparent huge pages, which a virtual machine may make slowly: process_heap.cpp), and up to 288 MiB of freed memory kept for the next frame; every
-// thread's blocks from that one heap; bigger blocks (8K) stay mappings given back at free.
+// (1080p images and targets) served from the heap instead of fresh mappings; its first 192 MiB and their pad
+// in 4 KiB pages (not transparent huge pages, which a virtual machine may make slowly: process_heap.cpp); up
+// to 288 MiB of freed memory kept for the next frame; every thread's blocks from that one heap; bigger blocks
+// (8K) stay mappings given back at free.
 // Elsewhere, under AddressSanitizer, or with LENSFX_SYSTEM_HEAP set, the allocator is left as it is, but for
 // one thing under ulimit -v or -d: the threads share one arena, which halves the address space a run needs.
 // Call once, first thing in main.
@@ -30,8 +31,9 @@ HeapTuning tune_process_heap();
 // Makes the memory the heap grows by resident ahead of its first use, on a thread of its own. On a virtual
 // machine each page's first touch may trap to the host: 4 KiB pages faulted in one at a time cost 3 ms a MB on
 // the twenty-first stop's, and a 1080p run touches about 150 MB for the first time (its frame, the flare's
-// images, the GL driver's render targets). What tune_process_heap reserved is left to fault in (a 1080p run's
-// heap stays within it): beyond it, the heap grows by the block asked for and 64 MiB more (the pad), and the
+// images, the GL driver's render targets). What tune_process_heap reserved is left to fault in: made resident
+// ahead of the heap's top (16 or 64 MiB ahead, a scratch build of the thirty-first stop) it bought no time on a
+// 1080p run and cost 50 MB of resident memory. Beyond it, the heap grows by the block asked for and 64 MiB more (the pad), and the
 // thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a tenth of the faults' cost there. All
 // of it becomes resident, touched or not: the rest of the pad and room reserved but never used (at most the
 // pad and the largest reservation more than a run would touch).
