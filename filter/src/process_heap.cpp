@@ -81,6 +81,7 @@ std::string reason_to_leave_heap() {
     return "";
 }
 
+// The kernel's page size (4 KiB on x86-64), asked once.
 std::uintptr_t page_size() {
     static const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
     return page;
@@ -143,7 +144,6 @@ constexpr std::size_t kWarmStep = std::size_t{256} << 10;
 // and less often while it does not (a sequence's later frames reuse the first's memory).
 constexpr auto kWarmPollFirst = std::chrono::milliseconds(2);
 constexpr auto kWarmPollLast = std::chrono::milliseconds(64);
-
 
 // Makes [from, to) resident, kWarmStep at a time, until stopped; `from` ends where it got to. False when the
 // kernel refuses for good (no MADV_POPULATE_WRITE: EINVAL); a range unmapped meanwhile (the heap trimmed) is left.

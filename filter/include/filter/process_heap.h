@@ -33,10 +33,10 @@ HeapTuning tune_process_heap();
 // the twenty-first stop's, and a 1080p run touches about 150 MB for the first time (its frame, the flare's
 // images, the GL driver's render targets). What tune_process_heap reserved is left to fault in: made resident
 // ahead of the heap's top (16 or 64 MiB ahead, a scratch build of the thirty-first stop) it bought no time on a
-// 1080p run and cost 50 MB of resident memory. Beyond it, the heap grows by the block asked for and 64 MiB more (the pad), and the
-// thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a tenth of the faults' cost there. All
-// of it becomes resident, touched or not: the rest of the pad and room reserved but never used (at most the
-// pad and the largest reservation more than a run would touch).
+// 1080p run and cost 50 MB of resident memory. Beyond it, the heap grows by the block asked for and 64 MiB more
+// (the pad), and the thread makes both resident with MADV_POPULATE_WRITE, 256 KiB a call, a tenth of the
+// faults' cost there. All of it becomes resident, touched or not: the rest of the pad and room reserved but
+// never used (at most the pad and the largest reservation more than a run would touch).
 // Inert (warms nothing) where the heap is not tuned, under a cgroup's memory limit (what it makes resident
 // unused could take the run over it) or where the kernel lacks MADV_POPULATE_WRITE (before Linux 5.14).
 // Told to stop when destroyed, and not waited for (it may be asleep for 64 ms): it touches nothing but the

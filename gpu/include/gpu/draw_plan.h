@@ -88,12 +88,12 @@ PassPlan plan_pass(const std::vector<GhostEstimate>& estimates, double total_pow
 
 // Faint ghosts drawn once for all passes (issue 17). A faint ghost drawn batched (PassPlan::batched) by
 // several passes is traced and drawn by one of them, its host (the pass nearest the middle of the spectrum
-// that draws it batched, passed over for a later one that draws it more finely), for every other that it draws at
-// least as finely (no coarser level, no fewer cells: a Veil there takes no Faint pass's light) and in every band
-// (a full-size host takes no reduced pass's light, which is drawn with the first band only) and whose sensor box
-// lies within kMergeShiftPx pixels of the host's level of the host's (its dispersion under what its level shows): it adds to R, G, B what that pass would
-// have, the pass's weights times the ghost's power there over its power in the host (its coatings' colour
-// kept as a total), and that pass leaves it out.
+// that draws it batched, passed over for a later one that draws it more finely), for every other that it draws
+// at least as finely (no coarser level, no fewer cells: a Veil there takes no Faint pass's light) and in every
+// band (a full-size host takes no reduced pass's light, which is drawn with the first band only) and whose
+// sensor box lies within kMergeShiftPx pixels of the host's level of the host's (its dispersion under what its
+// level shows): it adds to R, G, B what that pass would have, the pass's weights times the ghost's power there
+// over its power in the host (its coatings' colour kept as a total), and that pass leaves it out.
 inline constexpr double kMergeShiftPx = 2.0;
 struct MergedFaint {
     std::vector<std::vector<std::array<double, 3>>> weight;  // per pass and ghost, the R, G, B weights it draws with
