@@ -48,6 +48,14 @@ struct Trial {
     bool populated = true;    // false: MADV_POPULATE_WRITE refused, the region was touched instead
 };
 
+// MemAvailable from /proc/meminfo, in MiB; 0 where it is not known.
+std::size_t available_mib() {
+    std::ifstream meminfo("/proc/meminfo");
+    for (std::string line; std::getline(meminfo, line);)
+        if (line.starts_with("MemAvailable:")) return std::stoull(line.substr(13)) >> 10;  // kB
+    return 0;
+}
+
 Options parse(int argc, char** argv) {
     Options o;
     for (int i = 1; i < argc; ++i) {
@@ -62,6 +70,9 @@ Options parse(int argc, char** argv) {
         else throw std::invalid_argument("unknown argument " + a);
     }
     if (o.mib == 0 || o.mib > 65536) throw std::invalid_argument("--mib must be 1..65536");
+    // Each trial makes the whole region resident: more than half of what the machine has free would invite the OOM killer.
+    if (const std::size_t available = available_mib(); available > 0 && o.mib > available / 2)
+        throw std::invalid_argument(fmt::format("--mib {} is over half the {} MiB this machine has available", o.mib, available));
     if (o.trials < 1) throw std::invalid_argument("--trials must be at least 1");
     if (!(o.gap_s >= 0.0 && o.gap_s <= 3600.0)) throw std::invalid_argument("--gap must be 0..3600 seconds");
     return o;
