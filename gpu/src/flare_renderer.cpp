@@ -36,6 +36,11 @@
 namespace lensfx::gpu {
 namespace {
 
+// Texture units: the iris's SDF and ringing (0, 1), then the buffers the shaders read by texel fetches, which
+// llvmpipe makes far cheaper than storage-buffer loads (a loop over the lanes, a branch per lane and component): the
+// trace's steps and factor tables (UploadedSequences), the traced vertices, the jobs (as integers and as floats),
+// the triangle indices and the small triangles' lists (DrawBuffers).
+enum TexelUnit : int { kStepUnit = 2, kFactorUnit, kVertexUnit, kJobIntUnit, kJobFloatUnit, kIndexUnit, kSmallUnit };
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
 // A point-sampled ghost's triangles under kSmallAreaPx pixels of its level, or under kSliverAreaPx pixels and
@@ -58,6 +63,7 @@ struct StepData {
     float geom[4];
     float media[4];
 };
+static_assert(sizeof(StepData) == 32);  // two RGBA32F texels (view_buffer_texels)
 
 // A ghost of a batched draw (shaders::ghost_job_glsl's GhostJob, std430).
 struct GhostJob {
@@ -137,6 +143,15 @@ struct GhostPrograms {
     Program interior{"ghost_raster_interior", raster_stages("#define INDEXED\n#define INTERIOR\n")};
     // Those that draw a ghost's triangles and share its uniforms.
     std::array<const Program*, 6> drawing() const { return {&raster, &area, &indexed, &faint, &small, &interior}; }
+
+    // Each program's buffer textures named by their units, once (those a program lacks are ignored).
+    GhostPrograms() {
+        for (const Program* program : {&trace, &shade, &raster, &area, &indexed, &faint, &small, &interior})
+            for (const auto& [name, unit] : {std::pair{"step_texels", kStepUnit}, {"factor_texels", kFactorUnit},
+                                             {"vertex_texels", kVertexUnit}, {"job_ints", kJobIntUnit}, {"job_floats", kJobFloatUnit},
+                                             {"index_texels", kIndexUnit}, {"small_texels", kSmallUnit}})
+                glProgramUniform1i(program->get(), program->uniform(name), unit);
+    }
     // The one that draws a ghost's triangles as planned, in ghost_raster_frag's rim_mode (0: no rim pass).
     const Program& triangles(const GhostPlan& plan, int rim_mode) const {
         return plan.area_coverage ? area : rim_mode != 0 ? raster : plan.faint ? faint : indexed;
@@ -151,12 +166,17 @@ struct GhostPrograms {
 struct DrawBuffers {
     GlObject vao = GlObject::vertex_array();
     GlObject vertices = GlObject::buffer();
+    GlObject vertex_texels = GlObject::buffer_texture();  // the same buffer, read by texel fetches
     std::size_t vertices_bytes = 0;
     GlObject jobs = GlObject::buffer();
+    GlObject job_ints = GlObject::buffer_texture();    // the jobs' steps, read by texel fetches
+    GlObject job_floats = GlObject::buffer_texture();  // and their rectangles, channels and flux
     GlObject indices = GlObject::buffer();  // the rasterised triangles (ghost_shade_comp's write_cell_indices)
+    GlObject index_texels = GlObject::buffer_texture();
     std::size_t indices_bytes = 0;
     // A batch's small triangles and the commands that draw them (ghost_shade_comp's list_small_triangles)
     GlObject small_list = GlObject::buffer();
+    GlObject small_texels = GlObject::buffer_texture();
     std::size_t small_list_bytes = 0;
     GlObject small_commands = GlObject::buffer();
     std::size_t small_commands_bytes = 0;
@@ -171,21 +191,47 @@ struct DrawBuffers {
         vertices_bytes = std::max(bytes, std::min(2 * vertices_bytes, kBatchBytes));
         vertices = GlObject::buffer();
         glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(vertices_bytes), nullptr, 0);
+        view_buffer_texels(vertex_texels, GL_RGBA32F, vertices, vertices_bytes / 16, "the traced vertices");
     }
-    void reserve_indices(std::size_t bytes) { reserve(indices, indices_bytes, bytes); }
+    // The vertices bound for the passes: written as a storage buffer, read as a buffer texture.
+    void bind_vertices() const {
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, vertices.get());
+        glBindTextureUnit(kVertexUnit, vertex_texels.get());
+    }
+    void reserve_indices(std::size_t bytes) {
+        if (reserve(indices, indices_bytes, bytes)) view_buffer_texels(index_texels, GL_R32UI, indices, indices_bytes / 4, "the triangle indices");
+    }
     void reserve_small(std::size_t slots, std::size_t commands) {
-        reserve(small_list, small_list_bytes, slots * sizeof(GLuint));
+        if (reserve(small_list, small_list_bytes, slots * sizeof(GLuint)))
+            view_buffer_texels(small_texels, GL_R32UI, small_list, small_list_bytes / 4, "the small triangles' lists");
         reserve(small_commands, small_commands_bytes, commands * kDrawCommandBytes);
+    }
+    // The jobs given their data, and their texel views made anew (the data store is specified again).
+    void upload_jobs(const void* data, std::size_t bytes) {
+        glNamedBufferData(jobs.get(), static_cast<GLsizeiptr>(bytes), data, GL_STREAM_DRAW);
+        view_buffer_texels(job_ints, GL_RGBA32I, jobs, bytes / 16, "the faint ghosts' jobs");
+        view_buffer_texels(job_floats, GL_RGBA32F, jobs, bytes / 16, "the faint ghosts' jobs");
+        glBindTextureUnit(kJobIntUnit, job_ints.get());
+        glBindTextureUnit(kJobFloatUnit, job_floats.get());
+    }
+    // The triangle indices and small triangles' lists bound for the passes: written as storage buffers, read by
+    // the draws as buffer textures.
+    void bind_lists() const {
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, indices.get());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, small_list.get());
+        glBindTextureUnit(kIndexUnit, index_texels.get());
+        glBindTextureUnit(kSmallUnit, small_texels.get());
     }
 
 private:
-    // `buffer` made anew with `bytes` where it holds less (its contents are not kept).
-    static void reserve(GlObject& buffer, std::size_t& held, std::size_t bytes) {
+    // `buffer` made anew with `bytes` where it holds less (its contents are not kept); whether it was.
+    static bool reserve(GlObject& buffer, std::size_t& held, std::size_t bytes) {
         bytes = std::max<std::size_t>(bytes, 1);
-        if (bytes <= held) return;
+        if (bytes <= held) return false;
         buffer = GlObject::buffer();
         glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
         held = bytes;
+        return true;
     }
 };
 
@@ -222,6 +268,8 @@ struct UploadedSequences {
     GhostSequences seq;
     GlObject steps;
     GlObject tables;
+    GlObject step_texels;
+    GlObject factor_texels;
 };
 
 // What the renderer learns of a lens and keeps between renders: the ghost sequences per ghost selection and
@@ -993,15 +1041,18 @@ UploadedSequences& FlareRenderer::Drawing::sequences(std::size_t p) {
     auto it = s_.caches.sequences.find(id);
     if (it == s_.caches.sequences.end()) {
         if (s_.caches.sequences.size() >= 96) s_.caches.sequences.clear();  // room for an extended light's ghost groups
-        UploadedSequences built{build_sequences(traced_[p], ghosts_), GlObject::buffer(), GlObject::buffer()};
+        UploadedSequences built{build_sequences(traced_[p], ghosts_), GlObject::buffer(), GlObject::buffer(),
+                                GlObject::buffer_texture(), GlObject::buffer_texture()};
         glNamedBufferStorage(built.steps.get(), static_cast<GLsizeiptr>(built.seq.steps.size() * sizeof(StepData)),
                              built.seq.steps.data(), 0);
         glNamedBufferStorage(built.tables.get(), static_cast<GLsizeiptr>(built.seq.tables.size() * sizeof(float)),
                              built.seq.tables.data(), 0);
+        view_buffer_texels(built.step_texels, GL_RGBA32F, built.steps, 2 * built.seq.steps.size(), "the ghosts' steps");
+        view_buffer_texels(built.factor_texels, GL_R32F, built.tables, built.seq.tables.size(), "the coating tables");
         it = s_.caches.sequences.emplace(id, std::move(built)).first;
     }
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, it->second.steps.get());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, it->second.tables.get());
+    glBindTextureUnit(kStepUnit, it->second.step_texels.get());
+    glBindTextureUnit(kFactorUnit, it->second.factor_texels.get());
     glUseProgram(s_.programs.trace.get());
     glUniform1f(s_.programs.trace.uniform("sensor_z"), static_cast<float>(traced_[p].sensor_z()));
     return it->second;
@@ -1336,9 +1387,8 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
     SmallLists small = small_lists(batch, pd.plans);
     s_.buffers.reserve_small(small.slots, small.commands);
     small_lists_ = std::move(small.jobs);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, s_.buffers.small_list.get());
+    s_.buffers.bind_vertices();
+    s_.buffers.bind_lists();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, s_.buffers.small_commands.get());
     for (const BatchJob& job : batch) {
         const std::size_t g = job.ghost;
@@ -1504,8 +1554,8 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
     const FaintRun& last = runs.back();
     s_.buffers.reserve_indices((last.first_index + 6 * static_cast<std::size_t>(last.grid) * last.grid * last.ghosts.size()) *
                                sizeof(GLuint));
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, s_.buffers.vertices.get());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, s_.buffers.indices.get());
+    s_.buffers.bind_vertices();
+    s_.buffers.bind_lists();
     for (const FaintRun& run : runs) {
         trace_uniforms(run.grid, pd.rotation, pd.direction);
         dispatch_batched(s_.programs.trace, run);
@@ -1575,8 +1625,7 @@ void FlareRenderer::Drawing::upload_jobs(const std::vector<FaintRun>& runs, cons
                             {static_cast<float>(v.triangle_flux), static_cast<float>(v.offset[0]), static_cast<float>(v.offset[1]), 0.0f}});
         }
     }
-    glNamedBufferData(s_.buffers.jobs.get(), static_cast<GLsizeiptr>(jobs.size() * sizeof(GhostJob)), jobs.data(), GL_STREAM_DRAW);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, s_.buffers.jobs.get());
+    s_.buffers.upload_jobs(jobs.data(), jobs.size() * sizeof(GhostJob));
 }
 
 // Per-ghost power: the full-size target (drawn whole) read back into the CPU sum and ghost g's power, then cleared.

@@ -9,15 +9,18 @@ namespace lensfx::gpu::shaders {
 // uniforms say when drawn alone. Inserted after each batched shader's #version line (GhostJob in
 // flare_renderer.cpp has the same layout).
 inline constexpr const char* ghost_job_glsl = R"GLSL(
-struct GhostJob {
-    ivec4 steps;    // first step, step count, first vertex, stop crossings
-    vec4 rect;      // entrance-plane rectangle x0, y0, x1, y1 (mm)
-    vec4 channels;  // what it adds to R, G, B
-    vec4 flux;      // triangle flux, offset x, offset y (mm), 0
-};
-layout(std430, binding = 3) readonly buffer Jobs { GhostJob jobs[]; };
-uniform bool batched;  // the ghost's data from jobs[] (the work group's z or the vertex), not the uniforms
-uniform int first_job; // batched: the dispatch's or draw's first ghost in jobs[]
+// GhostJob: steps (first step, step count, first vertex, stop crossings), rect (entrance-plane rectangle x0, y0,
+// x1, y1, mm), channels (what it adds to R, G, B), flux (triangle flux, offset x, offset y (mm), 0).
+// The jobs, each four texels of a buffer texture (cheaper than buffer loads on llvmpipe): its steps read as integers,
+// its rectangle, channels and flux as floats.
+uniform isamplerBuffer job_ints;
+uniform samplerBuffer job_floats;
+ivec4 job_steps(int j) { return texelFetch(job_ints, 4 * j); }
+vec4 job_rect(int j) { return texelFetch(job_floats, 4 * j + 1); }
+vec4 job_channels(int j) { return texelFetch(job_floats, 4 * j + 2); }
+vec4 job_flux(int j) { return texelFetch(job_floats, 4 * j + 3); }
+uniform bool batched;  // the ghost's data from its job (the work group's z or the vertex), not the uniforms
+uniform int first_job; // batched: the dispatch's or draw's first ghost among the jobs
 )GLSL";
 
 // The grid vertex a compute invocation takes (inserted after ghost_job_glsl in the trace and shade passes;
@@ -44,8 +47,8 @@ inline constexpr const char* ghost_trace_comp = R"GLSL(
 #version 430
 layout(local_size_x = 8, local_size_y = 8) in;
 struct StepData { vec4 geom; vec4 media; };
-layout(std430, binding = 0) readonly buffer Steps { StepData steps[]; };
-layout(std430, binding = 1) readonly buffer Tables { float factors[]; };
+uniform samplerBuffer step_texels;    // the steps, two texels each (geom, media)
+uniform samplerBuffer factor_texels;  // the factor tables
 layout(std430, binding = 2) writeonly buffer Vertices { vec4 vertices[]; };
 uniform int step_offset;  // this ghost's first step in steps[]
 uniform int step_count;
@@ -62,16 +65,16 @@ float factor(int table, float cos_i) {
     int i = min(int(x), table_size - 2);
     float f = x - float(i);
     int base = table * table_size;
-    return mix(factors[base + i], factors[base + i + 1], f);
+    return mix(texelFetch(factor_texels, base + i).r, texelFetch(factor_texels, base + i + 1).r, f);
 }
 
 void main() {
     uvec2 id = grid_vertex(grid);
     if (id.x > uint(grid) || id.y > uint(grid)) return;
-    int first_step = batched ? jobs[batch_job()].steps.x : step_offset;
-    int steps_n = batched ? jobs[batch_job()].steps.y : step_count;
-    uint first_vertex = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
-    vec4 box = batched ? jobs[batch_job()].rect : rect;
+    int first_step = batched ? job_steps(batch_job()).x : step_offset;
+    int steps_n = batched ? job_steps(batch_job()).y : step_count;
+    uint first_vertex = batched ? uint(job_steps(batch_job()).z) : vertex_offset;
+    vec4 box = batched ? job_rect(batch_job()) : rect;
     vec2 f = vec2(id) / float(grid);
     vec2 q = mix(box.xy, box.zw, f);
     vec3 o = vec3(rect_rotation.x * q.x - rect_rotation.y * q.y, rect_rotation.y * q.x + rect_rotation.x * q.y, 0.0);
@@ -82,8 +85,8 @@ void main() {
     int crossings = 0;
     bool ok = true;
     for (int s = 0; s < steps_n; ++s) {
-        vec4 geom = steps[first_step + s].geom;
-        vec4 media = steps[first_step + s].media;
+        vec4 geom = texelFetch(step_texels, 2 * (first_step + s));
+        vec4 media = texelFetch(step_texels, 2 * (first_step + s) + 1);
         vec3 p = o - vec3(0.0, 0.0, geom.x);
         float c = geom.y;
         float k1 = 1.0 + geom.z;
@@ -157,7 +160,9 @@ void main() {
 inline constexpr const char* ghost_shade_comp = R"GLSL(
 #version 430
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };
+layout(std430, binding = 2) buffer Vertices { vec4 vertices[]; };  // written here; read by vertex_texel
+uniform samplerBuffer vertex_texels;  // the same buffer, read by texel fetches (cheaper on llvmpipe than buffer loads)
+vec4 vertex_texel(uint i) { return texelFetch(vertex_texels, int(i)); }
 uniform int grid;
 uniform uint vertex_offset;
 uniform float small_area;     // mm^2: triangles under this (a pixel of the level) are small: not rasterised
@@ -195,12 +200,12 @@ shared uint group_small[128];  // the work group's triangles, two per invocation
 uint first = 0u;   // this ghost's first vertex and stop crossings (vertex_offset, stop_crossings or its job)
 int crossings = 0;
 
-bool valid(uint i) { return vertices[3u * i + 2u].z > 0.5; }
+bool valid(uint i) { return vertex_texel(3u * i + 2u).z > 0.5; }
 
 // Vertex i's coordinates at the iris at its stop crossing c (ghost_trace_comp's layout).
 vec2 stop_uv(uint i, int c) {
-    vec4 s = vertices[3u * i + 1u];
-    return c == 0 ? s.xy : c == 1 ? s.zw : vertices[3u * i + 2u].xy;
+    vec4 s = vertex_texel(3u * i + 1u);
+    return c == 0 ? s.xy : c == 1 ? s.zw : vertex_texel(3u * i + 2u).xy;
 }
 
 bool cell_valid(int cx, int cy) {
@@ -227,10 +232,10 @@ vec3 corner_distances(vec2 p0, vec2 p1, vec2 p2, vec3 f) {
 // distances are linear over the triangle, so corners all deeper than the band, or all beyond one edge of
 // the ghost, settle it.
 bool near_rim(uvec3 i, int outer) {
-    vec2 p0 = vertices[3u * i.x].xy * pixels_per_mm;
-    vec2 p1 = vertices[3u * i.y].xy * pixels_per_mm;
-    vec2 p2 = vertices[3u * i.z].xy * pixels_per_mm;
-    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3u * i.x].z, vertices[3u * i.y].z, vertices[3u * i.z].z) - 1.0);
+    vec2 p0 = vertex_texel(3u * i.x).xy * pixels_per_mm;
+    vec2 p1 = vertex_texel(3u * i.y).xy * pixels_per_mm;
+    vec2 p2 = vertex_texel(3u * i.z).xy * pixels_per_mm;
+    vec3 d = corner_distances(p0, p1, p2, vec3(vertex_texel(3u * i.x).z, vertex_texel(3u * i.y).z, vertex_texel(3u * i.z).z) - 1.0);
     bool outside = all(lessThan(d, vec3(-1.0)));
     vec3 nearest = d;
     for (int c = 0; c < 3 && c < crossings && !ringing; ++c) {
@@ -268,8 +273,8 @@ bool fan_inside_iris(uint me, int cx, int cy) {
 }
 
 float triangle_area(uint a, uint b, uint c) {
-    vec2 e1 = vertices[3u * b].xy - vertices[3u * a].xy;
-    vec2 e2 = vertices[3u * c].xy - vertices[3u * a].xy;
+    vec2 e1 = vertex_texel(3u * b).xy - vertex_texel(3u * a).xy;
+    vec2 e2 = vertex_texel(3u * c).xy - vertex_texel(3u * a).xy;
     return 0.5 * abs(e1.x * e2.y - e1.y * e2.x);
 }
 
@@ -279,7 +284,7 @@ float triangle_area(uint a, uint b, uint c) {
 // left out.
 bool rasterisable(uint a, uint b, uint c) {
     float area = triangle_area(a, b, c);
-    vec2 pa = vertices[3u * a].xy, pb = vertices[3u * b].xy, pc = vertices[3u * c].xy;
+    vec2 pa = vertex_texel(3u * a).xy, pb = vertex_texel(3u * b).xy, pc = vertex_texel(3u * c).xy;
     float longest = max(max(distance(pa, pb), distance(pb, pc)), distance(pc, pa));
     return area >= small_area && (2.0 * area >= sliver_height * longest || area >= sliver_area);
 }
@@ -289,10 +294,10 @@ bool rasterisable(uint a, uint b, uint c) {
 // inside the rim (ghost_raster_frag's inside_share, a ramp one pixel wide) is 1 and nothing is discarded.
 const float kInteriorPx = 0.6;
 bool inside_rims(uvec3 i) {
-    vec2 p0 = vertices[3u * i.x].xy * level_pixels_per_mm;
-    vec2 p1 = vertices[3u * i.y].xy * level_pixels_per_mm;
-    vec2 p2 = vertices[3u * i.z].xy * level_pixels_per_mm;
-    vec3 d = corner_distances(p0, p1, p2, vec3(vertices[3u * i.x].z, vertices[3u * i.y].z, vertices[3u * i.z].z) - 1.0);
+    vec2 p0 = vertex_texel(3u * i.x).xy * level_pixels_per_mm;
+    vec2 p1 = vertex_texel(3u * i.y).xy * level_pixels_per_mm;
+    vec2 p2 = vertex_texel(3u * i.z).xy * level_pixels_per_mm;
+    vec3 d = corner_distances(p0, p1, p2, vec3(vertex_texel(3u * i.x).z, vertex_texel(3u * i.y).z, vertex_texel(3u * i.z).z) - 1.0);
     return all(greaterThanEqual(d, vec3(kInteriorPx)));
 }
 
@@ -313,7 +318,7 @@ void write_cell_indices(uvec2 id) {
     ivec2 provoking[2] = ivec2[2](ivec2(id) + ivec2(1, 1), ivec2(id) + ivec2(0, 1));
     for (int t = 0; t < 2; ++t) {
         uvec3 i = tri[t];
-        bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
+        bool clipped = vertex_texel(3u * i.x).z > 1.0 && vertex_texel(3u * i.y).z > 1.0 && vertex_texel(3u * i.z).z > 1.0;
         bool kept = valid(i.x) && valid(i.y) && valid(i.z) && !clipped && rasterisable(i.x, i.y, i.z);
         bool interior = split_interior && kept && inside_rims(i) && fan_inside_iris(i.z, provoking[t].x, provoking[t].y);
         uvec3 drawn = kept && !interior ? i : uvec3(a);
@@ -330,7 +335,7 @@ void write_cell_indices(uvec2 id) {
 
 // Whether triangle i is small: drawn apart (corners valid, not all beyond the apertures, not rasterisable).
 bool small_triangle(uvec3 i) {
-    bool clipped = vertices[3u * i.x].z > 1.0 && vertices[3u * i.y].z > 1.0 && vertices[3u * i.z].z > 1.0;
+    bool clipped = vertex_texel(3u * i.x).z > 1.0 && vertex_texel(3u * i.y).z > 1.0 && vertex_texel(3u * i.z).z > 1.0;
     return valid(i.x) && valid(i.y) && valid(i.z) && !clipped && !rasterisable(i.x, i.y, i.z);
 }
 
@@ -357,8 +362,8 @@ void list_small_triangles(uvec2 id) {
 
 void main() {
     uvec2 id = grid_vertex(grid);
-    first = batched ? uint(jobs[batch_job()].steps.z) : vertex_offset;
-    crossings = batched ? jobs[batch_job()].steps.w : stop_crossings;
+    first = batched ? uint(job_steps(batch_job()).z) : vertex_offset;
+    crossings = batched ? job_steps(batch_job()).w : stop_crossings;
     if (list_small) list_small_triangles(id);  // before any invocation leaves: it waits for them all
     if (id.x > uint(grid) || id.y > uint(grid)) return;
     if (write_indices && id.x < uint(grid) && id.y < uint(grid)) write_cell_indices(id);
@@ -412,9 +417,10 @@ void main() {
 // (ghost_shade_comp's rasterisable), drawn apart (ghost_raster_vert's SMALL_TRIANGLES).
 inline constexpr const char* ghost_grid_glsl = R"GLSL(
 #version 430
-layout(std430, binding = 2) readonly buffer Vertices { vec4 vertices[]; };
+uniform samplerBuffer vertex_texels;  // the traced vertices (ghost_trace_comp), read by texel fetches
+vec4 vertex_texel(int i) { return texelFetch(vertex_texels, i); }
 uniform int grid;
-uniform int first_vertex;     // the ghost's first vertex in vertices[]
+uniform int first_vertex;     // the ghost's first vertex in vertex_texels
 uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
@@ -423,18 +429,18 @@ uniform vec4 channels;        // what the ghost adds to R, G, B
 uniform int stop_crossings;
 uniform vec2 viewport;        // the target's pixels (a band of the full-size image: its rows)
 uniform uint first_index;     // the ghost's first triangle index in indices[] (ghost_shade_comp's write_cell_indices)
-layout(std430, binding = 4) readonly buffer Indices { uint indices[]; };
+uniform usamplerBuffer index_texels;  // the triangle indices (ghost_shade_comp's write_cell_indices)
 
 // A batched draw's ghost of this vertex: its vertices are the (grid + 1)^2 from the draw's first_vertex on,
 // one ghost's after another.
 int draw_job() { return first_job + (gl_VertexID - first_vertex) / ((grid + 1) * (grid + 1)); }
 
 // The drawn ghost's own values: its uniforms, or in a batched draw its job.
-int ghost_first_vertex() { return batched ? jobs[draw_job()].steps.z : first_vertex; }
-int ghost_stop_crossings() { return batched ? jobs[draw_job()].steps.w : stop_crossings; }
-float ghost_triangle_flux() { return batched ? jobs[draw_job()].flux.x : triangle_flux; }
-vec2 ghost_offset_mm() { return batched ? jobs[draw_job()].flux.yz : offset_mm; }
-vec4 ghost_channels() { return batched ? jobs[draw_job()].channels : channels; }
+int ghost_first_vertex() { return batched ? job_steps(draw_job()).z : first_vertex; }
+int ghost_stop_crossings() { return batched ? job_steps(draw_job()).w : stop_crossings; }
+float ghost_triangle_flux() { return batched ? job_flux(draw_job()).x : triangle_flux; }
+vec2 ghost_offset_mm() { return batched ? job_flux(draw_job()).yz : offset_mm; }
+vec4 ghost_channels() { return batched ? job_channels(draw_job()) : channels; }
 
 ivec3 triangle_corners(int tri) {
     int cell = tri / 2;
@@ -450,16 +456,16 @@ ivec3 triangle_corners(int tri) {
 // the draws of ghosts with a rim pass, whose triangles are all in the first list (never split: splits_interior).
 bool rasterised(int tri) {
     uint at = first_index + 3u * uint(tri);
-    return indices[at] != indices[at + 1u];
+    return texelFetch(index_texels, int(at)).r != texelFetch(index_texels, int(at + 1u)).r;
 }
 
 bool corners_valid(ivec3 i) {
-    return vertices[3 * i.x + 2].z > 0.5 && vertices[3 * i.y + 2].z > 0.5 && vertices[3 * i.z + 2].z > 0.5;
+    return vertex_texel(3 * i.x + 2).z > 0.5 && vertex_texel(3 * i.y + 2).z > 0.5 && vertex_texel(3 * i.z + 2).z > 0.5;
 }
 
 // Whether a triangle's corners all lie beyond the lens's apertures (r_rel > 1, linear over it): it draws nothing.
 bool beyond_apertures(ivec3 i) {
-    return vertices[3 * i.x].z > 1.0 && vertices[3 * i.y].z > 1.0 && vertices[3 * i.z].z > 1.0;
+    return vertex_texel(3 * i.x).z > 1.0 && vertex_texel(3 * i.y).z > 1.0 && vertex_texel(3 * i.z).z > 1.0;
 }
 
 // Upright photograph: the sensor image turned 180 degrees.
@@ -648,17 +654,17 @@ vec2 grown_corner(vec2 p[3], int corner) {
 
 // Triangle i's area on the sensor (mm^2).
 float sensor_area(ivec3 i) {
-    vec2 e1 = vertices[3 * i.y].xy - vertices[3 * i.x].xy;
-    vec2 e2 = vertices[3 * i.z].xy - vertices[3 * i.x].xy;
+    vec2 e1 = vertex_texel(3 * i.y).xy - vertex_texel(3 * i.x).xy;
+    vec2 e2 = vertex_texel(3 * i.z).xy - vertex_texel(3 * i.x).xy;
     return 0.5 * abs(cross2(e1, e2));
 }
 
 // This corner of triangle i moved (grown_corner), with the triangle's values carried on to where it went, and
 // the triangle's corners.
 void emit_grown_corner(ivec3 i, int corner, bool drop) {
-    mat3x4 q = mat3x4(vertices[3 * i.x], vertices[3 * i.y], vertices[3 * i.z]);
-    mat3x4 s = mat3x4(vertices[3 * i.x + 1], vertices[3 * i.y + 1], vertices[3 * i.z + 1]);
-    mat3x4 w = mat3x4(vertices[3 * i.x + 2], vertices[3 * i.y + 2], vertices[3 * i.z + 2]);
+    mat3x4 q = mat3x4(vertex_texel(3 * i.x), vertex_texel(3 * i.y), vertex_texel(3 * i.z));
+    mat3x4 s = mat3x4(vertex_texel(3 * i.x + 1), vertex_texel(3 * i.y + 1), vertex_texel(3 * i.z + 1));
+    mat3x4 w = mat3x4(vertex_texel(3 * i.x + 2), vertex_texel(3 * i.y + 2), vertex_texel(3 * i.z + 2));
     vec2 p[3] = vec2[3](window_position(q[0].xy), window_position(q[1].xy), window_position(q[2].xy));
     vec2 moved = grown_corner(p, corner);
     vec3 at = barycentric(moved, p[0], p[1], p[2]);
@@ -670,7 +676,7 @@ void emit_grown_corner(ivec3 i, int corner, bool drop) {
 #endif
 
 #ifdef SMALL_TRIANGLES
-layout(std430, binding = 5) readonly buffer SmallList { uint small_list[]; };
+uniform usamplerBuffer small_texels;  // the small triangles' list (ghost_shade_comp's list_small_triangles)
 uniform uint small_first;  // the ghost's list (ghost_shade_comp's list_small_triangles)
 
 // A corner of one of a ghost's small triangles, listed by its shade pass and drawn by the work groups'
@@ -679,7 +685,7 @@ uniform uint small_first;  // the ghost's list (ghost_shade_comp's list_small_tr
 // in, which would take a sliver's light away from it).
 void main() {
     int corner = gl_VertexID % 3;
-    ivec3 i = triangle_corners(int(small_list[small_first + uint(gl_VertexID / 3)]));
+    ivec3 i = triangle_corners(int(texelFetch(small_texels, int(small_first + uint(gl_VertexID / 3))).r));
     v_outer = 0;
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
@@ -692,13 +698,13 @@ void main() {
 // so shaded once however many triangles share it rather than once per triangle corner; without the rim's values
 // (v_bary, v_outer), which cost every triangle and every pixel.
 void main() {
-    vec4 q = vertices[3 * gl_VertexID];
-    vec4 w = vertices[3 * gl_VertexID + 2];
+    vec4 q = vertex_texel(3 * gl_VertexID);
+    vec4 w = vertex_texel(3 * gl_VertexID + 2);
     v_channels = ghost_channels();
     v_stop_crossings = ghost_stop_crossings();
     gl_Position = w.z > 0.5 ? clip_position(q.xy) : vec4(2.0, 2.0, 2.0, 1.0);  // a lost ray: only in points
     v_inside_iris = w.z > 0.5 ? int(round((w.z - 1.0) * 1024.0)) & 64 : 0;
-    emit_values(q, vertices[3 * gl_VertexID + 1], w);
+    emit_values(q, vertex_texel(3 * gl_VertexID + 1), w);
 }
 #else
 void main() {
@@ -707,7 +713,7 @@ void main() {
     ivec3 i = triangle_corners(tri);
     // The cell's outer edges (ghost_shade_comp): lower triangle (a, a+1, a+stride+1): below is opposite
     // corner 2, right opposite 0; upper (a, a+stride+1, a+stride): above opposite 0, left opposite 1.
-    int cell_bits = int(round((vertices[3 * i.x + 2].z - 1.0) * 1024.0));
+    int cell_bits = int(round((vertex_texel(3 * i.x + 2).z - 1.0) * 1024.0));
     int cell_outer = cell_bits & 15;
     bool in_band = (cell_bits & ((tri & 1) == 0 ? 16 : 32)) != 0;
     v_outer = (tri & 1) == 0 ? (((cell_outer & 1) != 0 ? 4 : 0) | ((cell_outer & 2) != 0 ? 1 : 0))
@@ -719,9 +725,9 @@ void main() {
 #else
     v_bary = vec3(corner == 0 ? 1.0 : 0.0, corner == 1 ? 1.0 : 0.0, corner == 2 ? 1.0 : 0.0);
     int me = i[corner];
-    vec4 q = vertices[3 * me];
-    vec4 s = vertices[3 * me + 1];
-    vec4 w = vertices[3 * me + 2];
+    vec4 q = vertex_texel(3 * me);
+    vec4 s = vertex_texel(3 * me + 1);
+    vec4 w = vertex_texel(3 * me + 2);
     if (!rasterised(tri) || (rim_mode == 2 && !in_band)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
     } else {

@@ -1,6 +1,7 @@
 // GL object owners, named shader programs and the float render target.
 #include <gpu/gl.h>
 
+#include <algorithm>
 #include <stdexcept>
 #include <utility>
 
@@ -56,6 +57,11 @@ GlObject GlObject::texture() {
     glCreateTextures(GL_TEXTURE_2D, 1, &n);
     return {Kind::Texture, n};
 }
+GlObject GlObject::buffer_texture() {
+    GLuint n = 0;
+    glCreateTextures(GL_TEXTURE_BUFFER, 1, &n);
+    return {Kind::Texture, n};
+}
 GlObject GlObject::framebuffer() {
     GLuint n = 0;
     glCreateFramebuffers(1, &n);
@@ -65,6 +71,14 @@ GlObject GlObject::vertex_array() {
     GLuint n = 0;
     glCreateVertexArrays(1, &n);
     return {Kind::VertexArray, n};
+}
+
+void view_buffer_texels(const GlObject& texture, unsigned format, const GlObject& buffer, std::size_t texels, std::string_view what) {
+    GLint most = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &most);
+    if (texels > static_cast<std::size_t>(std::max(most, 0)))
+        throw std::runtime_error(fmt::format("{}: {} texels, over the GL's largest buffer texture ({} texels)", what, texels, most));
+    glTextureBuffer(texture.get(), format, buffer.get());
 }
 
 namespace {

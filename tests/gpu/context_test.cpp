@@ -1,6 +1,9 @@
 // The headless EGL context, named shader errors and the float render target.
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include <epoxy/gl.h>
 
 #include <gtest/gtest.h>
 
@@ -67,6 +70,45 @@ TEST(FloatTarget, ClearsAndReadsBackZeros) {
     ASSERT_EQ(pixels.size(), 7u * 5u * 4u);
     for (float v : pixels) EXPECT_EQ(v, 0.0f);
     EXPECT_THROW(FloatTarget(0, 4), std::invalid_argument);
+}
+
+// A buffer read by texel fetches (the ghost shaders' traced vertices, steps, tables, jobs and lists): its texels come
+// back as written, and a view of more texels than the GL's largest buffer texture is refused by name rather than
+// read as zeros past the limit.
+TEST(BufferTexels, ReadBackAsWrittenAndOverTheLimitRefused) {
+    const Context context(Platform::Surfaceless);
+    const std::vector<float> written{1.5f, -2.0f, 3.25f, 4.0f, 5.0f, 6.0f, 7.0f, 8.0f};
+    GlObject buffer = GlObject::buffer();
+    glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(written.size() * sizeof(float)), written.data(), 0);
+    GlObject texels = GlObject::buffer_texture();
+    view_buffer_texels(texels, GL_RGBA32F, buffer, 2, "the test's vertices");
+    const Program program("texel_copy.comp", {{ShaderStage::Type::Compute, R"GLSL(#version 430
+layout(local_size_x = 2) in;
+uniform samplerBuffer texels;
+layout(std430, binding = 0) writeonly buffer Out { vec4 copied[]; };
+void main() { copied[gl_LocalInvocationID.x] = texelFetch(texels, int(gl_LocalInvocationID.x)); }
+)GLSL"}});
+    GlObject out = GlObject::buffer();
+    glNamedBufferStorage(out.get(), static_cast<GLsizeiptr>(written.size() * sizeof(float)), nullptr, 0);
+    glUseProgram(program.get());
+    glProgramUniform1i(program.get(), program.uniform("texels"), 2);
+    glBindTextureUnit(2, texels.get());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, out.get());
+    glDispatchCompute(1, 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<float> copied(written.size());
+    glGetNamedBufferSubData(out.get(), 0, static_cast<GLsizeiptr>(copied.size() * sizeof(float)), copied.data());
+    EXPECT_EQ(copied, written);
+
+    GLint most = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &most);
+    try {
+        view_buffer_texels(texels, GL_RGBA32F, buffer, static_cast<std::size_t>(most) + 1, "the test's vertices");
+        FAIL() << "a view past the limit was taken";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("the test's vertices"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("largest buffer texture"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace

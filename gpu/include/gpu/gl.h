@@ -2,6 +2,7 @@
 // and GL error checks that are active in debug builds only. Needs a current gpu::Context.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -28,6 +29,7 @@ public:
 
     static GlObject buffer();
     static GlObject texture();
+    static GlObject buffer_texture();  // a GL_TEXTURE_BUFFER: a buffer read by texelFetch
     static GlObject framebuffer();
     static GlObject vertex_array();
 
@@ -36,6 +38,11 @@ private:
     Kind kind_ = Kind::Buffer;
     unsigned name_ = 0;
 };
+
+// `texture` (a buffer_texture) made a view of the whole of `buffer`, `texels` texels of `format` (GL_RGBA32F,
+// GL_R32UI, ...). Throws std::runtime_error naming `what` where the GL's largest buffer texture holds fewer (GL 4.3
+// promises only 65,536 texels; past it a texel fetch would read zeros).
+void view_buffer_texels(const GlObject& texture, unsigned format, const GlObject& buffer, std::size_t texels, std::string_view what);
 
 struct ShaderStage {
     enum class Type { Vertex, Fragment, Compute };
