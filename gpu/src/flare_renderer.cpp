@@ -41,6 +41,8 @@ namespace {
 // trace's steps and factor tables (UploadedSequences), the traced vertices, the jobs (as integers and as floats),
 // the triangle indices and the small triangles' lists (DrawBuffers).
 enum TexelUnit : int { kStepUnit = 2, kFactorUnit, kVertexUnit, kJobIntUnit, kJobFloatUnit, kIndexUnit, kSmallUnit };
+// What a pass's storage-buffer writes need before the next reads them: as storage buffers and as texel fetches.
+constexpr GLbitfield kWrittenForReading = GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT;
 constexpr int kTableSize = 256;        // Fresnel/coating factor samples over cos(incidence) in [0, 1]
 constexpr int kPeakGrid = 32;          // cells per side of the finer pass over a ghost the coarse pass found no peak of
 // A point-sampled ghost's triangles under kSmallAreaPx pixels of its level, or under kSliverAreaPx pixels and
@@ -1397,11 +1399,11 @@ void FlareRenderer::Drawing::trace_batch(const std::vector<BatchJob>& batch, con
         s_.report.stats.rays += band_ == 0 ? static_cast<long long>(grid + 1) * (grid + 1) : 0;
         dispatch_trace(grid, pd.estimates[g].rect, pd.rotation, pd.direction, pd.seq.offset[g], pd.seq.count[g], job.first_vertex);
     }
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glMemoryBarrier(kWrittenForReading);
     glUseProgram(s_.programs.shade.get());
     for (std::size_t j = 0; j < batch.size(); ++j)
         dispatch_shade(pd.plans[batch[j].ghost], batch[j], small_lists_[j], pd.seq.stop_crossings[batch[j].ghost]);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+    glMemoryBarrier(kWrittenForReading | GL_ELEMENT_ARRAY_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
     check_gl(fmt::format("tracing {} ghosts at {} nm", batch.size(), pd.pass.wavelength_nm));
 }
 
@@ -1560,7 +1562,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
         trace_uniforms(run.grid, pd.rotation, pd.direction);
         dispatch_batched(s_.programs.trace, run);
     }
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glMemoryBarrier(kWrittenForReading);
     for (const FaintRun& run : runs) {
         shade_uniforms(run.grid, run.reduce, false, false);
         glUniform2f(s_.programs.shade.uniform("pixels_per_mm"), 0.0f, 0.0f);  // no rim pass
@@ -1571,7 +1573,7 @@ void FlareRenderer::Drawing::draw_faint_chunk(const std::vector<FaintRun>& runs,
         split_interior_uniforms(false, 0, run.reduce);  // one list (splits_interior)
         dispatch_batched(s_.programs.shade, run);
     }
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_ELEMENT_ARRAY_BARRIER_BIT);
+    glMemoryBarrier(kWrittenForReading | GL_ELEMENT_ARRAY_BARRIER_BIT);
     glVertexArrayElementBuffer(s_.buffers.vao.get(), s_.buffers.indices.get());
     for (const FaintRun& run : runs) raster_faint(run, pd);
     glVertexArrayElementBuffer(s_.buffers.vao.get(), 0);
