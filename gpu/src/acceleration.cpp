@@ -401,7 +401,7 @@ void BoundsTable::store(int index, std::vector<std::vector<GhostEstimate>> estim
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '6'};
+constexpr char kMagic[8] = {'L', 'F', 'X', 'B', 'N', 'D', 'S', '7'};  // 7: veils' peaks (measure_veil_cells)
 constexpr int kFieldsPerGhost = 18;
 
 }  // namespace
