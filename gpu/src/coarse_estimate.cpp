@@ -189,14 +189,16 @@ bool through_beyond_circle(const float* v, int stop_crossings, const optics::Iri
 
 // A veil larger than the frame: a ghost none of whose cells has four corners within the circle round the sensor
 // (measure_cells found no peak) may still cover the sensor with cells whose rays get through but land around it,
-// and the renderer draws those. Its peak is the brightest such cell whose sensor bounds reach the square round that
-// circle (its corners passing, or beyond the circle but through: neither the iris nor a rim blocks them), and its
-// sensor box theirs, within that square. Without this a veil's peak was unknown and scene culling drew it whole,
-// at full size with area coverage: nikon-80-200 on the 1080p stage frame, 65 draws, 2.2 s of its 2.5 s of drawing.
-// A ghost cut by the iris or a rim in every cell (a sliver of the pupil) stays unknown: the bounds of cells it
-// lights only in part would misstate its size to the level of detail.
-void measure_veil_cells(const CoarseGrid& grid, const std::vector<char>& fate, int stop_crossings, const Aperture& aperture,
+// and the renderer draws those within its rectangle (the passing rays' box grown by a cell: the cells [ix0 - 1, ix1]
+// x [iy0 - 1, iy1]). Its peak is the brightest such cell whose sensor bounds reach the square round that circle (its
+// corners passing, or beyond the circle but through: neither the iris nor a rim blocks them), and its sensor box
+// theirs, within that square (the ghost's own frame: a style's offset moves it after, cull_item). Without this a
+// veil's peak was unknown and scene culling drew it whole, at full size with area coverage: nikon-80-200 on the 1080p
+// stage frame, 65 draws, 2.2 s of its 2.5 s of drawing. A ghost cut by the iris or a rim in every cell (a sliver of
+// the pupil) stays unknown: the bounds of cells it lights only in part would misstate its size to the level of detail.
+void measure_veil_cells(const CoarseGrid& grid, const CoarseFates& f, int stop_crossings, const Aperture& aperture,
                         double sensor_radius_mm, GhostEstimate& out) {
+    const std::vector<char>& fate = f.fate;
     const optics::IrisSdf iris_sdf(aperture);
     const auto through = [&](std::size_t c) {
         return fate[c] == kPasses || (fate[c] == kBlocked && through_beyond_circle(grid.vertex(c), stop_crossings, iris_sdf));
@@ -204,8 +206,8 @@ void measure_veil_cells(const CoarseGrid& grid, const std::vector<char>& fate, i
     const double r = sensor_radius_mm;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
     double peak = 0.0;
-    for (int iy = 0; iy < grid.res; ++iy) {
-        for (int ix = 0; ix < grid.res; ++ix) {
+    for (int iy = std::max(f.iy0 - 1, 0); iy <= std::min(f.iy1, grid.res - 1); ++iy) {
+        for (int ix = std::max(f.ix0 - 1, 0); ix <= std::min(f.ix1, grid.res - 1); ++ix) {
             const std::size_t a = grid.index(ix, iy);
             const std::size_t corner[4] = {a, a + 1, a + grid.stride + 1, a + grid.stride};
             if (!std::all_of(std::begin(corner), std::end(corner), through)) continue;
@@ -244,7 +246,7 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
     out.sensor = f.sensor;
     out.fill = passing_share(grid, f);
     measure_cells(grid, f.fate, out);
-    if (!(out.peak > 0.0)) measure_veil_cells(grid, f.fate, stop_crossings, aperture, sensor_radius_mm, out);
+    if (!(out.peak > 0.0)) measure_veil_cells(grid, f, stop_crossings, aperture, sensor_radius_mm, out);
     return out;
 }
 

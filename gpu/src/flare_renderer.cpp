@@ -68,7 +68,8 @@ struct StepData {
 };
 static_assert(sizeof(StepData) == 32);  // two RGBA32F texels (view_buffer_texels)
 
-// A ghost of a batched draw (shaders::ghost_job_glsl's GhostJob, std430).
+// A ghost of a batched draw: four texels of the jobs' buffer textures (shaders::ghost_job_glsl's job_steps, job_rect,
+// job_channels, job_flux).
 struct GhostJob {
     std::int32_t steps[4];  // first step, step count, first vertex, stop crossings
     float rect[4];          // entrance-plane rectangle (mm)
@@ -83,7 +84,7 @@ std::string after_version(const std::string& source, const std::string& text) {
     return source.substr(0, line_end + 1) + text + source.substr(line_end + 1);
 }
 
-// A shader's source with the batched draw's job buffer declared after its #version line.
+// A shader's source with the batched draw's job readers declared after its #version line.
 std::string with_jobs(const std::string& source) { return after_version(source, shaders::ghost_job_glsl); }
 
 // The work groups of 64 vertices, one after another (grid_vertex), of a grid of res cells a side.
@@ -164,6 +165,14 @@ struct GhostPrograms {
     bool by_indices(const Program& program) const { return &program == &indexed || &program == &faint; }
 };
 
+// The buffer texture a buffer is read through, its texels' format and size, and the buffer's name in an error.
+struct TexelView {
+    GlObject* texels = nullptr;  // none: the buffer is not read by texel fetches
+    unsigned format = 0;
+    std::size_t texel_bytes = 4;
+    const char* what = "";
+};
+
 // The buffers the passes read and write: the vertex array, the traced vertices (grown as passes ask for them,
 // never shrunk) and a batched draw's GhostJobs and triangle indices (grown likewise).
 struct DrawBuffers {
@@ -191,25 +200,21 @@ struct DrawBuffers {
     void reserve_vertices(std::size_t count) {
         const std::size_t bytes = count * kVertexBytes;
         if (bytes <= vertices_bytes) return;
-        vertices_bytes = std::max(bytes, std::min(2 * vertices_bytes, kBatchBytes));
-        vertices = GlObject::buffer();
-        glNamedBufferStorage(vertices.get(), static_cast<GLsizeiptr>(vertices_bytes), nullptr, 0);
-        view_buffer_texels(vertex_texels, GL_RGBA32F, vertices, vertices_bytes / 16, "the traced vertices");
+        reserve(vertices, vertices_bytes, std::max(bytes, std::min(2 * vertices_bytes, kBatchBytes)),
+                {&vertex_texels, GL_RGBA32F, 16, "the traced vertices"});
     }
     // The vertices bound for the passes: written as a storage buffer, read as a buffer texture.
     void bind_vertices() const {
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, vertices.get());
         glBindTextureUnit(kVertexUnit, vertex_texels.get());
     }
-    void reserve_indices(std::size_t bytes) {
-        if (reserve(indices, indices_bytes, bytes)) view_buffer_texels(index_texels, GL_R32UI, indices, indices_bytes / 4, "the triangle indices");
-    }
+    void reserve_indices(std::size_t bytes) { reserve(indices, indices_bytes, bytes, {&index_texels, GL_R32UI, 4, "the triangle indices"}); }
     void reserve_small(std::size_t slots, std::size_t commands) {
-        if (reserve(small_list, small_list_bytes, slots * sizeof(GLuint)))
-            view_buffer_texels(small_texels, GL_R32UI, small_list, small_list_bytes / 4, "the small triangles' lists");
+        reserve(small_list, small_list_bytes, slots * sizeof(GLuint), {&small_texels, GL_R32UI, 4, "the small triangles' lists"});
         reserve(small_commands, small_commands_bytes, commands * kDrawCommandBytes);
     }
-    // The jobs given their data, and their texel views made anew (the data store is specified again).
+    // The jobs given their data, and their texel views checked against the GL's limit for this size (a view
+    // follows its buffer's data store when that is specified again).
     void upload_jobs(const void* data, std::size_t bytes) {
         glNamedBufferData(jobs.get(), static_cast<GLsizeiptr>(bytes), data, GL_STREAM_DRAW);
         view_buffer_texels(job_ints, GL_RGBA32I, jobs, bytes / 16, "the faint ghosts' jobs");
@@ -227,14 +232,16 @@ struct DrawBuffers {
     }
 
 private:
-    // `buffer` made anew with `bytes` where it holds less (its contents are not kept); whether it was.
-    static bool reserve(GlObject& buffer, std::size_t& held, std::size_t bytes) {
+    // `buffer` made anew with `bytes` where it holds less (its contents are not kept), with its view: nothing is
+    // changed where the view would pass the GL's limit (view_buffer_texels throws first).
+    static void reserve(GlObject& buffer, std::size_t& held, std::size_t bytes, const TexelView& view = {}) {
         bytes = std::max<std::size_t>(bytes, 1);
-        if (bytes <= held) return false;
-        buffer = GlObject::buffer();
-        glNamedBufferStorage(buffer.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
+        if (bytes <= held) return;
+        GlObject made = GlObject::buffer();
+        glNamedBufferStorage(made.get(), static_cast<GLsizeiptr>(bytes), nullptr, 0);
+        if (view.texels) view_buffer_texels(*view.texels, view.format, made, bytes / view.texel_bytes, view.what);
+        buffer = std::move(made);
         held = bytes;
-        return true;
     }
 };
 
@@ -1011,7 +1018,7 @@ void FlareRenderer::Drawing::find_unknown_peaks(std::vector<GhostEstimate>& coar
 // one of the two angles and none at the other, or a sliver at either: BoundsTable::interpolate), traced again at
 // that angle as the table's entries are (the light at azimuth 0, a round iris), so scene culling judges them by
 // their own light rather than drawing them whole: nikon-80-200 on the 1080p stage frame has 83 such items, veils
-// wider than the frame (measure_veil_cells), whose full-size draws took 2.2 s.
+// wider than the frame (measure_veil_cells), which made 65 full-size draws that took 2.2 s.
 void FlareRenderer::Drawing::find_unknown_peaks_at(std::vector<GhostEstimate>& estimates, const GhostSequences& seq, const FlareView& lit,
                                                    double theta_deg) {
     FlareView at = lit;

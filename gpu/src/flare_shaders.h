@@ -50,7 +50,7 @@ struct StepData { vec4 geom; vec4 media; };
 uniform samplerBuffer step_texels;    // the steps, two texels each (geom, media)
 uniform samplerBuffer factor_texels;  // the factor tables
 layout(std430, binding = 2) writeonly buffer Vertices { vec4 vertices[]; };
-uniform int step_offset;  // this ghost's first step in steps[]
+uniform int step_offset;  // this ghost's first step (two texels each in step_texels)
 uniform int step_count;
 uniform uint vertex_offset;  // this ghost's first vertex in vertices[]
 uniform int grid;
@@ -420,7 +420,7 @@ inline constexpr const char* ghost_grid_glsl = R"GLSL(
 uniform samplerBuffer vertex_texels;  // the traced vertices (ghost_trace_comp), read by texel fetches
 vec4 vertex_texel(int i) { return texelFetch(vertex_texels, i); }
 uniform int grid;
-uniform int first_vertex;     // the ghost's first vertex in vertex_texels
+uniform int first_vertex;     // the ghost's first vertex (three texels each in vertex_texels)
 uniform vec2 half_sensor;     // mm
 uniform float triangle_flux;  // half a cell's entrance area x cos(light angle)
 uniform vec2 offset_mm;       // the ghost's shift in the upright photograph (right, up)
@@ -428,7 +428,7 @@ uniform float pixel_area;     // mm^2
 uniform vec4 channels;        // what the ghost adds to R, G, B
 uniform int stop_crossings;
 uniform vec2 viewport;        // the target's pixels (a band of the full-size image: its rows)
-uniform uint first_index;     // the ghost's first triangle index in indices[] (ghost_shade_comp's write_cell_indices)
+uniform uint first_index;     // the ghost's first triangle index in index_texels (ghost_shade_comp's write_cell_indices)
 uniform usamplerBuffer index_texels;  // the triangle indices (ghost_shade_comp's write_cell_indices)
 
 // A batched draw's ghost of this vertex: its vertices are the (grid + 1)^2 from the draw's first_vertex on,

@@ -66,6 +66,34 @@ TEST(CoarseEstimate, AVeilWiderThanTheFrameGetsThePeakOfItsCellsOverTheSensor) {
     EXPECT_DOUBLE_EQ(e.extent_mm, 2.0 * kSensorRadius);
 }
 
+// A small bright cell of the veil's rays (1 mm^2 on the sensor: its irradiance 10,000 times the others') counts only
+// where the renderer draws it and where it lands on the sensor: outside the ghost's rectangle (the one passing ray's
+// cells, [1, 2] x [1, 2]) it is not drawn, and beside the square round the sensor's circle it adds nothing there.
+constexpr double kBrightCell = kCellPower / 1.0;
+Landing bright_corner(int ix, int iy, double x, double y) { return Landing{x + (ix % 2 == 0 ? -0.5 : 0.5), y + (iy % 2 == 0 ? -0.5 : 0.5)}; }
+
+TEST(CoarseEstimate, AVeilsCellsCountOnlyWithinItsRectangle) {
+    // Cell (0, 0), outside the rectangle, lands 28 mm from the centre (beyond the circle, within the square).
+    const GhostEstimate e = estimate(grid_of([](int ix, int iy) {
+        if (ix <= 1 && iy <= 1) return bright_corner(ix, iy, -20.0, -20.0);
+        return Landing{100.0 * (ix - 2), 100.0 * (iy - 2)};
+    }));
+    ASSERT_GT(e.peak, 0.0);
+    EXPECT_LT(e.peak, 0.01 * kBrightCell);
+}
+
+TEST(CoarseEstimate, AVeilsCellsBesideTheSensorAddNothing) {
+    // Two passing rays, at (1, 1) and (3, 3), make the rectangle every cell; cell (2, 0), none of whose corners
+    // pass, lands 100 mm right of the centre.
+    const GhostEstimate e = estimate(grid_of([](int ix, int iy) {
+        if ((ix == 1 && iy == 1) || (ix == 3 && iy == 3)) return Landing{0.5 * (ix - 2), 0.5 * (iy - 2)};
+        if (ix >= 2 && iy <= 1) return bright_corner(ix, iy, 100.0, 0.0);
+        return Landing{100.0 * (ix - 2) + 50.0, 100.0 * (iy - 2) + 50.0};  // (2, 2) too beyond the circle
+    }));
+    ASSERT_GT(e.peak, 0.0);
+    EXPECT_LT(e.peak, 0.01 * kBrightCell);
+}
+
 TEST(CoarseEstimate, AVeilCutByTheIrisEverywhereStaysUnknown) {
     // The rays beyond the circle are outside the iris (stop uv 3 radii out): no cell gets through whole.
     const GhostEstimate e = estimate(grid_of([](int ix, int iy) {

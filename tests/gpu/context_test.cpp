@@ -74,7 +74,7 @@ TEST(FloatTarget, ClearsAndReadsBackZeros) {
 
 // A buffer read by texel fetches (the ghost shaders' traced vertices, steps, tables, jobs and lists): its texels come
 // back as written, and a view of more texels than the GL's largest buffer texture is refused by name rather than
-// read as zeros past the limit.
+// read past the limit, where a texel fetch's result is undefined.
 TEST(BufferTexels, ReadBackAsWrittenAndOverTheLimitRefused) {
     const Context context(Platform::Surfaceless);
     const std::vector<float> written{1.5f, -2.0f, 3.25f, 4.0f, 5.0f, 6.0f, 7.0f, 8.0f};

@@ -18,7 +18,8 @@ GhostEstimate coarse_estimate(const float* vertices, int res, const PupilRect& s
 
 // A ghost's peak and sensor box from a finer pass over its own rectangle (its coarse estimate had no whole
 // cell): the finer pass's peak when it found one, the brighter of the two passes' rim rings and the union of the
-// two boxes; the rest stays the coarse pass's, so only scene culling sees the difference.
+// two boxes; the rest stays the coarse pass's. Scene culling judges the ghost by them; the level of detail reads the
+// box too (its size, its mean triangle: acceleration.cpp's sensor_size_mm and mean_triangle_mm2).
 void learn_peak(GhostEstimate& coarse, const GhostEstimate& fine);
 
 }  // namespace lensfx::gpu

@@ -41,7 +41,7 @@ private:
 
 // `texture` (a buffer_texture) made a view of the whole of `buffer`, `texels` texels of `format` (GL_RGBA32F,
 // GL_R32UI, ...). Throws std::runtime_error naming `what` where the GL's largest buffer texture holds fewer (GL 4.3
-// promises only 65,536 texels; past it a texel fetch would read zeros).
+// promises only 65,536 texels; past it what a texel fetch reads is undefined).
 void view_buffer_texels(const GlObject& texture, unsigned format, const GlObject& buffer, std::size_t texels, std::string_view what);
 
 struct ShaderStage {
