@@ -289,7 +289,7 @@ struct LensCaches {
     std::map<std::uint64_t, BoundsTable> bounds_tables;                         // in memory, per key
     // A table's estimates at a light's field angle, its unknown peaks traced again (find_unknown_peaks_at): per
     // table key, pass and angle, so an extended light's footprint groups and a still light's next frames, drawn at
-    // the same angle, trace them once (canon-70-200 on the 1080p stage frame: 54 such passes a frame, 9 distinct).
+    // the same angle, trace them once (canon-70-200 on the 1080p stage frame: 54 such passes a frame, 6 distinct).
     std::map<std::tuple<std::uint64_t, std::size_t, double>, std::vector<GhostEstimate>> table_estimates;
 };
 
