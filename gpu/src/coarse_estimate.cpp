@@ -43,16 +43,21 @@ struct CoarseFates {
     int ix0 = 0, iy0 = 0, ix1 = 0, iy1 = 0;
 };
 
+// Whether a vertex's ray is inside the iris at each of its (at most three) stop crossings.
+bool inside_iris(const float* v, int stop_crossings, const optics::IrisSdf& iris_sdf) {
+    for (int k = 0; k < std::min(stop_crossings, 3); ++k)
+        if (!(iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0)) return false;
+    return true;
+}
+
 // A vertex's fate: its ray failed, was clipped by a lens's rim, landed beyond sensor_radius_mm of the
 // centre (the circle round the sensor, the same for every azimuth of the light), was blocked by the iris at
-// one of its (at most three) stop crossings, or passes.
+// one of its stop crossings, or passes.
 VertexFate fate_of(const float* v, int stop_crossings, const optics::IrisSdf& iris_sdf, double sensor_radius_mm) {
     if (v[10] < 0.5f) return kFailed;
     if (v[2] > 1.0f) return kRimBlocked;
     if (std::hypot(static_cast<double>(v[0]), static_cast<double>(v[1])) > sensor_radius_mm) return kBlocked;
-    for (int k = 0; k < std::min(stop_crossings, 3); ++k)
-        if (!(iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0)) return kIrisBlocked;
-    return kPasses;
+    return inside_iris(v, stop_crossings, iris_sdf) ? kPasses : kIrisBlocked;
 }
 
 // Every vertex's fate, the passing rays' bounds, and their power added to out.power.
@@ -179,14 +184,6 @@ void measure_cells(const CoarseGrid& grid, const std::vector<char>& fate, GhostE
     }
 }
 
-// Whether a vertex the circle round the sensor left out (kBlocked) is otherwise through: traced and inside every
-// lens's rim (fate_of looked at those first), and inside the iris at each stop crossing.
-bool through_beyond_circle(const float* v, int stop_crossings, const optics::IrisSdf& iris_sdf) {
-    for (int k = 0; k < std::min(stop_crossings, 3); ++k)
-        if (!(iris_sdf(static_cast<double>(v[4 + 2 * k]), static_cast<double>(v[5 + 2 * k])) <= 0.0)) return false;
-    return true;
-}
-
 // A veil larger than the frame: a ghost none of whose cells has four corners within the circle round the sensor
 // (measure_cells found no peak) may still cover the sensor with cells whose rays get through but land around it,
 // and the renderer draws those within its rectangle (the passing rays' box grown by a cell: the cells [ix0 - 1, ix1]
@@ -200,8 +197,10 @@ void measure_veil_cells(const CoarseGrid& grid, const CoarseFates& f, int stop_c
                         double sensor_radius_mm, GhostEstimate& out) {
     const std::vector<char>& fate = f.fate;
     const optics::IrisSdf iris_sdf(aperture);
+    // A corner left out only by the circle (kBlocked: fate_of looked at the ray and the rims first) is through
+    // where the iris passes it too.
     const auto through = [&](std::size_t c) {
-        return fate[c] == kPasses || (fate[c] == kBlocked && through_beyond_circle(grid.vertex(c), stop_crossings, iris_sdf));
+        return fate[c] == kPasses || (fate[c] == kBlocked && inside_iris(grid.vertex(c), stop_crossings, iris_sdf));
     };
     const double r = sensor_radius_mm;
     PupilRect box{1e300, 1e300, -1e300, -1e300};
