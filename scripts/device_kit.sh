@@ -18,6 +18,10 @@ die() { echo "device_kit: $*" >&2; exit 1; }
 grep -q 'CMAKE_BUILD_TYPE:STRING=Release' build/CMakeCache.txt || die "build/ is not a Release build"
 [ -f "$shared/data/hdr/ScanLines/CandleGlass.exr" ] || die "no $shared/data/hdr/ScanLines/CandleGlass.exr (LENSFX_SHARED)"
 
+# A kit made before is replaced; any other folder of that name is left alone (KIT=. would be the checkout).
+if [ -e "$kit" ] && ! { [ -f "$kit/device_bench.sh" ] && [ -f "$kit/lib.tar.xz" ]; }; then
+    die "$kit exists and is not a kit made by this script: give a new folder"
+fi
 rm -rf "$kit"
 mkdir -p "$kit/bin" "$kit/lib" "$kit/data"
 cp "$binary" "$kit/bin/"
@@ -42,5 +46,9 @@ cp scripts/device_bench.sh "$kit/"
 
 # The libraries packed (the device tool carries 64 MiB with the working tree).
 tar -C "$kit" -cJf "$kit/lib.tar.xz" lib && rm -rf "$kit/lib"
-grep -qxF "/$kit/" .git/info/exclude 2>/dev/null || echo "/$kit/" >> .git/info/exclude
+# A kit inside the checkout stays out of git's view (and so travels only where carry names it).
+case $kit in
+    /* | ../*) ;;
+    *) grep -qxF "/$kit/" .git/info/exclude 2>/dev/null || echo "/$kit/" >> .git/info/exclude ;;
+esac
 echo "device_kit: $(du -sh "$kit" | cut -f1) in $kit; working tree $(git ls-files -z | du -cb --files0-from=- | tail -1 | cut -f1) bytes"
