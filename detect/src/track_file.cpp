@@ -148,8 +148,8 @@ std::string track_controls_json(const Track& t) {
 // Reads a track's optional "gain" (a finite number >= 0) and "exclude" (a boolean).
 void read_track_controls(const json& jt, const std::string& where, Track& t) {
     t.gain = field_or<double>(jt, "gain", 1.0, where);
-    if (!std::isfinite(t.gain) || t.gain < 0.0)
-        throw std::runtime_error(fmt::format("{}: \"gain\" must be a finite number >= 0, not {}", where, t.gain));
+    if (!std::isfinite(t.gain) || t.gain < 0.0 || t.gain > kMaxTrackGain)
+        throw std::runtime_error(fmt::format("{}: \"gain\" must be a number from 0 to {:g}, not {}", where, kMaxTrackGain, t.gain));
     t.exclude = field_or<bool>(jt, "exclude", false, where);
 }
 

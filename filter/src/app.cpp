@@ -6,6 +6,8 @@
 #include <charconv>
 #include <cstdio>
 #include <cctype>
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <string>
@@ -286,12 +288,57 @@ std::string empty_value_option(int argc, const char* const* argv) {
     return {};
 }
 
+namespace {
+
+// A shot file is a page of options: keys are option names, at most in a [subcommand] section ([lens.fit]).
+constexpr std::uintmax_t kMaxConfigBytes = std::uintmax_t{1} << 20;
+constexpr int kMaxConfigLevels = 8;
+
+// How many levels deep a line's key or [section] name goes (its dots before any '=', plus one); 0 for none.
+int key_levels(std::string_view line) {
+    const std::size_t start = line.find_first_not_of(" \t");
+    if (start == std::string_view::npos || line[start] == '#') return 0;
+    const std::size_t end = line[start] == '[' ? line.find(']', start) : line.find('=', start);
+    const std::string_view key = line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start);
+    return 1 + static_cast<int>(std::count(key.begin(), key.end(), '.'));
+}
+
+// Refuses, as a usage error naming the file and line, what CLI11's reader would take all the memory or time
+// for, or echo to the terminal: a file over kMaxConfigBytes, bytes that are not text, keys nested deeper than
+// kMaxConfigLevels (its memory grows with the square of the depth: 100,000 levels filled 24 GB).
+void check_config_text(const std::string& path) {
+    std::error_code ec;
+    if (const std::uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxConfigBytes)
+        throw CLI::ValidationError(fmt::format("--config {}", path), fmt::format("{} bytes, more than a shot file's 1 MiB", size));
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+        const auto binary = std::find_if(line.begin(), line.end(), [](char c) {
+            const auto u = static_cast<unsigned char>(c);
+            return u < 0x20 && c != '\t' && c != '\r';
+        });
+        if (binary != line.end())
+            throw CLI::ValidationError(fmt::format("--config {}, line {}", path, number),
+                                       fmt::format("not a text file (byte 0x{:02x})", static_cast<unsigned char>(*binary)));
+        if (const int levels = key_levels(line); levels > kMaxConfigLevels)
+            throw CLI::ValidationError(fmt::format("--config {}, line {}", path, number),
+                                       fmt::format("a key {} levels deep (at most {}: an option, in a [subcommand] section)", levels, kMaxConfigLevels));
+    }
+}
+
+void check_config_file(const std::string& path) {
+    require_regular_file(path, "--config");
+    check_config_text(path);
+}
+
+}  // namespace
+
 void refuse_special_config(int argc, const char* const* argv) {
     for (int i = 1; i < argc; ++i) {
         const std::string_view a = argv[i];
         if (a == "--") break;
-        if (a == "--config" && i + 1 < argc) require_regular_file(argv[i + 1], "--config");
-        if (a.rfind("--config=", 0) == 0) require_regular_file(std::string(a.substr(9)), "--config");
+        if (a == "--config" && i + 1 < argc) check_config_file(argv[i + 1]);
+        if (a.rfind("--config=", 0) == 0) check_config_file(std::string(a.substr(9)));
     }
 }
 

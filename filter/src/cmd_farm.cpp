@@ -26,6 +26,8 @@
 #include <fmt/core.h>
 
 #include <filter/sequence.h>
+#include <measured/model_file.h>
+#include <optics/lens_file.h>
 
 #include "commands.h"
 
@@ -278,6 +280,29 @@ void write_job_script(const FarmPlan& plan, const FarmSettings& s) {
     fs::rename(tmp, plan.script);
 }
 
+// The value of `--name VALUE` or `--name=VALUE` among the filter options, if given.
+std::optional<std::string> option_value(const std::vector<std::string>& options, const std::string& name) {
+    for (std::size_t i = 0; i < options.size(); ++i) {
+        if (options[i] == name && i + 1 < options.size()) return options[i + 1];
+        if (options[i].starts_with(name + "=")) return options[i].substr(name.size() + 1);
+    }
+    return std::nullopt;
+}
+
+// The filter's --lens read as each task would read it: a missing or broken lens fails here, once.
+void check_lens_option(const std::vector<std::string>& options) {
+    const std::optional<std::string> lens = option_value(options, "--lens");
+    if (!lens) return;
+    try {
+        if (measured::is_measured_file(*lens))
+            static_cast<void>(measured::read_measured(*lens));
+        else
+            static_cast<void>(optics::load_lens(*lens));
+    } catch (const std::exception& e) {
+        throw std::runtime_error(fmt::format("farm: filter options: --lens {}", e.what()));
+    }
+}
+
 // The filter options are checked here, once, rather than failing in every task on the farm.
 void check_filter_options(const std::vector<std::string>& options) {
     CLI::App app;
@@ -286,19 +311,11 @@ void check_filter_options(const std::vector<std::string>& options) {
     try {
         app.parse(args);
     } catch (const CLI::CallForHelp&) {
-        return;  // parsed; the filter would run now if it had -i and -o
-    } catch (const CLI::ParseError& e) {
-        throw std::runtime_error(fmt::format("farm: filter options: {}", e.what()));
+        // parsed; the filter would run now if it had -i and -o
+    } catch (const CLI::ParseError& e) {  // said as the filter would say it (an unknown option named, with a hint)
+        throw std::runtime_error(fmt::format("farm: filter options: {}", usage_error_message(app, e, options)));
     }
-}
-
-// The value of `--name VALUE` or `--name=VALUE` among the filter options, if given.
-std::optional<std::string> option_value(const std::vector<std::string>& options, const std::string& name) {
-    for (std::size_t i = 0; i < options.size(); ++i) {
-        if (options[i] == name && i + 1 < options.size()) return options[i + 1];
-        if (options[i].starts_with(name + "=")) return options[i].substr(name.size() + 1);
-    }
-    return std::nullopt;
+    check_lens_option(options);
 }
 
 // `lensfx track` once over the whole shot (with the filter's detection options), unless the track file

@@ -161,6 +161,9 @@ void refuse_idle_options(const FilterArgs& args, const CLI::App& app) {
         for (const char* name : {"--focus", "--tilt", "--focus-point", "--depth-scale", "--depth-channel", "--deep", "--dof-rays", "--dof-max-rays",
                                  "--no-chromatic-blur", "--dof-only"})
             if (given(name)) throw CLI::ValidationError(name, "applies to the lens blur, which is off: add --dof");
+    if (args.dof.enabled && args.flare.lens.empty()) throw CLI::ValidationError(std::string("--dof needs --lens"));  // usage errors: exit 2
+    if (args.dof.enabled && !args.dof.focus_m && args.dof.focus_points.empty())
+        throw CLI::ValidationError(std::string("--dof needs --focus METRES (or --focus-point X,Y,METRES)"));
     const PipelineOptions& o = args.pipeline;
     const OutputKind out = output_kind(o);
     if (given("--dither") && args.colour.dither_mode() != colour::Dither::None && !out.display_referred && o.output != "-")
@@ -227,6 +230,8 @@ void run_filter(FilterArgs& args, const CLI::App& app) {
     warn_about_zero_gain(args);
     refuse_output_over_side_inputs(args);
     if (o.report_path == "-" && o.output == "-") throw std::runtime_error("--report - and -o - would both write to stdout");
+    // the report is written after the frames: a place it cannot go fails the run before any frame replaces an output
+    if (!o.report_path.empty() && o.report_path != "-") require_writable_file(o.report_path, "--report");
     o.options_toml = app.config_to_str(false, false);
     if (args.progress) o.progress = Progress::on;
     o.write.display_bits = args.colour.bits;

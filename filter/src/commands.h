@@ -26,7 +26,8 @@ std::string empty_value_option(int argc, const char* const* argv);
 // The arguments after argv[0] with each unknown long option spelled "colour" or "color" replaced by the
 // other spelling when that one is known (both spellings work for every option, present and future).
 std::vector<std::string> normalise_spelling(const CLI::App& app, int argc, const char* const* argv);
-// Refuses a --config that names a FIFO, a device or a directory (CLI11 would read /dev/zero for ever).
+// Refuses a --config that names a FIFO, a device or a directory (CLI11 would read /dev/zero for ever), and one
+// whose text CLI11's reader would take unbounded memory or time for (over 1 MiB, not text, keys nested deeply).
 void refuse_special_config(int argc, const char* const* argv);
 // 0: no --version; 1: --version; 2: --version --verbose (before any "--").
 int wants_version(int argc, const char* const* argv);

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <system_error>
 #include <cstdio>
 #include <stdexcept>
 
@@ -193,7 +195,9 @@ DofRegion blur_extent(const ImageSpec& spec, const FlatContent& content, const d
     const double w_near = content.nearest_m > 0.0 ? 1.0 / content.nearest_m : table.focus_w;
     const double reach = table.max_slope * std::max(std::abs(w_near - table.focus_w), table.focus_w) + 2.0 * table.focus_spread +
                          dof::convergence_offset_px(table);
-    const int margin = static_cast<int>(std::ceil(reach)) + 8;
+    // no wider than the frame (a depth of 1e-10 m reaches 1e10 pixels: the whole frame, not an overflowed int)
+    const double frame_side = std::max(spec.width, spec.height);
+    const int margin = std::isfinite(reach) ? static_cast<int>(std::min(std::ceil(reach) + 8.0, frame_side)) : static_cast<int>(frame_side);
     const DofRegion& b = content.box;
     // at a multiple of 64 pixels, so the hierarchy's cells are the uncropped raster's
     const int x0 = std::max(0, b.x - margin) / 64 * 64, y0 = std::max(0, b.y - margin) / 64 * 64;
@@ -307,6 +311,7 @@ DofStage::DofStage(DofSettings settings, std::shared_ptr<GpuSession> gpu, bool f
         std::vector<dof::DeepImage> images;
         for (const std::string& f : split_commas(settings.deep)) {
             require_regular_file(f, "--deep");  // a named pipe would block the open
+            if (std::error_code ec; !std::filesystem::exists(f, ec)) throw std::runtime_error(fmt::format("--deep {}: file does not exist", f));
             try {
                 check_exr_header(f);  // before OpenEXR reads what the headers declare
             } catch (const std::runtime_error& e) {

@@ -222,9 +222,23 @@ void floats_to_halves(const float* src, std::size_t src_stride, std::byte* dst, 
     }
 }
 
+// Channel `channel` of a frame whose pixels release_rgb_pixels() let go: one of R, G, B, read from `rgb`, which
+// holds them (a depth or matte channel named R on an RGB frame). Any other channel has no values left.
+void released_channel_to_float(const Frame& frame, int channel, std::size_t first, std::size_t count, float* dst,
+                               std::size_t float_stride) {
+    const auto found = std::find(frame.rgb_channels.begin(), frame.rgb_channels.end(), channel);
+    if (found == frame.rgb_channels.end() || frame.rgb.size() != frame.pixel_count() * 3)
+        throw std::logic_error(fmt::format("channel {} read after the frame's pixels were released", channel));
+    const auto c = static_cast<std::size_t>(found - frame.rgb_channels.begin());
+    for (std::size_t i = 0; i < count; ++i) dst[i * float_stride] = frame.rgb[(first + i) * 3 + c];
+}
+
 // Channel `channel` of pixels [first, first + count) to or from floats `float_stride` apart.
 void channel_to_float(const Frame& frame, int channel, std::size_t first, std::size_t count, float* dst,
                       std::size_t float_stride) {
+    if (channel < 0 || channel >= frame.spec.nchannels())
+        throw std::out_of_range(fmt::format("channel {} of a frame with {} channels", channel, frame.spec.nchannels()));
+    if (frame.pixels.size() != frame.spec.image_bytes()) return released_channel_to_float(frame, channel, first, count, dst, float_stride);
     const std::size_t stride = frame.spec.pixel_bytes();
     const std::byte* base = frame.pixels.data() + channel_offsets(frame.spec)[static_cast<std::size_t>(channel)] + first * stride;
     if (frame.spec.channel_type(channel) == PixelType::half) return halves_to_floats(base, stride, dst, float_stride, count);

@@ -206,8 +206,15 @@ void write_all(int fd, std::string_view bytes, const std::string& what) {
 std::string written_path(const std::string& path) {
     std::error_code ec;
     if (!fs::is_symlink(path, ec)) return path;
-    const fs::path resolved = fs::weakly_canonical(path, ec);
-    return ec ? path : resolved.string();
+    fs::path p = path;
+    // each link read in turn, so that one to a file not made yet is written through to it (weakly_canonical stopped
+    // at such a link, which the commit then found was no regular file); a loop is left a link, which TempFile refuses
+    for (int hops = 0; hops < 40 && fs::is_symlink(p, ec); ++hops) {
+        const fs::path to = fs::read_symlink(p, ec);
+        if (ec) return path;
+        p = to.is_absolute() ? to : p.parent_path() / to;
+    }
+    return p.lexically_normal().string();
 }
 
 // An unnamed file (O_TMPFILE) in `dir` that the writers can open again by /proc/self/fd/N (returned in `reopen`), or -1
@@ -309,6 +316,7 @@ TempFile::TempFile(const std::string& target) : name_(target), target_(written_p
         const std::string link = target_ == target ? std::string() : fmt::format(" (a link to {})", target_);
         throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind));
     }
+    if (std::error_code ec; fs::is_symlink(target_, ec)) throw std::runtime_error(fmt::format("{}: a link that leads to no file (a loop)", target));
     const fs::path t(target_);
     path_ = (t.parent_path() / temporary_name(t)).string();
     fd_ = open_unnamed(t.parent_path().empty() ? "." : t.parent_path().string(), write_path_);
@@ -361,6 +369,17 @@ void TempFile::name_onto_target() {
     }
 }
 
+void require_writable_file(const std::string& path, std::string_view option) {
+    refuse_special_output(path, option);  // a device, pipe, directory or link loop, said with the option
+    TempFile probe(path);  // refuses a device, pipe or directory; gone again, uncommitted, at the end of this scope
+    const int fd = ::open(probe.path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0) throw std::runtime_error(fmt::format("{} {}: cannot write a file there: {}", option, path, std::strerror(errno)));
+    const bool wrote = ::write(fd, "{", 1) == 1;
+    const int error = errno;
+    ::close(fd);
+    if (!wrote) throw std::runtime_error(fmt::format("{} {}: cannot write a file there: {}", option, path, write_failure(error)));
+}
+
 void write_file(const std::string& path, std::string_view bytes) {
     TempFile tmp(path);
     const int fd = ::open(tmp.path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
@@ -399,11 +418,13 @@ std::size_t remove_stale_temporaries(const std::string& dir) {
 void refuse_special_output(const std::string& path, std::string_view option) {
     if (path.empty() || path == "-") return;
     require_regular_file(path, option);
+    if (std::error_code ec; fs::is_symlink(written_path(path), ec))
+        throw std::runtime_error(fmt::format("{} {}: a link that leads to no file (a loop)", option, path));
     require_output_directory(path);
 }
 
 void require_output_directory(const std::string& path) {
-    fs::path dir = fs::path(path).parent_path();
+    fs::path dir = fs::path(written_path(path)).parent_path();  // a link's target's folder: the file goes there
     if (dir.empty()) dir = ".";
     if (!fs::is_directory(dir)) {
         std::error_code ec;

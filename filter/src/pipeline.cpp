@@ -312,13 +312,14 @@ Plan make_plan(const PipelineOptions& o) {
         return plan;
     }
     plan.in_pattern = parse_pattern(o.input);
-    plan.numbers = frames_to_read(o.input, o.frames, o.quiet);
+    plan.numbers = frames_to_read(o.input, o.frames, true);
     if (!o.skip_bad_frames) require_listed_frames(plan, o);
     if (!plan.stream_out && !plan.out_pattern.is_sequence && plan.numbers.size() > 1) {
         throw std::runtime_error(fmt::format("{}: the output has no frame-number token but the input has {} frames", o.output, plan.numbers.size()));
     }
     plan.input_ids = files_of(plan.in_pattern);
     if (!plan.stream_out) refuse_overwriting_inputs(plan);
+    if (!o.quiet) warn_of_gaps(o.input, o.frames, plan.numbers);  // after the checks: a refused run says one line
     return plan;
 }
 

@@ -321,14 +321,18 @@ FrameList frames_to_read(const std::string& input, const std::string& frames, bo
     const std::vector<std::int64_t> found = scan_frames(pattern);
     if (found.empty()) throw std::runtime_error(fmt::format("{}: no frames match the pattern", input));
     FrameList list = FrameList::of_numbers(found);
-    if (!quiet && list.ranges().size() > 1) {
-        const FrameRange& a = list.ranges()[0];
-        const FrameRange& b = list.ranges()[1];
-        const std::string missing = a.last + 1 == b.first - 1 ? fmt::format("frame {} is", a.last + 1) : fmt::format("frames {}-{} are", a.last + 1, b.first - 1);
-        fmt::print(stderr, "lensfx: warning: {}: {} missing; {} frames found in {} runs (use --frames to choose)\n", input, missing,
-                   found.size(), list.ranges().size());
-    }
+    if (!quiet) warn_of_gaps(input, frames, list);
     return list;
+}
+
+void warn_of_gaps(const std::string& input, const std::string& frames, const FrameList& list) {
+    const FramePattern pattern = parse_pattern(input);
+    if (!pattern.is_sequence || !frames.empty() || !pattern.frames.empty() || list.ranges().size() < 2) return;
+    const FrameRange& a = list.ranges()[0];
+    const FrameRange& b = list.ranges()[1];
+    const std::string missing = a.last + 1 == b.first - 1 ? fmt::format("frame {} is", a.last + 1) : fmt::format("frames {}-{} are", a.last + 1, b.first - 1);
+    fmt::print(stderr, "lensfx: warning: {}: {} missing; {} frames found in {} runs (use --frames to choose)\n", input, missing,
+               list.size(), list.ranges().size());
 }
 
 }  // namespace lensfx::filter

@@ -136,10 +136,19 @@ void DirectPowerTable::trace_missing(const std::array<int, 4>& indices) const {
     }
 }
 
+const DirectPowerTable& DirectPowerTable::beyond() const {
+    if (!beyond_) beyond_ = std::make_shared<const DirectPowerTable>(system_, 90.0, kBeyondSamples, rays_, passes_);
+    return *beyond_;
+}
+
 int DirectPowerTable::traced() const { return static_cast<int>(std::count(known_.begin(), known_.end(), 1)); }
 
 std::array<double, 3> DirectPowerTable::at(double ax_deg, double ay_deg) const {
     const double field = std::atan(std::hypot(std::tan(ax_deg / kDegrees), std::tan(ay_deg / kDegrees))) * kDegrees;
+    if (!std::isfinite(field)) return {};
+    // Beyond the table (a light outside the frame, in its overscan): looked up where it is, not at the edge, whose
+    // power had a light the lens cannot image add a flare that lands nowhere, and said nothing.
+    if (field > max_field_deg_) return beyond().at(ax_deg, ay_deg);
     const int n = static_cast<int>(power_.size());
     const double u = std::clamp(field / max_field_deg_, 0.0, 1.0) * (n - 1);
     const int i = std::min(static_cast<int>(u), n - 2);

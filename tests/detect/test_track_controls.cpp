@@ -66,7 +66,7 @@ TEST(TrackControls, RoundTripKeepsThemAndWritesOnlyWhatIsSet) {
 }
 
 TEST(TrackControls, BadValuesNameTheFileTrackAndField) {
-    for (const std::string bad : {R"("gain": -1, )", R"("gain": null, )", R"("gain": "loud", )", R"("exclude": 1, )"}) {
+    for (const std::string bad : {R"("gain": -1, )", R"("gain": 1e305, )", R"("gain": null, )", R"("gain": "loud", )", R"("exclude": 1, )"}) {
         const std::string message = error_of(two_tracks(bad));
         EXPECT_NE(message.find("shot.json: track id 1"), std::string::npos) << bad << " -> " << message;
         const std::string field = bad.find("gain") != std::string::npos ? "\"gain\"" : "\"exclude\"";

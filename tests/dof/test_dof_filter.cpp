@@ -269,9 +269,10 @@ TEST(DofFilter, NeedsALensAndAFocus) {
     const auto dir = lensfx::test::scratch_dir("dof_args");
     const std::string in = point_exr(dir, true), out = (dir / "out.exr").string();
     const auto no_lens = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --focus 1");
-    EXPECT_NE(no_lens.exit_code, 0);
+    EXPECT_EQ(no_lens.exit_code, 2) << "a usage error";
     EXPECT_NE(no_lens.stderr_text.find("--dof needs --lens"), std::string::npos) << no_lens.stderr_text;
     const auto no_focus = lensfx::test::run(lensfx::test::lensfx_cmd() + " -i " + in + " -o " + out + " --dof --lens mld-double-gauss");
+    EXPECT_EQ(no_focus.exit_code, 2);
     EXPECT_NE(no_focus.stderr_text.find("--focus"), std::string::npos) << no_focus.stderr_text;
     const std::string dof = " --dof --dof-only --lens mld-double-gauss --focus 1";
     // a malformed --focus-point or --tilt is a usage error: exit 2, before any frame is read

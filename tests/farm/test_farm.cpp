@@ -229,6 +229,13 @@ TEST(FarmErrors, NoSchedulerIsOneClearLine) {
                                      dir.string()));
     EXPECT_NE(bad.exit_code, 0);
     EXPECT_TRUE(last_line(bad.stderr_text).starts_with("lensfx: farm: filter options: ")) << bad.stderr_text;
+    // So is a lens no task could read (each failed and was retried, leaving the farm's folder behind).
+    const auto lens = run(fmt::format("{} farm -i {} -o {}/lens/pan.####.exr --frames 1-2 --chunk 1 --engine local --tracks /dev/null --lens no-such-lens",
+                                      lensfx_cmd(), kInput, dir.string()));
+    EXPECT_NE(lens.exit_code, 0);
+    EXPECT_TRUE(lens.stderr_text.starts_with("lensfx: farm: filter options: --lens no-such-lens: no such lens file or preset")) << lens.stderr_text;
+    EXPECT_EQ(std::count(lens.stderr_text.begin(), lens.stderr_text.end(), '\n'), 1) << lens.stderr_text;
+    EXPECT_FALSE(fs::exists(dir / "lens"));
     fs::remove_all(dir);
 }
 

@@ -531,6 +531,15 @@ TEST(Hostile, SpecialOutputsAreRefusedAndLinksWrittenThrough) {
     EXPECT_EQ(r.exit_code, 0) << r.stderr_text;
     EXPECT_TRUE(fs::is_symlink(dir / "link.exr"));
     EXPECT_NE(fs::file_size(dir / "target.exr"), before);
+    // A link to a file not made yet: written through, the file made. A loop of links: refused before rendering.
+    fs::create_symlink("later.exr", dir / "to-later.exr");
+    const RunResult later = run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/to-later.exr", d) + kLens);
+    EXPECT_EQ(later.exit_code, 0) << later.stderr_text;
+    EXPECT_TRUE(fs::is_symlink(dir / "to-later.exr"));
+    EXPECT_TRUE(fs::is_regular_file(dir / "later.exr"));
+    fs::create_symlink("loop-b.exr", dir / "loop-a.exr");
+    fs::create_symlink("loop-a.exr", dir / "loop-b.exr");
+    expect_one_line_refusal(run(t + lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/loop-a.exr", d) + kLens), "a link that leads to no file (a loop)");
     fs::remove_all(dir);
 }
 
@@ -954,5 +963,75 @@ TEST(Hostile, NewerOptionsRefuseHostileValues) {
     expect_one_line_refusal(run(fmt::format("{} -i {}/in.exr -o {}/./matte.exr --lens brendel-tessar --matte {}/matte.exr", lensfx_cmd(), d, d, d)),
                             "--matte");
     EXPECT_EQ(slurp(dir / "matte.exr"), matte_before);
+    fs::remove_all(dir);
+}
+
+// The thirty-fourth stop's red team: R, G or B named as the depth or matte channel of an RGB frame (whose
+// pixels the stages hold only as R, G, B) and depths of 1e-10 m (a blur reach past any int) crashed; a light
+// outside the display window, which the lens cannot image, added nothing and said nothing.
+TEST(Hostile, ColourChannelsAsDepthOrMatteAndTinyDepths) {
+    const auto dir = scratch_dir("hostile-channels");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    const std::string dof = lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/d.exr --dof --dof-only --lens brendel-tessar --focus 3 -q", d);
+    for (const char* c : {"R", "G", "B"}) {
+        const RunResult r = run(dof + " --depth-channel " + c);
+        EXPECT_EQ(r.exit_code, 0) << c << ": " << r.stderr_text;
+        EXPECT_TRUE(all_finite(dir / "d.exr")) << c;
+    }
+    const RunResult matte = run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/m.exr --matte-channel R", d) + kLens);
+    EXPECT_EQ(matte.exit_code, 0) << matte.stderr_text;
+    {  // Z of 1e-10 m everywhere
+        OIIO::ImageSpec spec(64, 48, 4, OIIO::TypeFloat);
+        spec.channelnames = {"R", "G", "B", "Z"};
+        std::vector<float> px(64 * 48 * 4, 0.5f);
+        for (std::size_t i = 3; i < px.size(); i += 4) px[i] = 1e-10f;
+        auto out = OIIO::ImageOutput::create((dir / "z.exr").string());
+        ASSERT_TRUE(out && out->open((dir / "z.exr").string(), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+    const RunResult tiny = run(lensfx_in(dir) + fmt::format(" -i {0}/z.exr -o {0}/dz.exr --dof --dof-only --lens brendel-tessar --focus 3 -q", d));
+    EXPECT_EQ(tiny.exit_code, 0) << tiny.stderr_text;
+    EXPECT_TRUE(all_finite(dir / "dz.exr"));
+    {  // the light at (20, 16) of a 64 x 48 data window whose display window is its first pixel
+        OIIO::ImageSpec spec(64, 48, 3, OIIO::TypeFloat);
+        spec.full_width = spec.full_height = 1;
+        std::vector<float> px(64 * 48 * 3, 0.05f);
+        for (int c = 0; c < 3; ++c) px[(16 * 64 + 20) * 3 + static_cast<std::size_t>(c)] = 5000.0f;
+        auto out = OIIO::ImageOutput::create((dir / "window.exr").string());
+        ASSERT_TRUE(out && out->open((dir / "window.exr").string(), spec) && out->write_image(OIIO::TypeFloat, px.data()) && out->close());
+    }
+    const RunResult outside = run(lensfx_in(dir) + fmt::format(" -i {0}/window.exr -o {0}/w.exr --lens brendel-tessar --threshold 100", d));
+    EXPECT_EQ(outside.exit_code, 0) << outside.stderr_text;
+    EXPECT_NE(outside.stderr_text.find("no flare was added: every light lies outside the field"), std::string::npos) << outside.stderr_text;
+    fs::remove_all(dir);
+}
+
+// Files that cost unbounded memory or that a run only found unwritable at its end: a shot file nested 100,000
+// levels deep (24 GB before the kernel stopped it) or of binary bytes, an aperture image 20000 x 1 (padded to a
+// square of 1.6 GB whatever --memory-limit said), a --report that cannot be written (the frames were written
+// first, replacing an output, and then the run failed), a refused sequence (a warning about its gap came first).
+TEST(Hostile, UnboundedFilesAndLateFailuresAreRefusedFirst) {
+    const auto dir = scratch_dir("hostile-late");
+    write_rgb(dir / "in.exr");
+    const std::string d = dir.string();
+    std::ofstream(dir / "deep.toml") << "[" << [] { std::string s; for (int i = 0; i < 100000; ++i) s += "a."; return s; }() << "b]\n";
+    const RunResult deep = run(fmt::format("{}{} --config {}/deep.toml", kAddressLimit, lensfx_cmd(), d));
+    expect_one_line_refusal(deep, "levels deep");
+    EXPECT_EQ(deep.exit_code, 2);
+    std::ofstream(dir / "binary.toml") << std::string("input = \"a\"\n\x01\x02\x7f\n", 16);
+    expect_one_line_refusal(run(fmt::format("{} --config {}/binary.toml", lensfx_cmd(), d)), "line 2: not a text file");
+    {  // 20000 x 1, clear
+        OIIO::ImageSpec spec(20000, 1, 1, OIIO::TypeUInt8);
+        std::vector<unsigned char> px(20000, 255);
+        auto out = OIIO::ImageOutput::create((dir / "wide.png").string());
+        ASSERT_TRUE(out && out->open((dir / "wide.png").string(), spec) && out->write_image(OIIO::TypeUInt8, px.data()) && out->close());
+    }
+    const RunResult wide = run(fmt::format("{}{} -i {}/in.exr -o {}/a.exr --aperture-image {}/wide.png", kAddressLimit, lensfx_in(dir), d, d, d) + kLens);
+    EXPECT_EQ(wide.exit_code, 0) << wide.stderr_text;
+    std::ofstream(dir / "o.exr") << "precious";
+    expect_one_line_refusal(run(lensfx_in(dir) + fmt::format(" -i {0}/in.exr -o {0}/o.exr --report /proc/version", d) + kLens), "cannot write a file there");
+    EXPECT_EQ(slurp(dir / "o.exr"), "precious");
+    for (int f : {1, 2, 5}) fs::copy_file(dir / "in.exr", dir / fmt::format("s.{:04}.exr", f));
+    expect_one_line_refusal(run(fmt::format("{0} -i {1}/s.####.exr -o {1}/one.exr", lensfx_cmd(), d)), "no frame-number token");
     fs::remove_all(dir);
 }

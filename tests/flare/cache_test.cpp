@@ -242,3 +242,17 @@ TEST(Cache, DirectPowerTableTracesOnDemandAndKeepsItsSamplesOnDisk) {
     EXPECT_FALSE(damaged.load(dir / "t.bin", "key"));
 }
 
+// Beyond its field (a light outside the frame) the table looks the light up where it is: nothing through the lens
+// at 80 degrees, where the table's last sample (20 degrees) lent it its power; 25 degrees as traced there.
+TEST(Cache, DirectPowerTableLooksUpLightsBeyondItsField) {
+    const optics::System system = optics::realize(optics::load_lens("brendel-tessar"), 0.0, std::nullopt);
+    const flare::DirectPowerTable table(system, 20.0, 12, 8);
+    EXPECT_GT(table.at(19.0, 0.0)[1], 0.0);
+    EXPECT_EQ(table.at(80.0, 10.0)[1], 0.0);
+    EXPECT_EQ(flare::direct_power(system, 80.0, 10.0, 8)[1], 0.0);
+    const auto beyond = table.at(26.0, 0.0), traced = flare::direct_power(system, 26.0, 0.0, 8);  // sample 13 of the 2-degree table
+    for (std::size_t c = 0; c < 3; ++c) EXPECT_NEAR(beyond[c], traced[c], 1e-9 * traced[c]) << c;
+    EXPECT_EQ(table.traced(), 3) << "samples 9-11 for 19 degrees; the lights beyond go to a table of their own";
+    EXPECT_EQ(table.at(std::nan(""), 0.0), (std::array<double, 3>{})) << "no angle, no power";
+}
+

@@ -2,9 +2,14 @@
 // their outputs and their one-line failures (usage errors exit 2, run failures 1).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/core.h>
 
 #include <nlohmann/json.hpp>
 
@@ -38,6 +43,15 @@ std::string disc_lens_file(const std::filesystem::path& dir) {
 }
 
 bool one_line(const std::string& text) { return text.rfind("lensfx: ", 0) == 0 && text.find('\n') == text.size() - 1; }
+
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
 
 TEST(MeasuredCli, PredictJsonListsTheEstimatorsPerAngle) {
     const auto dir = lensfx::test::scratch_dir("measured_cli_predict");
@@ -83,6 +97,29 @@ TEST(MeasuredCli, FailuresAreOneLine) {
         EXPECT_TRUE(one_line(r.stderr_text)) << r.stderr_text;
         EXPECT_NE(r.stderr_text.find(c.says), std::string::npos) << r.stderr_text;
     }
+    // The report overwrites neither a frame of the sweep (through a link too) nor the fitted preset, and a place it
+    // cannot be written fails the fit before it starts: refused first, the files as they were.
+    const std::string frames = (dir / "sweep.####.exr").string();
+    for (int f = 0; f <= 8; ++f)  // the sample sweep's frames 0-8
+        fs::copy_file(fmt::format("{}/samples/sweep/sweep.{:04}.exr", LENSFX_SOURCE_DIR, f), dir / fmt::format("sweep.{:04}.exr", f),
+                      fs::copy_options::overwrite_existing);
+    const std::string frame_text = slurp(dir / "sweep.0001.exr");
+    fs::create_symlink(dir / "sweep.0003.exr", dir / "link.json");
+    std::ofstream(dir / "kept.toml") << "kept\n";
+    const std::string fit = " lens fit " + frames + " --angles 0:16:2 --focal-length 24 --key-iterations 5 ";
+    for (const auto& [args, says] : std::vector<std::pair<std::string, std::string>>{
+             {"-o " + (dir / "m.toml").string() + " --report " + (dir / "sweep.0001.exr").string(), "refusing to overwrite an input file"},
+             {"-o " + (dir / "m.toml").string() + " --report " + (dir / "link.json").string(), "refusing to overwrite an input file"},
+             {"-o " + (dir / "kept.toml").string() + " --report " + (dir / "kept.toml").string(), "refusing to overwrite the output"},
+             {"-o " + (dir / "m.toml").string() + " --report /proc/version", "cannot write a file there"}}) {
+        const auto r = run(lensfx_cmd() + fit + args);
+        EXPECT_EQ(r.exit_code, 1) << args << ": " << r.stderr_text;
+        EXPECT_TRUE(one_line(r.stderr_text)) << r.stderr_text;
+        EXPECT_NE(r.stderr_text.find(says), std::string::npos) << r.stderr_text;
+    }
+    EXPECT_EQ(slurp(dir / "sweep.0001.exr"), frame_text);
+    EXPECT_EQ(slurp(dir / "kept.toml"), "kept\n");
+    EXPECT_FALSE(fs::exists(dir / "m.toml"));
     std::ofstream(dir / "bad.toml") << "kind = \"measured\"\nfocal_length = 50\nsensor = [36, 24]\n[[ghost]]\nangles = [1, 95]\n";
     const auto r = run(lensfx_cmd() + " flare --lens " + (dir / "bad.toml").string() + " --angle 1,0 -o " + (dir / "f.exr").string());
     EXPECT_EQ(r.exit_code, 1);

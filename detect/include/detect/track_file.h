@@ -40,6 +40,7 @@ struct Track {
 // that positions, sizes and products of fluxes and gains stay far inside float and int range.
 inline constexpr double kMaxTrackCoordinate = 1e6;  // |x|, |y| (a light may sit well outside the frame)
 inline constexpr double kMaxTrackFlux = 1e15;       // per channel: summed linear values
+inline constexpr double kMaxTrackGain = 1e280;      // a track's gain: times the largest flux and the other gains still finite in double (1e305 overflowed to no light)
 inline constexpr double kMaxTrackExtent = 1e5;      // major, minor axes
 inline constexpr double kMaxShapeCell = 1e4;        // a footprint's cell size
 inline constexpr int kMaxShapeSide = 4096;          // a footprint's cells per side

@@ -76,6 +76,10 @@ void refuse_overwrite(const std::string& path, std::string_view option, const st
 // not exist or cannot be written (require_output_directory), before the work that would end in it. "" and
 // "-" pass.
 void refuse_special_output(const std::string& path, std::string_view option);
+// Refuses (std::runtime_error naming `option` and the path), before any work, a file that write_file could not
+// write when the work is done: its folder missing, read-only or full, or not a place for files (/proc). Writes a
+// byte to a temporary beside it, which it removes; the file itself is not touched.
+void require_writable_file(const std::string& path, std::string_view option);
 
 // Throws std::runtime_error naming `path` where the directory it would be written in does not exist or is
 // not writable.

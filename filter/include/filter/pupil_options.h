@@ -35,8 +35,10 @@ void add_pupil_options(CLI::App& app, PupilSettings& settings);
 optics::StarburstOptions starburst_options(const PupilSettings& settings);
 
 // A greyscale transmission image (the mean of its colour channels, clamped to [0, 1], alpha ignored),
-// padded with opaque borders to a square centred on the image so the iris keeps the image's aspect.
-// Throws std::runtime_error naming the file when it cannot be read or is empty.
+// padded with opaque borders to a square centred on the image so the iris keeps the image's aspect. An image
+// wider or taller than kMaxApertureSide is averaged down in blocks to fit it (the starburst samples the stop
+// some 400 times across). Throws std::runtime_error naming the file when it cannot be read or is empty.
+inline constexpr int kMaxApertureSide = 2048;
 optics::ApertureImage read_aperture_image(const std::string& path);
 
 }  // namespace lensfx::filter

@@ -74,5 +74,8 @@ std::vector<std::int64_t> scan_frames(const FramePattern& pattern);
 // them is warned about on stderr unless `quiet`), else frame 1 of a single file. Throws
 // std::runtime_error naming the input when no frame matches or --frames is given without a pattern.
 FrameList frames_to_read(const std::string& input, const std::string& frames, bool quiet);
+// The warning frames_to_read gives for a gap in the frames found on disk (none when `frames` chose them), for a
+// caller that reads them quietly and warns once the run's other checks have passed: a failure stays one line.
+void warn_of_gaps(const std::string& input, const std::string& frames, const FrameList& list);
 
 }  // namespace lensfx::filter

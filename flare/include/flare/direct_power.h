@@ -5,6 +5,7 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,8 @@ std::array<double, 3> direct_power(const optics::System& system, double ax_deg, 
                                    const std::vector<SpectralPass>& passes = {});
 
 // direct_power over the field: sampled at `samples` field angles from 0 to max_field_deg along +x and
-// interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)). The lens is rotationally
+// interpolated (cubic) at a light's field angle atan(hypot(tan ax, tan ay)); beyond max_field_deg, from a second
+// table over the whole field to 90 degrees (kBeyondSamples, 2 degrees apart, traced on demand, kept in memory only). The lens is rotationally
 // symmetric, so only a bladed iris clipped by another aperture makes the power depend on the azimuth.
 // Samples are traced when a lookup first needs them, so a run pays only for the field its lights cross;
 // save/load keep them on disk between runs. The (up to four) samples one lookup needs are traced side by
@@ -48,7 +50,10 @@ private:
     double max_field_deg_ = 0.0;
     mutable std::vector<std::array<double, 3>> power_;
     mutable std::vector<char> known_;
+    static constexpr int kBeyondSamples = 46;
+    mutable std::shared_ptr<const DirectPowerTable> beyond_;  // lights past max_field_deg (beyond())
     const std::array<double, 3>& sample(int i) const;
+    const DirectPowerTable& beyond() const;
     void trace_missing(const std::array<int, 4>& indices) const;
 };
 
