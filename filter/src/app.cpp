@@ -294,13 +294,18 @@ namespace {
 constexpr std::uintmax_t kMaxConfigBytes = std::uintmax_t{1} << 20;
 constexpr int kMaxConfigLevels = 8;
 
-// How many levels deep a line's key or [section] name goes (its dots before any '=', plus one); 0 for none.
+// How many levels deep a line's key ("a.b = ...": the dots before the '=') or [section] name goes, plus one; 0 for a
+// line that is neither (a comment, or a value continued from the line before: an array of "10.5,20.5,100" strings).
 int key_levels(std::string_view line) {
     const std::size_t start = line.find_first_not_of(" \t");
     if (start == std::string_view::npos || line[start] == '#') return 0;
-    const std::size_t end = line[start] == '[' ? line.find(']', start) : line.find('=', start);
-    const std::string_view key = line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start);
-    return 1 + static_cast<int>(std::count(key.begin(), key.end(), '.'));
+    std::string_view key;
+    if (const std::size_t equals = line.find('=', start); equals != std::string_view::npos)
+        key = line.substr(start, equals - start);
+    else if (const std::size_t close = line.find(']', start); line[start] == '[' && close != std::string_view::npos)
+        key = line.substr(start, close - start);  // a [section] or [[array]] header (an array of arrays holds commas)
+    if (key.find(',') != std::string_view::npos) return 0;
+    return key.empty() ? 0 : 1 + static_cast<int>(std::count(key.begin(), key.end(), '.'));
 }
 
 // Refuses, as a usage error naming the file and line, what CLI11's reader would take all the memory or time
