@@ -240,7 +240,10 @@ std::vector<float> tile_ray_counts(const std::vector<std::vector<float>>& pyrami
     const int lw = std::max(1, padded_w >> level);
     const std::vector<double> radius = cell_blur_radii(pyramid[level], lw * std::max(1, padded_h >> level), table);
     const double slack = 2.0 * table.focus_spread;  // where the rays converge may lie off the pixel
-    const int span = static_cast<int>(std::ceil((reach_px + slack) / kTile)) + 1;
+    // tiles either side a blur can reach from, at most the whole frame (a depth of 1e-10 m reaches 1e10 pixels)
+    const double reach_tiles = std::ceil((reach_px + slack) / kTile) + 1.0;
+    const int span = std::isfinite(reach_tiles) ? static_cast<int>(std::min(reach_tiles, static_cast<double>(std::max(tiles_x, tiles_y))))
+                                                : std::max(tiles_x, tiles_y);
     for (int ty = 0; ty < tiles_y; ++ty)
         for (int tx = 0; tx < tiles_x; ++tx) {
             // the widest blur disc reaching this tile: every cell whose own blur spans the gap to it
