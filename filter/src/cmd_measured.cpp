@@ -97,8 +97,7 @@ void run_fit(FitArgs& a) {
     refuse_special_output(a.output, "-o");
     if (!a.report.empty()) {  // the report, written after the preset, overwrites neither it nor a frame
         refuse_overwrite(a.report, "--report", a.sweep, a.output);
-        refuse_special_output(a.report, "--report");
-        require_writable_file(a.report, "--report");
+        require_writable_file(a.report, "--report");  // refuse_special_output's checks, then a byte written beside it
     }
     const std::vector<double> angles = parse_angles(a.angles, "--angles");
     const FrameList list = frames_to_read(a.sweep, a.frames, true);

@@ -151,12 +151,12 @@ const char* kind_of(mode_t mode) {
     return S_ISDIR(mode) ? "a directory" : S_ISFIFO(mode) ? "a named pipe" : S_ISCHR(mode) || S_ISBLK(mode) ? "a device" : "a special file";
 }
 
-// What `path` (a link followed) is when it exists and is no regular file ("a named pipe"...); nullptr for a
-// regular file or a missing one. The one check of TempFile and require_regular_file.
+// What `path` (a link followed) is when it exists and is no regular file ("a named pipe"..., or a loop of links);
+// nullptr for a regular file or a missing one. The one check of TempFile and require_regular_file.
 const char* special_kind(const std::string& path) {
     struct stat st {};
-    if (::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return nullptr;
-    return kind_of(st.st_mode);
+    if (::stat(path.c_str(), &st) != 0) return errno == ELOOP ? "a link that leads to no file (a loop)" : nullptr;
+    return S_ISREG(st.st_mode) ? nullptr : kind_of(st.st_mode);
 }
 
 using FileId = std::pair<dev_t, ino_t>;
@@ -208,7 +208,7 @@ std::string written_path(const std::string& path) {
     if (!fs::is_symlink(path, ec)) return path;
     fs::path p = path;
     // each link read in turn, so that one to a file not made yet is written through to it (weakly_canonical stopped
-    // at such a link, which the commit then found was no regular file); a loop is left a link, which TempFile refuses
+    // at such a link, which the commit then found was no regular file); a loop is left a link, which special_kind names
     for (int hops = 0; hops < 40 && fs::is_symlink(p, ec); ++hops) {
         const fs::path to = fs::read_symlink(p, ec);
         if (ec) return path;
@@ -316,7 +316,6 @@ TempFile::TempFile(const std::string& target) : name_(target), target_(written_p
         const std::string link = target_ == target ? std::string() : fmt::format(" (a link to {})", target_);
         throw std::runtime_error(fmt::format("{}{}: {}, not a regular file", target, link, kind));
     }
-    if (std::error_code ec; fs::is_symlink(target_, ec)) throw std::runtime_error(fmt::format("{}: a link that leads to no file (a loop)", target));
     const fs::path t(target_);
     path_ = (t.parent_path() / temporary_name(t)).string();
     fd_ = open_unnamed(t.parent_path().empty() ? "." : t.parent_path().string(), write_path_);
@@ -418,8 +417,6 @@ std::size_t remove_stale_temporaries(const std::string& dir) {
 void refuse_special_output(const std::string& path, std::string_view option) {
     if (path.empty() || path == "-") return;
     require_regular_file(path, option);
-    if (std::error_code ec; fs::is_symlink(written_path(path), ec))
-        throw std::runtime_error(fmt::format("{} {}: a link that leads to no file (a loop)", option, path));
     require_output_directory(path);
 }
 
